@@ -1,0 +1,46 @@
+# The two commands a fresh machine needs: `make demo` and `make test`.
+# Only python3 (3.11+) and make are assumed; everything else is installed
+# into .venv on first use and reused afterwards.
+
+PYTHON ?= python3
+VENV   := .venv
+BIN    := $(VENV)/bin
+STAMP  := $(VENV)/.stook-installed
+
+.PHONY: setup test lint typecheck pytest demo proto bench clean
+
+$(BIN)/python:
+	$(PYTHON) -m venv $(VENV)
+
+# Re-install only when a pyproject changes; a second `make test` is fast.
+$(STAMP): $(BIN)/python pyproject.toml proto/pyproject.toml sdk/pyproject.toml service/pyproject.toml
+	$(BIN)/python -m pip install --quiet --disable-pip-version-check --upgrade "pip>=25.1"
+	$(BIN)/python -m pip install --quiet --disable-pip-version-check --group dev \
+		-e ./proto -e ./sdk -e ./service
+	touch $(STAMP)
+
+setup: $(STAMP)
+
+lint: setup
+	$(BIN)/ruff check .
+	$(BIN)/ruff format --check .
+
+typecheck: setup
+	$(BIN)/mypy
+
+pytest: setup
+	$(BIN)/pytest
+
+test: lint typecheck pytest
+
+demo: setup
+	$(BIN)/stook demo
+
+proto: setup
+	$(BIN)/python -m tools.generate_proto
+
+bench: setup
+	$(BIN)/stook bench
+
+clean:
+	rm -rf $(VENV) demo-output .pytest_cache .mypy_cache .ruff_cache .hypothesis
