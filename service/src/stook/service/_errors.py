@@ -1,0 +1,137 @@
+"""The service's exception types: the API or object storage refused, answered badly, or never
+answered.
+
+Every message is one line and safe to print: URLs pass through :func:`redact_url` and any
+response text through :func:`redact_text` before it is stored, so neither the bearer token nor
+a presigned-URL signature can leak through ``str()``, ``repr()`` or a traceback. For the same
+reason third-party exceptions (whose text may hold a full URL) are never chained as
+``__cause__``; their class and redacted text are copied into our message instead.
+"""
+
+from __future__ import annotations
+
+from typing import Final
+
+from yarl import URL
+
+from stook.sdk._errors import StookError
+from stook.service._redact import redact_text, redact_url
+
+__all__ = [
+    "ApiError",
+    "ApiResponseError",
+    "ApiStatusError",
+    "AuthError",
+    "IncompleteBodyError",
+    "NotFoundError",
+    "PresignedUrlExpiredError",
+    "RetriesExhaustedError",
+    "StorageError",
+    "TransportError",
+    "body_excerpt",
+    "redact_url",
+]
+
+_EXCERPT_CHARS: Final = 200
+
+
+def body_excerpt(body: bytes, limit: int = _EXCERPT_CHARS) -> str:
+    """The start of a response body as one redacted line, for error messages."""
+    text = " ".join(body[: limit * 4].decode("utf-8", errors="replace").split())
+    if len(text) > limit:
+        text = text[: limit - 1] + "…"
+    return redact_text(text)
+
+
+class ApiError(StookError):
+    """Base of every error raised while talking to the ReSim API or its object storage."""
+
+
+class ApiStatusError(ApiError):
+    """The API answered with an HTTP error status."""
+
+    def __init__(self, *, status: int, method: str, url: str | URL, body: bytes = b"") -> None:
+        self.status = status
+        self.method = method
+        self.url = redact_url(url)
+        self.body_excerpt = body_excerpt(body)
+        message = f"{method} {self.url} answered HTTP {status}"
+        if self.body_excerpt:
+            message += f": {self.body_excerpt}"
+        super().__init__(message)
+
+
+class AuthError(ApiStatusError):
+    """401 or 403 from the API: the token is missing, wrong, expired or lacks access."""
+
+
+class NotFoundError(ApiStatusError):
+    """404 from the API: a project, batch, job, report or build ID that does not exist."""
+
+
+class ApiResponseError(ApiError):
+    """The API answered 2xx with JSON that is malformed or lacks what stook needs.
+
+    The message names the object and field, e.g.
+    ``Job 1234…: field 'conflatedStatus' has unknown value 'FOO'``.
+    """
+
+    def __init__(self, message: str) -> None:
+        super().__init__(redact_text(message))
+
+
+class StorageError(ApiError):
+    """Fetching a presigned object-storage URL failed; ``status`` is None without an answer."""
+
+    def __init__(self, message: str, *, url: str | URL, status: int | None = None) -> None:
+        self.url = redact_url(url)
+        self.status = status
+        super().__init__(redact_text(message))
+
+
+class PresignedUrlExpiredError(StorageError):
+    """Object storage refused a presigned URL (403): it has expired or its signature is stale.
+
+    Retrying the same URL cannot help; list the metrics (or metrics data) again to obtain a
+    fresh URL and fetch that.
+    """
+
+
+class TransportError(ApiError):
+    """The connection failed before a complete answer arrived (reset, timeout, truncation)."""
+
+    def __init__(self, message: str) -> None:
+        super().__init__(redact_text(message))
+
+
+class IncompleteBodyError(TransportError):
+    """A response body ended before its ``Content-Length``."""
+
+    def __init__(self, *, method: str, url: str | URL, received: int, expected: int) -> None:
+        self.received = received
+        self.expected = expected
+        super().__init__(
+            f"{method} {redact_url(url)}: body ended after {received} of {expected} bytes"
+        )
+
+
+class RetriesExhaustedError(ApiError):
+    """Every attempt allowed by the retry policy failed with a transient error."""
+
+    def __init__(
+        self,
+        *,
+        method: str,
+        url: str | URL,
+        attempts: int,
+        last_reason: str,
+        last_status: int | None = None,
+    ) -> None:
+        self.method = method
+        self.url = redact_url(url)
+        self.attempts = attempts
+        self.last_reason = redact_text(last_reason)
+        self.last_status = last_status
+        super().__init__(
+            f"{method} {self.url} failed after {attempts} attempts; last error: {self.last_reason}"
+        )
