@@ -1,0 +1,43 @@
+"""stook's SDK: write, read and validate ReSim-compatible ``metrics.binproto`` files.
+
+No network code lives here. The public surface is re-exported below; everything
+in ``_modules`` is private.
+
+    from stook.sdk import MetricsWriter, MetricStatus, data
+
+    w = MetricsWriter(job_id)
+    w.scalar("Max speed", 31.2, unit="m/s", fails_above=35.0)
+    w.histogram("Speeds", data.doubles("speeds", speeds), buckets=20, lower=0, upper=40)
+    w.write("/tmp/resim/outputs/metrics.binproto")
+"""
+
+from stook.sdk import data
+from stook.sdk._atomic import write_atomic
+from stook.sdk._data import MetricsData
+from stook.sdk._enums import MetricImportance, MetricStatus, MetricType, SeriesKind
+from stook.sdk._errors import (
+    InvalidMetricsError,
+    Problem,
+    ReadError,
+    StookError,
+    WriterError,
+)
+from stook.sdk._writer import MetricHandle, MetricOptions, MetricsWriter
+
+__all__ = [
+    "InvalidMetricsError",
+    "MetricHandle",
+    "MetricImportance",
+    "MetricOptions",
+    "MetricStatus",
+    "MetricType",
+    "MetricsData",
+    "MetricsWriter",
+    "Problem",
+    "ReadError",
+    "SeriesKind",
+    "StookError",
+    "WriterError",
+    "data",
+    "write_atomic",
+]

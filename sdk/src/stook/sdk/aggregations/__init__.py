@@ -1,0 +1,40 @@
+"""Aggregations: batch metrics computed as mergeable partial states.
+
+An aggregation folds in one job at a time (`update`), combines with another
+partial state built from other jobs (`merge`) and writes its metrics (`finish`)
+through a `MetricsWriter`. Write your own by subclassing `Aggregation` as a
+dataclass, and name it in the config as ``[[batch.custom]] class = "pkg.mod:Class"``
+or register it under the ``stook.aggregations`` entry-point group.
+"""
+
+from stook.sdk.aggregations._base import Aggregation, Needs
+from stook.sdk.aggregations._histogram import MergedHistogram
+from stook.sdk.aggregations._record import JobRecord, Scalar
+from stook.sdk.aggregations._registry import (
+    AggregationConfigError,
+    build,
+    build_all,
+    default_batch_aggregations,
+)
+from stook.sdk.aggregations._scalar_defaults import ScalarDefaults
+from stook.sdk.aggregations._scalar_stats import ScalarStats
+from stook.sdk.aggregations._status_counts import JobStatusCounts, MetricStatusCounts, PassRate
+from stook.sdk.aggregations._weighted_mean import WeightedMean
+
+__all__ = [
+    "Aggregation",
+    "AggregationConfigError",
+    "JobRecord",
+    "JobStatusCounts",
+    "MergedHistogram",
+    "MetricStatusCounts",
+    "Needs",
+    "PassRate",
+    "Scalar",
+    "ScalarDefaults",
+    "ScalarStats",
+    "WeightedMean",
+    "build",
+    "build_all",
+    "default_batch_aggregations",
+]

@@ -1,0 +1,164 @@
+"""A histogram of one double series that every test wrote, appended across all jobs."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Self
+
+import polars as pl
+
+from stook.sdk import _data
+from stook.sdk._enums import MetricStatus
+from stook.sdk._writer import MetricsWriter, histogram_buckets
+from stook.sdk.aggregations._base import Aggregation, Needs
+from stook.sdk.aggregations._record import JobRecord
+
+DEFAULT_MAX_VALUES = 2_000_000
+
+
+@dataclass
+class MergedHistogram(Aggregation):
+    """Appends the series `data` of every job and writes it as a HISTOGRAM.
+
+    While the appended values number at most `max_values`, the histogram's values
+    are exactly the appended series. Past that, memory must stay bounded, so the
+    values are replaced by exact counts per bucket: the histogram then shows each
+    bucket's midpoint repeated in proportion to its count, the description says
+    so, and a BAR_CHART ``<name> (counts)`` carries the exact counts.
+    """
+
+    name: str
+    data: str
+    lower: float
+    upper: float
+    buckets: int = 20
+    max_values: int = DEFAULT_MAX_VALUES
+    x_axis_name: str | None = None
+
+    chunks: list[pl.Series] = field(default_factory=list, init=False)
+    counts: list[int] | None = field(default=None, init=False)
+    total: int = field(default=0, init=False)
+    outside: int = field(default=0, init=False)
+    dropped_nan: int = field(default=0, init=False)
+    jobs: int = field(default=0, init=False)
+
+    def __post_init__(self) -> None:
+        # Raises WriterError on bad bounds now, at configuration time, not at the end.
+        self._edges = histogram_buckets(self.name, self.buckets, self.lower, self.upper)
+        if self.max_values < 1:
+            raise ValueError(f"{self.name!r}: max_values must be at least 1")
+
+    def needs(self) -> Needs:
+        return Needs(data=frozenset({self.data}))
+
+    @property
+    def binned(self) -> bool:
+        return self.counts is not None
+
+    def _bin(self, s: pl.Series) -> None:
+        assert self.counts is not None  # only called once binned
+        width = (self.upper - self.lower) / self.buckets
+        self.outside += int(((s < self.lower) | (s > self.upper)).sum())
+        index = ((s - self.lower) / width).floor().clip(0, self.buckets - 1).cast(pl.Int64)
+        for bucket, count in index.value_counts().iter_rows():
+            self.counts[bucket] += count
+
+    def _switch_to_counts(self) -> None:
+        self.counts = [0] * self.buckets
+        chunks, self.chunks = self.chunks, []
+        for chunk in chunks:
+            self._bin(chunk)
+
+    def _add(self, s: pl.Series) -> None:
+        self.total += s.len()
+        if self.counts is not None:
+            self._bin(s)
+            return
+        self.chunks.append(s)
+        if self.total > self.max_values:
+            self._switch_to_counts()
+
+    def update(self, job: JobRecord) -> None:
+        s = job.series.get(self.data)
+        if s is None:
+            return
+        self.jobs += 1
+        s = s.cast(pl.Float64)
+        nans = int(s.is_nan().sum())
+        if nans:
+            self.dropped_nan += nans
+            s = s.drop_nans()
+        self._add(s)
+
+    def merge(self, other: Self) -> None:
+        self.jobs += other.jobs
+        self.dropped_nan += other.dropped_nan
+        self.outside += other.outside
+        if other.counts is not None:
+            if self.counts is None:
+                self._switch_to_counts()
+            assert self.counts is not None
+            self.counts = [a + b for a, b in zip(self.counts, other.counts, strict=True)]
+            self.total += other.total
+            return
+        for chunk in other.chunks:
+            self._add(chunk)
+
+    def values(self) -> pl.Series:
+        """The appended series (exact mode only)."""
+        if not self.chunks:
+            return pl.Series(self.data, [], dtype=pl.Float64)
+        return pl.concat(self.chunks, rechunk=True)
+
+    def finish(self, writer: MetricsWriter) -> None:
+        if self.total == 0:
+            writer.text(
+                self.name,
+                f"No job wrote values for {self.data!r}; nothing to draw.",
+                status=MetricStatus.NOT_APPLICABLE,
+            )
+            return
+        about = f"{self.total} values of {self.data!r} from {self.jobs} jobs"
+        if self.dropped_nan:
+            about += f" ({self.dropped_nan} NaN values dropped)"
+        if self.counts is None:
+            values = _data.doubles(f"{self.name} values", self.values())
+            writer.histogram(
+                self.name,
+                values,
+                buckets=self._edges,
+                x_axis_name=self.x_axis_name,
+                description=f"Histogram of {about}.",
+            )
+            return
+        per_value = math.ceil(self.total / self.max_values)
+        midpoints: list[float] = []
+        for (lo, hi), count in zip(self._edges, self.counts, strict=True):
+            midpoints.extend([(lo + hi) / 2] * round(count / per_value))
+        shown = _data.doubles(f"{self.name} values", midpoints or [self._edges[0][0]])
+        outside = (
+            f"; {self.outside} values outside [{self.lower}, {self.upper}] counted in the "
+            "edge buckets"
+            if self.outside
+            else ""
+        )
+        writer.histogram(
+            self.name,
+            shown,
+            buckets=self._edges,
+            x_axis_name=self.x_axis_name,
+            description=(
+                f"Pre-binned: {about} exceed the cap of {self.max_values} values, so each "
+                f"value shown stands for {per_value} values at its bucket's midpoint; exact "
+                f"counts are in {self.name + ' (counts)'!r}{outside}."
+            ),
+        )
+        writer.bar_chart_from(
+            f"{self.name} (counts)",
+            {
+                f"[{lo:g}, {hi:g})": float(c)
+                for (lo, hi), c in zip(self._edges, self.counts, strict=True)
+            },
+            description=f"Exact bucket counts of {about}.",
+        )

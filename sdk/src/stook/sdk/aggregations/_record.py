@@ -1,0 +1,48 @@
+"""What an aggregation sees of one job: its facts, its scalar metrics and the data it asked for."""
+
+from __future__ import annotations
+
+import uuid
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+
+import polars as pl
+
+
+@dataclass(frozen=True, slots=True)
+class Scalar:
+    """One SCALAR job metric, as the API lists it (no download needed)."""
+
+    value: float
+    unit: str = ""
+    status: str = "PASSED"
+
+
+@dataclass(frozen=True, slots=True)
+class JobRecord:
+    """One job folded into aggregations.
+
+    `scalars` holds every SCALAR job metric by name; `series` holds the metrics
+    data the aggregation plan asked for, by data name (doubles as Float64);
+    `metric_statuses` holds the status of every job metric, scalar or not.
+    """
+
+    job_id: uuid.UUID
+    conflated_status: str
+    experience_name: str = ""
+    experience_id: uuid.UUID | None = None
+    scalars: Mapping[str, Scalar] = field(default_factory=dict)
+    series: Mapping[str, pl.Series] = field(default_factory=dict)
+    metric_statuses: Sequence[str] = ()
+
+    def scalars_frame(self) -> pl.DataFrame:
+        """The scalars as a frame with columns name, value, unit, status."""
+        return pl.DataFrame(
+            {
+                "name": list(self.scalars),
+                "value": [s.value for s in self.scalars.values()],
+                "unit": [s.unit for s in self.scalars.values()],
+                "status": [s.status for s in self.scalars.values()],
+            },
+            schema={"name": pl.String, "value": pl.Float64, "unit": pl.String, "status": pl.String},
+        )

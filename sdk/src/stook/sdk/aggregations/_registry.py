@@ -1,0 +1,101 @@
+"""Aggregations by name: the built-ins, plugins from the `stook.aggregations` entry-point
+group, and ``module:Class`` references; built from the config's ``[[batch.<kind>]]`` tables."""
+
+from __future__ import annotations
+
+import importlib
+from collections.abc import Mapping, Sequence
+from importlib.metadata import entry_points
+from typing import Any
+
+from stook.sdk._errors import StookError
+from stook.sdk.aggregations._base import Aggregation
+from stook.sdk.aggregations._histogram import MergedHistogram
+from stook.sdk.aggregations._scalar_defaults import ScalarDefaults
+from stook.sdk.aggregations._scalar_stats import ScalarStats
+from stook.sdk.aggregations._status_counts import JobStatusCounts, MetricStatusCounts, PassRate
+from stook.sdk.aggregations._weighted_mean import WeightedMean
+
+ENTRY_POINT_GROUP = "stook.aggregations"
+
+BUILTIN: dict[str, type[Aggregation]] = {
+    "weighted_mean": WeightedMean,
+    "histogram": MergedHistogram,
+    "scalar_stats": ScalarStats,
+    "job_status_counts": JobStatusCounts,
+    "metric_status_counts": MetricStatusCounts,
+    "pass_rate": PassRate,
+}
+
+
+class AggregationConfigError(StookError):
+    """A config table does not describe an aggregation that can be built."""
+
+
+def default_batch_aggregations() -> list[Aggregation]:
+    """What every batch gets, with or without a config."""
+    return [ScalarDefaults(), JobStatusCounts(), MetricStatusCounts(), PassRate()]
+
+
+def load_class(reference: str, *, where: str) -> type[Aggregation]:
+    """Import ``package.module:Class`` and check that it is an Aggregation."""
+    module_name, _, attr = reference.partition(":")
+    if not module_name or not attr:
+        raise AggregationConfigError(f"{where}: class {reference!r} is not 'module:Class'")
+    try:
+        obj = getattr(importlib.import_module(module_name), attr)
+    except (ImportError, AttributeError) as exc:
+        raise AggregationConfigError(f"{where}: cannot import {reference!r} ({exc})") from None
+    if not (isinstance(obj, type) and issubclass(obj, Aggregation)):
+        raise AggregationConfigError(f"{where}: {reference!r} is not a stook Aggregation class")
+    return obj
+
+
+def kinds() -> dict[str, type[Aggregation] | str]:
+    """Every aggregation kind a config may name: built-ins and installed plugins."""
+    found: dict[str, type[Aggregation] | str] = dict(BUILTIN)
+    for ep in entry_points(group=ENTRY_POINT_GROUP):
+        found.setdefault(ep.name, ep.value)
+    return found
+
+
+def build(kind: str, options: Mapping[str, Any], *, where: str) -> Aggregation:
+    """One aggregation from a config table, e.g. kind 'weighted_mean' and its keys."""
+    options = dict(options)
+    if kind == "custom":
+        reference = options.pop("class", None)
+        if not isinstance(reference, str):
+            raise AggregationConfigError(
+                f"{where}: a custom aggregation needs class = 'module:Class'"
+            )
+        cls = load_class(reference, where=where)
+    else:
+        known = kinds()
+        if kind not in known:
+            raise AggregationConfigError(
+                f"{where}: unknown aggregation kind {kind!r} "
+                f"(known: {', '.join(sorted(known))}, custom)"
+            )
+        found = known[kind]
+        cls = found if isinstance(found, type) else load_class(found, where=where)
+    try:
+        return cls(**options)
+    except TypeError as exc:
+        raise AggregationConfigError(f"{where}: {exc}") from None
+    except ValueError as exc:
+        raise AggregationConfigError(f"{where}: {exc}") from None
+
+
+def build_all(
+    tables: Mapping[str, Sequence[Mapping[str, Any]]], *, section: str
+) -> list[Aggregation]:
+    """Every aggregation of a config section such as ``batch``: one per array-of-tables entry."""
+    built: list[Aggregation] = []
+    for kind, entries in tables.items():
+        if not isinstance(entries, list):
+            raise AggregationConfigError(
+                f"[{section}.{kind}] must be an array of tables: write [[{section}.{kind}]]"
+            )
+        for i, options in enumerate(entries):
+            built.append(build(kind, options, where=f"[[{section}.{kind}]] #{i + 1}"))
+    return built

@@ -1,0 +1,74 @@
+"""For every SCALAR job metric: its mean and its distribution across the batch's jobs."""
+
+from __future__ import annotations
+
+import math
+from array import array
+from dataclasses import dataclass, field
+from typing import Self
+
+from stook.sdk import _data
+from stook.sdk._writer import MetricsWriter
+from stook.sdk.aggregations._base import Aggregation
+from stook.sdk.aggregations._record import JobRecord
+
+
+def auto_buckets(low: float, high: float, count: int) -> tuple[float, float, int]:
+    """Bounds and a bucket count that cover [low, high]: about sqrt(count) buckets, 1..20."""
+    if low == high:
+        half = max(abs(low) * 0.05, 0.5)
+        return low - half, high + half, 1
+    return low, high, max(1, min(20, math.ceil(math.sqrt(count))))
+
+
+@dataclass
+class _Column:
+    values: array[float] = field(default_factory=lambda: array("d"))
+    unit: str = ""
+
+
+@dataclass
+class ScalarDefaults(Aggregation):
+    """Writes ``N (mean)`` (a SCALAR, unit carried over) and ``N (distribution)`` (a
+    HISTOGRAM of the per-job values) for every SCALAR job metric ``N`` in the batch."""
+
+    name: str = "(mean) and (distribution) of every scalar"
+    columns: dict[str, _Column] = field(default_factory=dict, init=False)
+
+    def update(self, job: JobRecord) -> None:
+        for metric, scalar in job.scalars.items():
+            column = self.columns.get(metric)
+            if column is None:
+                column = self.columns[metric] = _Column(unit=scalar.unit)
+            column.values.append(scalar.value)
+            column.unit = column.unit or scalar.unit
+
+    def merge(self, other: Self) -> None:
+        for metric, theirs in other.columns.items():
+            mine = self.columns.setdefault(metric, _Column(unit=theirs.unit))
+            mine.values.extend(theirs.values)
+            mine.unit = mine.unit or theirs.unit
+
+    def finish(self, writer: MetricsWriter) -> None:
+        for metric in sorted(self.columns):
+            column = self.columns[metric]
+            values = column.values
+            finite = [v for v in values if math.isfinite(v)]
+            if not finite:
+                continue
+            writer.scalar(
+                f"{metric} (mean)",
+                math.fsum(finite) / len(finite),
+                unit=column.unit,
+                description=f"Mean of {metric!r} over the {len(finite)} jobs that reported it.",
+            )
+            low, high, buckets = auto_buckets(min(finite), max(finite), len(finite))
+            writer.histogram(
+                f"{metric} (distribution)",
+                _data.doubles(f"{metric} (distribution) values", finite, unit=column.unit),
+                buckets=buckets,
+                lower=low,
+                upper=high,
+                x_axis_name=f"{metric} [{column.unit}]" if column.unit else metric,
+                description=f"{metric!r} of each of the {len(finite)} jobs that reported it.",
+            )

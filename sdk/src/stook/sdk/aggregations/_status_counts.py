@@ -1,0 +1,123 @@
+"""Counts of job statuses and job-metric statuses, and the batch's pass rate."""
+
+from __future__ import annotations
+
+from collections import Counter
+from dataclasses import dataclass, field
+from typing import Self
+
+from stook.sdk._enums import MetricStatus
+from stook.sdk._writer import MetricsWriter
+from stook.sdk.aggregations._base import Aggregation
+from stook.sdk.aggregations._record import JobRecord
+
+# Shown even at zero, in the app's order, so charts of different batches line up.
+JOB_STATUSES = ("PASSED", "WARNING", "BLOCKER", "ERROR", "CANCELLED", "QUEUED", "RUNNING")
+_ALWAYS_SHOWN_JOB_STATUSES = JOB_STATUSES[:4]
+METRIC_STATUSES = (
+    "PASSED",
+    "FAIL_WARN",
+    "FAIL_BLOCK",
+    "NOT_APPLICABLE",
+    "RAW",
+    "NO_STATUS_REPORTED",
+)
+
+
+def _ordered(
+    counts: Counter[str], order: tuple[str, ...], always: tuple[str, ...]
+) -> dict[str, float]:
+    keys = [k for k in order if k in always or counts[k]]
+    keys += sorted(k for k in counts if k not in order)
+    return {k: float(counts[k]) for k in keys}
+
+
+@dataclass
+class JobStatusCounts(Aggregation):
+    """A BAR_CHART of the jobs' conflated statuses. Any BLOCKER job makes it FAIL_BLOCK,
+    any WARNING or ERROR job FAIL_WARN, so the batch's status follows its jobs."""
+
+    name: str = "Job statuses"
+    counts: Counter[str] = field(default_factory=Counter, init=False)
+
+    def update(self, job: JobRecord) -> None:
+        self.counts[job.conflated_status] += 1
+
+    def merge(self, other: Self) -> None:
+        self.counts.update(other.counts)
+
+    @property
+    def status(self) -> MetricStatus:
+        if self.counts["BLOCKER"]:
+            return MetricStatus.FAIL_BLOCK
+        if self.counts["WARNING"] or self.counts["ERROR"]:
+            return MetricStatus.FAIL_WARN
+        return MetricStatus.PASSED
+
+    def finish(self, writer: MetricsWriter) -> None:
+        writer.bar_chart_from(
+            self.name,
+            _ordered(self.counts, JOB_STATUSES, _ALWAYS_SHOWN_JOB_STATUSES),
+            x_axis_name="Conflated job status",
+            y_axis_name="Jobs",
+            status=self.status,
+            description=f"Conflated status of the batch's {sum(self.counts.values())} jobs.",
+        )
+
+
+@dataclass
+class MetricStatusCounts(Aggregation):
+    """A BAR_CHART of the statuses of every job metric across the batch."""
+
+    name: str = "Job metric statuses"
+    counts: Counter[str] = field(default_factory=Counter, init=False)
+
+    def update(self, job: JobRecord) -> None:
+        self.counts.update(job.metric_statuses)
+
+    def merge(self, other: Self) -> None:
+        self.counts.update(other.counts)
+
+    def finish(self, writer: MetricsWriter) -> None:
+        if not self.counts:
+            return
+        status = MetricStatus.PASSED
+        if self.counts["FAIL_BLOCK"]:
+            status = MetricStatus.FAIL_BLOCK
+        elif self.counts["FAIL_WARN"]:
+            status = MetricStatus.FAIL_WARN
+        writer.bar_chart_from(
+            self.name,
+            _ordered(self.counts, METRIC_STATUSES, ("PASSED", "FAIL_WARN", "FAIL_BLOCK")),
+            x_axis_name="Metric status",
+            y_axis_name="Job metrics",
+            status=status,
+            description="Status of every metric of every job in the batch.",
+        )
+
+
+@dataclass
+class PassRate(Aggregation):
+    """The share of jobs whose conflated status is PASSED, in percent."""
+
+    name: str = "Pass rate"
+    passed: int = field(default=0, init=False)
+    jobs: int = field(default=0, init=False)
+
+    def update(self, job: JobRecord) -> None:
+        self.jobs += 1
+        self.passed += job.conflated_status == "PASSED"
+
+    def merge(self, other: Self) -> None:
+        self.passed += other.passed
+        self.jobs += other.jobs
+
+    def finish(self, writer: MetricsWriter) -> None:
+        if not self.jobs:
+            return
+        writer.scalar(
+            self.name,
+            100.0 * self.passed / self.jobs,
+            unit="%",
+            description=f"{self.passed} of {self.jobs} jobs passed.",
+        )

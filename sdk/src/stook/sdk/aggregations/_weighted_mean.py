@@ -1,0 +1,87 @@
+"""Mean of a scalar job metric, optionally weighted by another scalar of the same job."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Self
+
+from stook.sdk._enums import MetricStatus
+from stook.sdk._writer import MetricsWriter
+from stook.sdk.aggregations._base import Aggregation, Needs
+from stook.sdk.aggregations._record import JobRecord
+
+
+@dataclass
+class WeightedMean(Aggregation):
+    """``sum(w * x) / sum(w)`` over the jobs that report both `metric` and `weight`.
+
+    Without a weight every job weighs 1. Jobs that report the metric but not the
+    weight are left out and counted in the metric's description.
+    """
+
+    name: str
+    metric: str
+    weight: str | None = None
+    unit: str | None = None
+
+    weighted_sum: float = field(default=0.0, init=False)
+    weight_sum: float = field(default=0.0, init=False)
+    jobs: int = field(default=0, init=False)
+    jobs_without_weight: int = field(default=0, init=False)
+    seen_unit: str = field(default="", init=False)
+
+    def needs(self) -> Needs:
+        names = {self.metric} | ({self.weight} if self.weight else set())
+        return Needs(scalars=frozenset(names))
+
+    def update(self, job: JobRecord) -> None:
+        x = job.scalars.get(self.metric)
+        if x is None:
+            return
+        w = 1.0
+        if self.weight is not None:
+            weight = job.scalars.get(self.weight)
+            if weight is None:
+                self.jobs_without_weight += 1
+                return
+            w = weight.value
+        self.weighted_sum += w * x.value
+        self.weight_sum += w
+        self.jobs += 1
+        self.seen_unit = self.seen_unit or x.unit
+
+    def merge(self, other: Self) -> None:
+        self.weighted_sum += other.weighted_sum
+        self.weight_sum += other.weight_sum
+        self.jobs += other.jobs
+        self.jobs_without_weight += other.jobs_without_weight
+        self.seen_unit = self.seen_unit or other.seen_unit
+
+    @property
+    def value(self) -> float | None:
+        if self.weight_sum == 0:
+            return None
+        return self.weighted_sum / self.weight_sum
+
+    def finish(self, writer: MetricsWriter) -> None:
+        value = self.value
+        how = f"weighted by {self.weight!r}" if self.weight else "unweighted"
+        if value is None or not math.isfinite(value):
+            writer.text(
+                self.name,
+                f"No job reported both {self.metric!r} and a non-zero weight; nothing to average.",
+                status=MetricStatus.NOT_APPLICABLE,
+            )
+            return
+        note = (
+            f"; {self.jobs_without_weight} jobs without {self.weight!r} left out"
+            if self.jobs_without_weight
+            else ""
+        )
+        writer.scalar(
+            self.name,
+            value,
+            unit=self.unit if self.unit is not None else self.seen_unit,
+            description=f"Mean of {self.metric!r} over {self.jobs} jobs, {how}{note}.",
+        )
