@@ -454,7 +454,7 @@ def _referenced_ids(values: pb.MetricValues) -> list[pb.MetricsDataId]:
         if fd.message_type is not pb.MetricsDataId.DESCRIPTOR:
             continue
         value = getattr(sub, fd.name)
-        if fd.label == fd.LABEL_REPEATED:
+        if fd.is_repeated:
             ids.extend(value)
         elif sub.HasField(fd.name):
             ids.append(value)

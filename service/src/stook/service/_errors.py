@@ -50,8 +50,17 @@ class ApiError(StookError):
 class ApiStatusError(ApiError):
     """The API answered with an HTTP error status."""
 
-    def __init__(self, *, status: int, method: str, url: str | URL, body: bytes = b"") -> None:
+    def __init__(
+        self,
+        *,
+        status: int,
+        method: str,
+        url: str | URL,
+        body: bytes = b"",
+        retry_after: float | None = None,
+    ) -> None:
         self.status = status
+        self.retry_after = retry_after
         self.method = method
         self.url = redact_url(url)
         self.body_excerpt = body_excerpt(body)
@@ -83,9 +92,17 @@ class ApiResponseError(ApiError):
 class StorageError(ApiError):
     """Fetching a presigned object-storage URL failed; ``status`` is None without an answer."""
 
-    def __init__(self, message: str, *, url: str | URL, status: int | None = None) -> None:
+    def __init__(
+        self,
+        message: str,
+        *,
+        url: str | URL,
+        status: int | None = None,
+        retry_after: float | None = None,
+    ) -> None:
         self.url = redact_url(url)
         self.status = status
+        self.retry_after = retry_after
         super().__init__(redact_text(message))
 
 
@@ -98,10 +115,18 @@ class PresignedUrlExpiredError(StorageError):
 
 
 class TransportError(ApiError):
-    """The connection failed before a complete answer arrived (reset, timeout, truncation)."""
+    """No complete answer arrived: connection refused or reset, timeout, truncated body.
 
-    def __init__(self, message: str) -> None:
-        super().__init__(redact_text(message))
+    ``reason`` is the failure without the URL (for retry logs); ``retryable`` is False for
+    failures that another attempt cannot fix (a bad certificate, an invalid URL, too many
+    redirects).
+    """
+
+    def __init__(self, *, method: str, url: str | URL, reason: str, retryable: bool = True) -> None:
+        self.url = redact_url(url)
+        self.reason = redact_text(reason)
+        self.retryable = retryable
+        super().__init__(f"{method} {self.url} failed: {self.reason}")
 
 
 class IncompleteBodyError(TransportError):
@@ -111,7 +136,9 @@ class IncompleteBodyError(TransportError):
         self.received = received
         self.expected = expected
         super().__init__(
-            f"{method} {redact_url(url)}: body ended after {received} of {expected} bytes"
+            method=method,
+            url=url,
+            reason=f"body ended after {received} of {expected} bytes",
         )
 
 

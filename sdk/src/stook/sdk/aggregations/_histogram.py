@@ -106,10 +106,11 @@ class MergedHistogram(Aggregation):
             self._add(chunk)
 
     def values(self) -> pl.Series:
-        """The appended series (exact mode only)."""
+        """The appended series (exact mode only), sorted: jobs arrive in any order, and a
+        histogram does not depend on the order of its values, so sorted output is stable."""
         if not self.chunks:
             return pl.Series(self.data, [], dtype=pl.Float64)
-        return pl.concat(self.chunks, rechunk=True)
+        return pl.concat(self.chunks, rechunk=True).sort()
 
     def finish(self, writer: MetricsWriter) -> None:
         if self.total == 0:

@@ -53,7 +53,8 @@ class ScalarDefaults(Aggregation):
         for metric in sorted(self.columns):
             column = self.columns[metric]
             values = column.values
-            finite = [v for v in values if math.isfinite(v)]
+            # Sorted: the output must not depend on the order jobs arrived in.
+            finite = sorted(v for v in values if math.isfinite(v))
             if not finite:
                 continue
             writer.scalar(

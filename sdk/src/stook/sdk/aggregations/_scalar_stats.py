@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import re
 from array import array
 from collections.abc import Sequence
@@ -63,7 +64,8 @@ class ScalarStats(Aggregation):
         """Each statistic's value; empty when no job reported the metric."""
         if not self.values:
             return {}
-        s = pl.Series(self.metric, self.values, dtype=pl.Float64)
+        # Sorted, so that the result does not depend on the order jobs arrived in.
+        s = pl.Series(self.metric, self.values, dtype=pl.Float64).sort()
         out: dict[str, float] = {}
         for stat in self.stats:
             match = _QUANTILE.match(stat)
@@ -73,6 +75,8 @@ class ScalarStats(Aggregation):
                 q = float(s.len())
             elif stat == "std":
                 q = float(s.std()) if s.len() > 1 else 0.0  # type: ignore[arg-type]
+            elif stat == "mean":
+                q = math.fsum(self.values) / len(self.values)
             else:
                 q = float(getattr(s, stat)())
             out[stat] = float(q or 0.0)

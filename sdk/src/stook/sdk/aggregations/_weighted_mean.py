@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from array import array
 from dataclasses import dataclass, field
 from typing import Self
 
@@ -25,8 +26,10 @@ class WeightedMean(Aggregation):
     weight: str | None = None
     unit: str | None = None
 
-    weighted_sum: float = field(default=0.0, init=False)
-    weight_sum: float = field(default=0.0, init=False)
+    # Terms are kept (16 bytes a job) and summed with fsum at the end: the result is
+    # then correctly rounded and independent of the order jobs arrive in.
+    products: array[float] = field(default_factory=lambda: array("d"), init=False)
+    weights: array[float] = field(default_factory=lambda: array("d"), init=False)
     jobs: int = field(default=0, init=False)
     jobs_without_weight: int = field(default=0, init=False)
     seen_unit: str = field(default="", init=False)
@@ -46,23 +49,24 @@ class WeightedMean(Aggregation):
                 self.jobs_without_weight += 1
                 return
             w = weight.value
-        self.weighted_sum += w * x.value
-        self.weight_sum += w
+        self.products.append(w * x.value)
+        self.weights.append(w)
         self.jobs += 1
         self.seen_unit = self.seen_unit or x.unit
 
     def merge(self, other: Self) -> None:
-        self.weighted_sum += other.weighted_sum
-        self.weight_sum += other.weight_sum
+        self.products.extend(other.products)
+        self.weights.extend(other.weights)
         self.jobs += other.jobs
         self.jobs_without_weight += other.jobs_without_weight
         self.seen_unit = self.seen_unit or other.seen_unit
 
     @property
     def value(self) -> float | None:
-        if self.weight_sum == 0:
+        weight_sum = math.fsum(self.weights)
+        if weight_sum == 0:
             return None
-        return self.weighted_sum / self.weight_sum
+        return math.fsum(self.products) / weight_sum
 
     def finish(self, writer: MetricsWriter) -> None:
         value = self.value

@@ -1,0 +1,172 @@
+"""Batch mode: fetch every job of the batch, fold it into the aggregations, write the output."""
+
+from __future__ import annotations
+
+import difflib
+from collections.abc import Iterable
+from dataclasses import dataclass
+from pathlib import Path
+
+import structlog
+
+from stook.sdk._enums import MetricStatus
+from stook.sdk._writer import MetricsWriter
+from stook.sdk.aggregations import Aggregation, JobRecord, Needs, default_batch_aggregations
+from stook.service._batch_fetch import BatchFetcher, FetchOutcome, FetchPlan
+from stook.service._client import ApiClient
+from stook.service._config import ConfigError, StookConfig
+from stook.service._errors import ApiError
+from stook.service._inputs import BatchInputs
+from stook.service._progress import NoProgress, Progress
+from stook.service._retry import RetryPolicy
+
+log = structlog.get_logger("stook.batch")
+
+OUTPUT_NAME = "metrics.binproto"
+
+
+class MissingJobsError(ApiError):
+    """More jobs stayed unavailable than --allow-missing-jobs allows (exit code 3)."""
+
+
+@dataclass(frozen=True, slots=True)
+class BatchResult:
+    output: Path
+    outcome: FetchOutcome
+    metrics_written: list[str]
+    status: MetricStatus
+    requests: int
+    retries: int
+    bytes_received: int
+
+
+def aggregations_for(config: StookConfig) -> list[Aggregation]:
+    defaults = default_batch_aggregations() if config.batch_defaults else []
+    return defaults + config.batch_aggregations()
+
+
+def plan_for(aggregations: Iterable[Aggregation]) -> tuple[Needs, FetchPlan]:
+    needs = Needs()
+    for aggregation in aggregations:
+        needs = needs | aggregation.needs()
+    return needs, FetchPlan(data=needs.data)
+
+
+def check_names(needs: Needs, outcome: FetchOutcome, source: str) -> None:
+    """A name in the config that no job has is a typo, not an empty result: say so."""
+    if outcome.jobs_with_metrics == 0:
+        return  # an empty batch, or one whose jobs all failed, proves nothing about names
+    for kind, wanted, seen in (
+        ("scalar metric", needs.scalars, outcome.scalar_names),
+        ("metrics data", needs.data, outcome.data_names),
+    ):
+        for name in sorted(wanted - seen):
+            close = difflib.get_close_matches(name, sorted(seen), n=1)
+            hint = f"; did you mean {close[0]!r}?" if close else ""
+            raise ConfigError(f"{source}: no job in the batch has a {kind} named {name!r}{hint}")
+
+
+async def run_batch(
+    inputs: BatchInputs,
+    config: StookConfig,
+    outputs_dir: Path,
+    *,
+    allow_missing_jobs: float = 0.0,
+    retry: RetryPolicy | None = None,
+    progress: Progress | None = None,
+) -> BatchResult:
+    aggregations = aggregations_for(config)
+    needs, plan = plan_for(aggregations)
+    settings = config.fetch
+    policy = retry or RetryPolicy(
+        max_attempts=settings.max_attempts, request_timeout=settings.timeout
+    )
+
+    def fold(record: JobRecord) -> None:
+        for aggregation in aggregations:
+            aggregation.update(record)
+
+    log.info(
+        "batch fetch starting",
+        batch_id=str(inputs.batch_id),
+        concurrency=settings.concurrency,
+        data=sorted(plan.data),
+    )
+    async with ApiClient(
+        inputs.access.api_url,
+        inputs.access.token,
+        concurrency=settings.concurrency,
+        retry=policy,
+        page_size=settings.page_size,
+    ) as api:
+        shown = progress or NoProgress()
+
+        def report(o: FetchOutcome) -> None:
+            shown.update(
+                done=o.jobs_done + len(o.missing),
+                listed=o.jobs_listed,
+                requests=api.stats.requests + api.storage.stats.requests,
+                retries=api.stats.retries + api.storage.stats.retries,
+            )
+
+        fetcher = BatchFetcher(
+            api,
+            inputs.access.project_id,
+            inputs.batch_id,
+            plan,
+            workers=settings.concurrency,
+            on_progress=report,
+        )
+        try:
+            outcome = await fetcher.run(fold)
+        finally:
+            shown.close()
+        requests = api.stats.requests + api.storage.stats.requests
+        retries = api.stats.retries + api.storage.stats.retries
+        received = api.stats.bytes_received + api.storage.stats.bytes_received
+
+    check_names(needs, outcome, config.source)
+    writer = MetricsWriter(inputs.batch_id, deterministic=True)
+    _write_missing(writer, outcome, allow_missing_jobs)
+    if outcome.jobs_listed == 0:
+        writer.text(
+            "Batch summary",
+            "The batch has no jobs, so there is nothing to aggregate.",
+            status=MetricStatus.NOT_APPLICABLE,
+        )
+        writer.override_status(MetricStatus.NOT_APPLICABLE)
+    for aggregation in aggregations:
+        aggregation.finish(writer)
+    output = writer.write(outputs_dir / OUTPUT_NAME)
+    return BatchResult(
+        output=output,
+        outcome=outcome,
+        metrics_written=[m.name for m in writer.metrics],
+        status=writer.status,
+        requests=requests,
+        retries=retries,
+        bytes_received=received,
+    )
+
+
+def _write_missing(writer: MetricsWriter, outcome: FetchOutcome, allowed: float) -> None:
+    missing = outcome.missing
+    if not missing:
+        return
+    share = len(missing) / max(outcome.jobs_listed, 1)
+    first = missing[0]
+    if share > allowed:
+        more = f" and {len(missing) - 1} more" if len(missing) > 1 else ""
+        raise MissingJobsError(
+            f"job {first.job_id} could not be fetched ({first.reason}){more}; "
+            f"{len(missing)} of {outcome.jobs_listed} jobs missing, allowed share {allowed:g}"
+        )
+    lines = [
+        f"- {m.job_id} ({m.experience_name or 'unknown experience'}): {m.reason}" for m in missing
+    ]
+    writer.text(
+        "Missing jobs",
+        f"{len(missing)} of {outcome.jobs_listed} jobs could not be fetched and are left out "
+        "of every batch metric:\n" + "\n".join(lines),
+        status=MetricStatus.FAIL_WARN,
+    )

@@ -1,0 +1,417 @@
+"""The clients: the ReSim API (JSON, bearer token, paging) and object storage (presigned URLs).
+
+Two sessions, on purpose. The API session carries ``Authorization: Bearer <token>`` on every
+request; the storage session is built without it, does not read ``.netrc``, follows
+redirects itself so that each hop is checked, and so cannot hand the token to whichever host
+a presigned URL (or a redirect from it) names.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+import uuid
+from collections.abc import AsyncIterator, Callable, Mapping
+from types import TracebackType
+from typing import Any, Final, Self, TypeVar
+
+from aiohttp import hdrs
+from yarl import URL
+
+from stook.service._errors import (
+    ApiError,
+    ApiResponseError,
+    ApiStatusError,
+    AuthError,
+    NotFoundError,
+    PresignedUrlExpiredError,
+    StorageError,
+)
+from stook.service._http import HttpTransport, Response
+from stook.service._logging import get_logger
+from stook.service._models import (
+    Batch,
+    BatchMetric,
+    BatchMetricsData,
+    Build,
+    Job,
+    JobMetric,
+    JobMetricsData,
+    Report,
+)
+from stook.service._redact import redact_url, register_secret
+from stook.service._retry import (
+    RETRYABLE_STATUSES,
+    RetryPolicy,
+    TransferStats,
+    call_with_retries,
+    parse_retry_after,
+)
+
+__all__ = ["ApiClient", "IdLike", "StorageClient"]
+
+_log = get_logger("stook.service.client")
+
+IdLike = uuid.UUID | str
+_Model = TypeVar("_Model")
+
+DEFAULT_CONCURRENCY: Final = 64
+# The API caps pages; 100 is the largest size ReSim's own tools ask for.
+DEFAULT_PAGE_SIZE: Final = 100
+_USER_AGENT: Final = "stook/0.1 (+aiohttp)"
+_REDIRECT_STATUSES: Final = frozenset({301, 302, 303, 307, 308})
+_MAX_STORAGE_REDIRECTS: Final = 5
+_STORAGE_ERROR_CODE: Final = re.compile(rb"<Code>\s*([A-Za-z0-9_.-]{1,64})\s*</Code>")
+_EXPIRED_CODES: Final = frozenset({b"ExpiredToken", b"AccessDenied", b"RequestExpired"})
+
+
+class StorageClient:
+    """Fetches presigned object-storage URLs, with retries and without any credentials.
+
+    Usually owned by an :class:`ApiClient` (``api.storage``); it can also be used alone::
+
+        async with StorageClient() as storage:
+            payload = await storage.fetch_bytes(url)
+    """
+
+    def __init__(
+        self,
+        *,
+        concurrency: int = DEFAULT_CONCURRENCY,
+        retry: RetryPolicy | None = None,
+    ) -> None:
+        self._policy = retry or RetryPolicy()
+        self.stats = TransferStats()
+        self._transport = HttpTransport(
+            name="storage",
+            concurrency=concurrency,
+            request_timeout=self._policy.request_timeout,
+            stats=self.stats,
+            headers={hdrs.USER_AGENT: _USER_AGENT},
+            follow_redirects=False,
+            credentials_allowed=False,
+        )
+
+    async def __aenter__(self) -> Self:
+        await self._transport.__aenter__()
+        return self
+
+    async def __aexit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
+        await self._transport.close()
+
+    async def fetch_bytes(self, url: str) -> bytes:
+        """The whole object behind a presigned URL.
+
+        Raises :class:`PresignedUrlExpiredError` when storage refuses the signature (list
+        again for a fresh URL), :class:`StorageError` for other refusals, and
+        :class:`RetriesExhaustedError` when transient failures outlast the retry policy.
+        """
+        # encoded=True: re-quoting would alter the signed query string and void the signature.
+        target = URL(url, encoded=True)
+        if target.scheme not in ("http", "https") or not target.host:
+            raise StorageError("not an http(s) URL", url=url)
+        return await call_with_retries(
+            lambda: self._fetch_once(target),
+            self._policy,
+            stats=self.stats,
+            method="GET",
+            url=url,
+        )
+
+    async def _fetch_once(self, url: URL) -> bytes:
+        for _hop in range(_MAX_STORAGE_REDIRECTS + 1):
+            response = await self._transport.get(url)
+            location = response.headers.get(hdrs.LOCATION)
+            if response.status in _REDIRECT_STATUSES and location:
+                url = url.join(URL(location, encoded=True))
+                continue
+            if response.ok:
+                return response.body
+            raise _storage_error(response)
+        raise StorageError(
+            f"more than {_MAX_STORAGE_REDIRECTS} redirects from object storage", url=url
+        )
+
+
+class ApiClient:
+    """The ReSim REST API for one token, plus the storage client for the URLs it hands out.
+
+    ::
+
+        async with ApiClient(config.api_url, config.auth_token) as api:
+            async for job in api.list_jobs(project_id, batch_id):
+                async for metric in api.list_job_metrics(project_id, batch_id, job.job_id):
+                    payload = await api.storage.fetch_bytes(metric.metric_url)
+
+    ``concurrency`` bounds in-flight API requests and ``storage_concurrency`` (default: the
+    same) in-flight storage fetches; callers may start as many tasks as they like and they
+    queue for a slot, without that queueing counting against the request timeout.
+    """
+
+    def __init__(
+        self,
+        base_url: str,
+        token: str,
+        *,
+        concurrency: int = DEFAULT_CONCURRENCY,
+        storage_concurrency: int | None = None,
+        retry: RetryPolicy | None = None,
+        page_size: int = DEFAULT_PAGE_SIZE,
+    ) -> None:
+        base = URL(base_url)
+        if base.scheme not in ("http", "https") or not base.host:
+            raise ValueError(f"API base URL must be http(s)://host[/path], got {redact_url(base)}")
+        if not token:
+            raise ValueError("an API token is required")
+        if page_size < 1:
+            raise ValueError(f"page_size must be at least 1, got {page_size}")
+        # Registered before any request so a token echoed in an error body or log is masked.
+        register_secret(token)
+        self._base = base.with_query(None).with_fragment(None)
+        self._policy = retry or RetryPolicy()
+        self._page_size = page_size
+        self.stats = TransferStats()
+        self._transport = HttpTransport(
+            name="api",
+            concurrency=concurrency,
+            request_timeout=self._policy.request_timeout,
+            stats=self.stats,
+            headers={
+                hdrs.AUTHORIZATION: f"Bearer {token}",
+                hdrs.ACCEPT: "application/json",
+                hdrs.USER_AGENT: _USER_AGENT,
+            },
+        )
+        self.storage = StorageClient(
+            concurrency=storage_concurrency or concurrency, retry=self._policy
+        )
+
+    def __repr__(self) -> str:
+        return f"ApiClient({redact_url(self._base)!r})"
+
+    async def __aenter__(self) -> Self:
+        await self._transport.__aenter__()
+        try:
+            await self.storage.__aenter__()
+        except BaseException:
+            await self._transport.close()
+            raise
+        return self
+
+    async def __aexit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
+        try:
+            await self.storage.__aexit__(exc_type, exc, tb)
+        finally:
+            await self._transport.close()
+
+    # -- generic -------------------------------------------------------------------------
+
+    async def get_json(
+        self, path: str, params: Mapping[str, str | int] | None = None
+    ) -> dict[str, Any]:
+        """GET ``path`` (relative to the base URL) and return its JSON object."""
+        url = self._url(path)
+        response = await call_with_retries(
+            lambda: self._get_once(url, params),
+            self._policy,
+            stats=self.stats,
+            method="GET",
+            url=str(url),
+        )
+        try:
+            document = json.loads(response.body)
+        except (UnicodeDecodeError, json.JSONDecodeError) as exc:
+            raise ApiResponseError(
+                f"GET {redact_url(url)}: answer is not valid JSON ({exc})"
+            ) from None
+        if not isinstance(document, dict):
+            raise ApiResponseError(
+                f"GET {redact_url(url)}: expected a JSON object, got {type(document).__name__}"
+            )
+        return document
+
+    async def paginate(
+        self,
+        path: str,
+        items_key: str,
+        params: Mapping[str, str | int] | None = None,
+        page_size: int | None = None,
+    ) -> AsyncIterator[dict[str, Any]]:
+        """Every item of a list endpoint, page after page, until ``nextPageToken`` is empty."""
+        query: dict[str, str | int] = dict(params or {})
+        query["pageSize"] = page_size or self._page_size
+        seen_tokens: set[str] = set()
+        while True:
+            page = await self.get_json(path, query)
+            items = page.get(items_key)
+            if items is None:
+                items = []  # the API omits empty lists
+            if not isinstance(items, list):
+                raise ApiResponseError(
+                    f"GET {redact_url(self._url(path))}: '{items_key}' should be a list, "
+                    f"got {type(items).__name__}"
+                )
+            for item in items:
+                if not isinstance(item, dict):
+                    raise ApiResponseError(
+                        f"GET {redact_url(self._url(path))}: an item of '{items_key}' "
+                        f"is {type(item).__name__}, not an object"
+                    )
+                yield item
+            token = page.get("nextPageToken")
+            if not token:
+                return
+            if not isinstance(token, str):
+                raise ApiResponseError(
+                    f"GET {redact_url(self._url(path))}: 'nextPageToken' should be a string"
+                )
+            if token in seen_tokens:
+                # Following it again would loop for ever.
+                raise ApiResponseError(
+                    f"GET {redact_url(self._url(path))}: the API repeated a page token"
+                )
+            seen_tokens.add(token)
+            query["pageToken"] = token
+
+    # -- typed endpoints -----------------------------------------------------------------
+
+    def list_jobs(self, project_id: IdLike, batch_id: IdLike) -> AsyncIterator[Job]:
+        """The jobs (tests) of a batch."""
+        path = f"/projects/{_id(project_id)}/batches/{_id(batch_id)}/jobs"
+        return self._list(path, "jobs", Job.from_json)
+
+    def list_job_metrics(
+        self, project_id: IdLike, batch_id: IdLike, job_id: IdLike
+    ) -> AsyncIterator[JobMetric]:
+        """The metrics a job's metrics build produced."""
+        path = f"/projects/{_id(project_id)}/batches/{_id(batch_id)}/jobs/{_id(job_id)}/metrics"
+        return self._list(path, "metrics", JobMetric.from_json)
+
+    def list_job_metrics_data(
+        self, project_id: IdLike, batch_id: IdLike, job_id: IdLike
+    ) -> AsyncIterator[JobMetricsData]:
+        """The metrics-data files of a job (all storage types; filter on ``is_standard``)."""
+        path = f"/projects/{_id(project_id)}/batches/{_id(batch_id)}/jobs/{_id(job_id)}/metricsData"
+        return self._list(path, "metricsData", JobMetricsData.from_json)
+
+    async def get_batch(self, project_id: IdLike, batch_id: IdLike) -> Batch:
+        document = await self.get_json(f"/projects/{_id(project_id)}/batches/{_id(batch_id)}")
+        return Batch.from_json(document)
+
+    def list_batches(
+        self, project_id: IdLike, *, search: str | None = None
+    ) -> AsyncIterator[Batch]:
+        """The batches of a project matching ``search`` (clauses joined with `` AND ``)."""
+        params = {"search": search} if search else None
+        return self._list(
+            f"/projects/{_id(project_id)}/batches", "batches", Batch.from_json, params
+        )
+
+    def list_batch_metrics(
+        self, project_id: IdLike, batch_id: IdLike
+    ) -> AsyncIterator[BatchMetric]:
+        path = f"/projects/{_id(project_id)}/batches/{_id(batch_id)}/metrics"
+        return self._list(path, "batchMetrics", BatchMetric.from_json)
+
+    def list_batch_metrics_data(
+        self, project_id: IdLike, batch_id: IdLike
+    ) -> AsyncIterator[BatchMetricsData]:
+        path = f"/projects/{_id(project_id)}/batches/{_id(batch_id)}/metricsData"
+        return self._list(path, "batchMetricsData", BatchMetricsData.from_json)
+
+    async def get_report(self, project_id: IdLike, report_id: IdLike) -> Report:
+        document = await self.get_json(f"/projects/{_id(project_id)}/reports/{_id(report_id)}")
+        return Report.from_json(document)
+
+    async def get_build(self, project_id: IdLike, build_id: IdLike) -> Build:
+        document = await self.get_json(f"/projects/{_id(project_id)}/builds/{_id(build_id)}")
+        return Build.from_json(document)
+
+    # -- internals -----------------------------------------------------------------------
+
+    async def _list(
+        self,
+        path: str,
+        items_key: str,
+        parse: Callable[[Mapping[str, Any]], _Model],
+        params: Mapping[str, str | int] | None = None,
+    ) -> AsyncIterator[_Model]:
+        async for item in self.paginate(path, items_key, params):
+            yield parse(item)
+
+    def _url(self, path: str) -> URL:
+        # Joined as text: yarl's join() would drop the base path ("/v1") for "/projects/...".
+        return URL(str(self._base).rstrip("/") + "/" + path.lstrip("/"))
+
+    async def _get_once(self, url: URL, params: Mapping[str, str | int] | None) -> Response:
+        response = await self._transport.get(url, params=params)
+        if response.ok:
+            return response
+        raise _api_error(response)
+
+
+def _id(value: IdLike) -> str:
+    """An ID for a URL path; parsing it also keeps anything but a UUID out of the path."""
+    if isinstance(value, uuid.UUID):
+        return str(value)
+    try:
+        return str(uuid.UUID(value))
+    except (ValueError, AttributeError, TypeError):
+        raise ValueError(f"not a UUID: {value!r}") from None
+
+
+def _retry_after(response: Response) -> float | None:
+    if response.status not in RETRYABLE_STATUSES:
+        return None
+    return parse_retry_after(response.headers.get(hdrs.RETRY_AFTER))
+
+
+def _api_error(response: Response) -> ApiError:
+    common: dict[str, Any] = {
+        "status": response.status,
+        "method": "GET",
+        "url": response.url,
+        "body": response.body,
+    }
+    if response.status in (401, 403):
+        return AuthError(**common)
+    if response.status == 404:
+        return NotFoundError(**common)
+    return ApiStatusError(**common, retry_after=_retry_after(response))
+
+
+def _storage_error(response: Response) -> StorageError:
+    """Map a storage refusal; only the error code is kept (S3 bodies echo the signature)."""
+    match = _STORAGE_ERROR_CODE.search(response.body[:4096])
+    code = match.group(1) if match else None
+    code_text = f" ({code.decode()})" if code else ""
+    status = response.status
+    if status == 403 or (status == 400 and code in _EXPIRED_CODES):
+        return PresignedUrlExpiredError(
+            f"GET {redact_url(response.url)} answered HTTP {status}{code_text}: the presigned "
+            "URL has expired or its signature is invalid; list again for a fresh URL",
+            url=response.url,
+            status=status,
+        )
+    if status == 404:
+        message = "no such object"
+    elif status in RETRYABLE_STATUSES:
+        message = "object storage is unavailable or throttling"
+    else:
+        message = "object storage refused the request"
+    return StorageError(
+        f"GET {redact_url(response.url)} answered HTTP {status}{code_text}: {message}",
+        url=response.url,
+        status=status,
+        retry_after=_retry_after(response),
+    )

@@ -1,0 +1,144 @@
+"""stook.toml: how to fetch, and what to compute in each mode.
+
+[fetch]
+concurrency = 64       # requests in flight, API and storage together
+timeout = 30.0         # seconds per request attempt
+max_attempts = 6       # per request, first try included
+page_size = 100        # items asked for per list page
+
+[test]
+metrics = "my_metrics.test:compute"   # called as compute(experience_dir, logs_dir, writer)
+
+[batch]
+defaults = true        # the default batch metrics (means, distributions, statuses)
+[[batch.weighted_mean]]
+name = "Distance-weighted localization error"
+metric = "Localization error"
+weight = "Distance driven"
+"""
+
+from __future__ import annotations
+
+import tomllib
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from stook.sdk._errors import StookError
+from stook.sdk.aggregations import Aggregation, AggregationConfigError, build_all
+
+
+class ConfigError(StookError):
+    """stook.toml is missing, malformed or names something that does not exist (exit 2)."""
+
+
+@dataclass(frozen=True, slots=True)
+class FetchSettings:
+    concurrency: int = 64
+    timeout: float = 30.0
+    max_attempts: int = 6
+    page_size: int = 100
+
+
+@dataclass(frozen=True, slots=True)
+class StookConfig:
+    source: str = "(built-in defaults)"
+    fetch: FetchSettings = field(default_factory=FetchSettings)
+    test_metrics: str | None = None
+    batch_defaults: bool = True
+    # Raw [[batch.<kind>]] tables; built into fresh aggregations per run.
+    batch_tables: Mapping[str, list[dict[str, Any]]] = field(default_factory=dict)
+    report: Mapping[str, Any] = field(default_factory=dict)
+
+    def batch_aggregations(self) -> list[Aggregation]:
+        try:
+            return build_all(self.batch_tables, section="batch")
+        except AggregationConfigError as exc:
+            raise ConfigError(f"{self.source}: {exc}") from None
+
+
+_SECTIONS = {"fetch", "test", "batch", "report"}
+
+
+def load(path: Path | None) -> StookConfig:
+    """Read a config file; None means no file: the defaults."""
+    if path is None:
+        return StookConfig()
+    name = str(path)
+    try:
+        doc = tomllib.loads(path.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise ConfigError(f"config file {name!r} does not exist") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ConfigError(
+            f"config file {name!r} cannot be read ({exc.__class__.__name__})"
+        ) from None
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(f"{name}: not valid TOML ({exc})") from None
+    return parse(doc, source=name)
+
+
+def parse(doc: Mapping[str, Any], *, source: str = "stook.toml") -> StookConfig:
+    unknown = set(doc) - _SECTIONS
+    if unknown:
+        raise ConfigError(
+            f"{source}: unknown section {sorted(unknown)[0]!r} "
+            f"(known: {', '.join(sorted(_SECTIONS))})"
+        )
+    fetch = _fetch(_table(doc, "fetch", source), source)
+    test = _table(doc, "test", source)
+    _only(test, {"metrics"}, "[test]", source)
+    metrics = test.get("metrics")
+    if metrics is not None and (not isinstance(metrics, str) or ":" not in metrics):
+        raise ConfigError(f"{source}: [test] metrics must be 'package.module:function'")
+    batch = dict(_table(doc, "batch", source))
+    defaults = batch.pop("defaults", True)
+    if not isinstance(defaults, bool):
+        raise ConfigError(f"{source}: [batch] defaults must be true or false")
+    config = StookConfig(
+        source=source,
+        fetch=fetch,
+        test_metrics=metrics,
+        batch_defaults=defaults,
+        batch_tables=batch,
+        report=_table(doc, "report", source),
+    )
+    config.batch_aggregations()  # fail now, before any fetching, on a bad table
+    return config
+
+
+def _table(doc: Mapping[str, Any], key: str, source: str) -> Mapping[str, Any]:
+    value = doc.get(key, {})
+    if not isinstance(value, dict):
+        raise ConfigError(f"{source}: [{key}] must be a table")
+    return value
+
+
+def _only(table: Mapping[str, Any], allowed: set[str], where: str, source: str) -> None:
+    extra = set(table) - allowed
+    if extra:
+        raise ConfigError(
+            f"{source}: unknown key {sorted(extra)[0]!r} in {where} "
+            f"(known: {', '.join(sorted(allowed))})"
+        )
+
+
+def _fetch(table: Mapping[str, Any], source: str) -> FetchSettings:
+    _only(table, {"concurrency", "timeout", "max_attempts", "page_size"}, "[fetch]", source)
+    defaults = FetchSettings()
+
+    def positive(key: str, kind: type[int] | type[float], default: float) -> Any:
+        value = table.get(key, default)
+        if isinstance(value, bool) or not isinstance(value, int | float) or value <= 0:
+            raise ConfigError(f"{source}: [fetch] {key} must be a positive number")
+        if kind is int and not isinstance(value, int):
+            raise ConfigError(f"{source}: [fetch] {key} must be a whole number")
+        return kind(value)
+
+    return FetchSettings(
+        concurrency=positive("concurrency", int, defaults.concurrency),
+        timeout=positive("timeout", float, defaults.timeout),
+        max_attempts=positive("max_attempts", int, defaults.max_attempts),
+        page_size=positive("page_size", int, defaults.page_size),
+    )

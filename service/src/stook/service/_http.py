@@ -1,0 +1,225 @@
+"""The transport layer: one aiohttp session that sends a GET and returns the whole answer.
+
+It knows nothing of JSON, paging, retries or what a status code means; the clients in
+:mod:`stook.service._client` build those on top. What it does guarantee:
+
+* at most ``concurrency`` requests in flight, and the per-attempt timeout starts only once a
+  request holds one of those slots, so thousands of queued fetches do not time out while
+  waiting for a pooled connection;
+* a body shorter than its ``Content-Length`` is an error, not silently short data;
+* every failure leaves as a :class:`TransportError` with a redacted message, never as an
+  aiohttp exception whose text could hold a presigned URL;
+* a transport built with ``credentials_allowed=False`` (object storage) refuses to send any
+  ``Authorization`` header, URL user info, or ``.netrc`` credentials.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import time
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from types import TracebackType
+from typing import Final, Self
+
+import aiohttp
+from aiohttp import hdrs
+from multidict import CIMultiDictProxy
+from yarl import URL
+
+from stook.service._errors import IncompleteBodyError, TransportError
+from stook.service._logging import get_logger
+from stook.service._redact import redact_text, redact_url
+from stook.service._retry import TransferStats, is_transient_transport_failure
+
+__all__ = ["HttpTransport", "Response"]
+
+_log = get_logger("stook.service.http")
+
+_KEEPALIVE_S: Final = 30.0
+_DNS_CACHE_S: Final = 300
+_MAX_API_REDIRECTS: Final = 5
+_NO_BODY_STATUSES: Final = frozenset({204, 304})
+_CREDENTIAL_HEADERS: Final = (hdrs.AUTHORIZATION, hdrs.PROXY_AUTHORIZATION)
+
+
+@dataclass(frozen=True, slots=True)
+class Response:
+    """A complete answer: status, headers and the whole body."""
+
+    status: int
+    headers: CIMultiDictProxy[str]
+    body: bytes
+    # The final URL after redirects; kept out of repr because it may be presigned.
+    url: URL = field(repr=False)
+
+    @property
+    def ok(self) -> bool:
+        return 200 <= self.status < 300
+
+
+class HttpTransport:
+    """An aiohttp session sized for ``concurrency`` parallel GETs, opened as a context manager."""
+
+    def __init__(
+        self,
+        *,
+        name: str,
+        concurrency: int,
+        request_timeout: float,
+        stats: TransferStats,
+        headers: Mapping[str, str] | None = None,
+        follow_redirects: bool = True,
+        credentials_allowed: bool = True,
+    ) -> None:
+        if concurrency < 1:
+            raise ValueError(f"concurrency must be at least 1, got {concurrency}")
+        self._headers = dict(headers or {})
+        if not credentials_allowed and any(
+            key.lower() in {"authorization", "proxy-authorization"} for key in self._headers
+        ):
+            raise ValueError(f"{name} transport must not carry credential headers")
+        self.name = name
+        self.stats = stats
+        self._concurrency = concurrency
+        self._timeout = request_timeout
+        self._follow_redirects = follow_redirects
+        self._credentials_allowed = credentials_allowed
+        self._slots = asyncio.Semaphore(concurrency)
+        self._session: aiohttp.ClientSession | None = None
+
+    async def __aenter__(self) -> Self:
+        connector = aiohttp.TCPConnector(
+            limit=self._concurrency,
+            limit_per_host=self._concurrency,
+            keepalive_timeout=_KEEPALIVE_S,
+            ttl_dns_cache=_DNS_CACHE_S,
+        )
+        self._session = aiohttp.ClientSession(
+            connector=connector,
+            headers=self._headers,
+            # The total per attempt is enforced around the request (see get); aiohttp's own
+            # limits only catch a stalled connect or read.
+            timeout=aiohttp.ClientTimeout(
+                total=None, sock_connect=self._timeout, sock_read=self._timeout
+            ),
+            raise_for_status=False,
+            # trust_env would read ~/.netrc and attach its credentials to storage requests.
+            trust_env=self._credentials_allowed,
+            auto_decompress=True,
+        )
+        return self
+
+    async def __aexit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
+        await self.close()
+
+    async def close(self) -> None:
+        session, self._session = self._session, None
+        if session is not None:
+            await session.close()
+
+    async def get(
+        self,
+        url: URL,
+        *,
+        params: Mapping[str, str | int] | None = None,
+        headers: Mapping[str, str] | None = None,
+    ) -> Response:
+        """Send one GET and read the whole body; any status is returned, not raised."""
+        session = self._session
+        if session is None:
+            raise RuntimeError(f"{self.name} transport is not open; use 'async with'")
+        if not self._credentials_allowed:
+            url = self._without_credentials(session, url, headers)
+        started = time.perf_counter()
+        async with self._slots:
+            self.stats.requests += 1
+            try:
+                async with asyncio.timeout(self._timeout):
+                    response = await self._send(session, url, params, headers)
+            except TimeoutError:
+                raise TransportError(
+                    method="GET", url=url, reason=f"timed out after {self._timeout:g} s"
+                ) from None
+            except aiohttp.ClientError as exc:
+                raise TransportError(
+                    method="GET",
+                    url=url,
+                    reason=_describe(exc),
+                    retryable=is_transient_transport_failure(exc),
+                ) from None
+            except OSError as exc:
+                raise TransportError(method="GET", url=url, reason=_describe(exc)) from None
+        self.stats.statuses[response.status] += 1
+        self.stats.bytes_received += len(response.body)
+        _log.debug(
+            "http response",
+            transport=self.name,
+            url=redact_url(response.url),
+            status=response.status,
+            bytes=len(response.body),
+            ms=round((time.perf_counter() - started) * 1000, 1),
+        )
+        return response
+
+    async def _send(
+        self,
+        session: aiohttp.ClientSession,
+        url: URL,
+        params: Mapping[str, str | int] | None,
+        headers: Mapping[str, str] | None,
+    ) -> Response:
+        async with session.get(
+            url,
+            params=params,
+            headers=headers,
+            allow_redirects=self._follow_redirects,
+            max_redirects=_MAX_API_REDIRECTS,
+        ) as answer:
+            body = await answer.read()
+            expected = answer.content_length
+            # With Content-Encoding the header counts compressed bytes, not what read() gives.
+            if (
+                expected is not None
+                and len(body) < expected
+                and hdrs.CONTENT_ENCODING not in answer.headers
+                and answer.status not in _NO_BODY_STATUSES
+            ):
+                raise IncompleteBodyError(
+                    method="GET", url=answer.url, received=len(body), expected=expected
+                )
+            return Response(status=answer.status, headers=answer.headers, body=body, url=answer.url)
+
+    def _without_credentials(
+        self,
+        session: aiohttp.ClientSession,
+        url: URL,
+        headers: Mapping[str, str] | None,
+    ) -> URL:
+        """Refuse, before anything is sent, a storage request that would carry credentials.
+
+        This guards the one property that matters most for storage: the API token never
+        leaves for another host. A violation is a programming error, so it stops the run.
+        """
+        for name in _CREDENTIAL_HEADERS:
+            if name in session.headers or (headers is not None and _has_header(headers, name)):
+                raise RuntimeError(f"refusing to send {name} to object storage ({self.name})")
+        if url.user is not None or url.password is not None:
+            # aiohttp would turn user info into a Basic Authorization header.
+            return url.with_user(None)
+        return url
+
+
+def _has_header(headers: Mapping[str, str], name: str) -> bool:
+    lowered = name.lower()
+    return any(key.lower() == lowered for key in headers)
+
+
+def _describe(exc: BaseException) -> str:
+    text = redact_text(str(exc))
+    return f"{type(exc).__name__}: {text}" if text else type(exc).__name__

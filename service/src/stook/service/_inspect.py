@@ -1,0 +1,88 @@
+"""`stook validate` and `stook show`: look at a metrics.binproto from the command line."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+from typing import TextIO
+
+from stook.sdk._enums import MetricType
+from stook.sdk._errors import InvalidMetricsError, ReadError
+from stook.sdk._reader import JobMetricsView, MetricView, read_job_metrics
+from stook.sdk._validate import find_problems
+
+EXIT_INVALID = 4
+
+
+def _read(path: Path) -> JobMetricsView:
+    try:
+        payload = path.read_bytes()
+    except OSError as exc:
+        raise ReadError(f"could not read JobMetrics from {str(path)!r}: {exc.strerror}") from None
+    return read_job_metrics(payload, source=repr(str(path)))
+
+
+def validate_file(path: Path, out: TextIO | None = None) -> int:
+    """Print every rule the file breaks; exit 0 when there is none, 4 otherwise."""
+    stream = out or sys.stdout
+    view = _read(path)
+    problems = find_problems(view.raw)
+    if not problems:
+        print(
+            f"{path}: valid ({len(view.metrics)} metrics, {len(view.data)} metrics data)",
+            file=stream,
+        )
+        return 0
+    for problem in problems:
+        print(f"{path}: {problem}", file=stream)
+    raise InvalidMetricsError(problems)
+
+
+def _value(metric: MetricView, view: JobMetricsView) -> str:
+    if metric.type is MetricType.SCALAR and metric.value is not None:
+        return f"{metric.value:.6g} {metric.unit or ''}".rstrip()
+    if metric.type is MetricType.TEXT:
+        text = metric.raw.metric_values.text_metric_values.text.splitlines()[0]
+        return text if len(text) <= 48 else text[:45] + "..."
+    sizes = []
+    for data_id in metric.data_ids:
+        data = view.data_by_id.get(data_id)
+        if data is not None and not data.is_external and not data.name.endswith(" status)"):
+            sizes.append(data.frame().height)
+    return f"{sum(sizes)} values" if sizes else ""
+
+
+def summary_lines(view: JobMetricsView) -> list[str]:
+    """A readable table: one line per metric with its type, status and value."""
+    rows = [
+        (
+            m.name,
+            m.type.name if m.type else "?",
+            m.status.name if m.status else "?",
+            _value(m, view),
+        )
+        for m in view.metrics
+    ]
+    widths = [max([len(h), *(len(r[i]) for r in rows)]) for i, h in enumerate(_HEADER)]
+    widths[0] = min(widths[0], 56)
+
+    def line(cells: tuple[str, ...]) -> str:
+        return "  ".join(c[: widths[i]].ljust(widths[i]) for i, c in enumerate(cells)).rstrip()
+
+    status = view.status.name if view.status else "unset"
+    return [
+        f"{len(view.metrics)} metrics, {len(view.data)} metrics data, overall status {status}",
+        line(_HEADER),
+        line(tuple("-" * w for w in widths)),
+        *(line(r) for r in rows),
+    ]
+
+
+_HEADER = ("metric", "type", "status", "value")
+
+
+def show_file(path: Path, out: TextIO | None = None) -> int:
+    stream = out or sys.stdout
+    for text in summary_lines(_read(path)):
+        print(text, file=stream)
+    return 0

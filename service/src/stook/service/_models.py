@@ -1,0 +1,557 @@
+"""Typed, immutable views of the API objects that batch and report modes read.
+
+Each ``from_json`` checks only what stook relies on and ignores every other key, so a newer
+API that adds fields keeps working. Required fields are the ones stook cannot do without
+(an object's own ID, the status it is aggregated by, a report's search window); everything
+else may be absent and reads as ``None``. Enumerations are strict: an unknown status would
+be silently miscounted, so it is an error that names the object, field and value.
+
+Field names and which keys exist follow ReSim's published client (``resim.sdk.client.models``).
+"""
+
+from __future__ import annotations
+
+import enum
+import uuid
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from datetime import datetime
+from typing import Any, Self, TypeVar
+
+from stook.service._errors import ApiResponseError
+
+__all__ = [
+    "ApiMetricStatus",
+    "ApiMetricType",
+    "Batch",
+    "BatchMetric",
+    "BatchMetricsData",
+    "BatchStatus",
+    "Build",
+    "ConflatedBatchStatus",
+    "ConflatedJobStatus",
+    "Job",
+    "JobMetric",
+    "JobMetricsData",
+    "JobStatus",
+    "MetricsDataStorageType",
+    "Report",
+]
+
+
+class ConflatedJobStatus(enum.StrEnum):
+    """The one status the platform shows for a test (job)."""
+
+    QUEUED = "QUEUED"
+    RUNNING = "RUNNING"
+    PASSED = "PASSED"
+    WARNING = "WARNING"
+    BLOCKER = "BLOCKER"
+    ERROR = "ERROR"
+    CANCELLED = "CANCELLED"
+
+
+class JobStatus(enum.StrEnum):
+    """Where a job is in its execution."""
+
+    SUBMITTED = "SUBMITTED"
+    EXPERIENCE_RUNNING = "EXPERIENCE_RUNNING"
+    METRICS_QUEUED = "METRICS_QUEUED"
+    METRICS_RUNNING = "METRICS_RUNNING"
+    SUCCEEDED = "SUCCEEDED"
+    ERROR = "ERROR"
+    CANCELLED = "CANCELLED"
+
+
+class BatchStatus(enum.StrEnum):
+    """Where a batch is in its execution."""
+
+    SUBMITTED = "SUBMITTED"
+    EXPERIENCES_RUNNING = "EXPERIENCES_RUNNING"
+    BATCH_METRICS_QUEUED = "BATCH_METRICS_QUEUED"
+    BATCH_METRICS_RUNNING = "BATCH_METRICS_RUNNING"
+    SUCCEEDED = "SUCCEEDED"
+    ERROR = "ERROR"
+    CANCELLED = "CANCELLED"
+
+
+class ConflatedBatchStatus(enum.StrEnum):
+    """The one status the platform shows for a batch (a different set from a job's)."""
+
+    SUBMITTED = "SUBMITTED"
+    RUNNING = "RUNNING"
+    COMPLETE = "COMPLETE"
+    WARNING = "WARNING"
+    BLOCKER = "BLOCKER"
+    ERROR = "ERROR"
+    CANCELLED = "CANCELLED"
+
+
+class ApiMetricStatus(enum.StrEnum):
+    """A metric's status as the API spells it.
+
+    Named apart from ``stook.sdk.MetricStatus`` (the proto enum), which has no
+    ``NO_STATUS_REPORTED``.
+    """
+
+    PASSED = "PASSED"
+    FAIL_WARN = "FAIL_WARN"
+    FAIL_BLOCK = "FAIL_BLOCK"
+    NOT_APPLICABLE = "NOT_APPLICABLE"
+    RAW = "RAW"
+    NO_STATUS_REPORTED = "NO_STATUS_REPORTED"
+
+
+class ApiMetricType(enum.StrEnum):
+    """How the API stores a metric: a bare number, or a serialized ``Metric`` message."""
+
+    SCALAR = "SCALAR"
+    COMPOSITE = "COMPOSITE"
+
+
+class MetricsDataStorageType(enum.StrEnum):
+    """What a metrics-data URL points at; only ``STANDARD`` is a ``MetricsData`` message."""
+
+    STANDARD = "STANDARD"
+    EXTERNAL_FILE = "EXTERNAL_FILE"
+    VIDEO = "VIDEO"
+
+
+_E = TypeVar("_E", bound=enum.Enum)
+
+
+class _Fields:
+    """Reads typed fields from one JSON object; errors name the object and the field."""
+
+    __slots__ = ("_data", "_label")
+
+    def __init__(self, kind: str, data: object, id_key: str) -> None:
+        if not isinstance(data, Mapping):
+            raise ApiResponseError(f"{kind}: expected a JSON object, got {_json_type(data)}")
+        self._data: Mapping[str, Any] = data
+        ident = data.get(id_key)
+        self._label = f"{kind} {ident}" if isinstance(ident, str) and ident else kind
+
+    def _error(self, key: str, problem: str) -> ApiResponseError:
+        return ApiResponseError(f"{self._label}: field '{key}' {problem}")
+
+    def _required(self, key: str) -> Any:
+        value = self._data.get(key)
+        if value is None or value == "":
+            raise self._error(key, "is missing")
+        return value
+
+    def _optional(self, key: str) -> Any:
+        # The API's Go encoder writes "" for unset strings as often as it omits them.
+        value = self._data.get(key)
+        return None if value == "" else value
+
+    # -- converters: a present value to its type -----------------------------------------
+
+    def _to_string(self, key: str, value: Any) -> str:
+        if not isinstance(value, str):
+            raise self._error(key, f"should be a string, got {_json_type(value)}")
+        return value
+
+    def _to_id(self, key: str, value: Any) -> uuid.UUID:
+        text = self._to_string(key, value)
+        try:
+            return uuid.UUID(text)
+        except ValueError:
+            raise self._error(key, f"is not a UUID: {text!r}") from None
+
+    def _to_choice(self, key: str, value: Any, kind: type[_E]) -> _E:
+        text = self._to_string(key, value)
+        try:
+            return kind(text)
+        except ValueError:
+            raise self._error(key, f"has unknown value {text!r}") from None
+
+    def _to_integer(self, key: str, value: Any) -> int:
+        if isinstance(value, float) and value.is_integer():
+            return int(value)
+        if not isinstance(value, int) or isinstance(value, bool):
+            raise self._error(key, f"should be an integer, got {_json_type(value)}")
+        return value
+
+    def _to_timestamp(self, key: str, value: Any) -> datetime:
+        text = self._to_string(key, value)
+        try:
+            moment = datetime.fromisoformat(text)
+        except ValueError:
+            raise self._error(key, f"is not an RFC 3339 timestamp: {text!r}") from None
+        if moment.tzinfo is None:
+            raise self._error(key, f"has no time zone: {text!r}")
+        return moment
+
+    # -- accessors -------------------------------------------------------------------------
+
+    def string(self, key: str) -> str:
+        return self._to_string(key, self._required(key))
+
+    def opt_string(self, key: str) -> str | None:
+        value = self._optional(key)
+        return None if value is None else self._to_string(key, value)
+
+    def id(self, key: str) -> uuid.UUID:
+        return self._to_id(key, self._required(key))
+
+    def opt_id(self, key: str) -> uuid.UUID | None:
+        value = self._optional(key)
+        return None if value is None else self._to_id(key, value)
+
+    def ids(self, key: str) -> tuple[uuid.UUID, ...]:
+        value = self._optional(key)
+        if value is None:
+            return ()
+        if not isinstance(value, list):
+            raise self._error(key, f"should be a list, got {_json_type(value)}")
+        return tuple(self._to_id(key, item) for item in value)
+
+    def choice(self, key: str, kind: type[_E]) -> _E:
+        return self._to_choice(key, self._required(key), kind)
+
+    def opt_choice(self, key: str, kind: type[_E]) -> _E | None:
+        value = self._optional(key)
+        return None if value is None else self._to_choice(key, value, kind)
+
+    def opt_number(self, key: str) -> float | None:
+        value = self._optional(key)
+        if value is None:
+            return None
+        # bool is an int in Python but never a metric value.
+        if not isinstance(value, int | float) or isinstance(value, bool):
+            raise self._error(key, f"should be a number, got {_json_type(value)}")
+        return float(value)
+
+    def integer(self, key: str) -> int:
+        return self._to_integer(key, self._required(key))
+
+    def opt_integer(self, key: str) -> int | None:
+        value = self._optional(key)
+        return None if value is None else self._to_integer(key, value)
+
+    def flag(self, key: str, *, default: bool) -> bool:
+        value = self._optional(key)
+        if value is None:
+            return default
+        if not isinstance(value, bool):
+            raise self._error(key, f"should be true or false, got {_json_type(value)}")
+        return value
+
+    def timestamp(self, key: str) -> datetime:
+        return self._to_timestamp(key, self._required(key))
+
+    def opt_timestamp(self, key: str) -> datetime | None:
+        value = self._optional(key)
+        return None if value is None else self._to_timestamp(key, value)
+
+
+def _json_type(value: object) -> str:
+    match value:
+        case None:
+            return "null"
+        case bool():
+            return "a boolean"
+        case int() | float():
+            return "a number"
+        case str():
+            return f"the string {value!r}" if len(value) <= 40 else "a string"
+        case list():
+            return "a list"
+        case Mapping():
+            return "an object"
+    return type(value).__name__
+
+
+# ---------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True, slots=True)
+class Job:
+    """One test of a batch: an experience run against a build."""
+
+    job_id: uuid.UUID
+    conflated_status: ConflatedJobStatus
+    job_status: JobStatus | None = None
+    job_metrics_status: ApiMetricStatus | None = None
+    batch_id: uuid.UUID | None = None
+    project_id: uuid.UUID | None = None
+    experience_id: uuid.UUID | None = None
+    experience_name: str | None = None
+    build_id: uuid.UUID | None = None
+    creation_timestamp: datetime | None = None
+
+    @classmethod
+    def from_json(cls, data: Mapping[str, Any]) -> Self:
+        f = _Fields("Job", data, "jobID")
+        return cls(
+            job_id=f.id("jobID"),
+            conflated_status=f.choice("conflatedStatus", ConflatedJobStatus),
+            job_status=f.opt_choice("jobStatus", JobStatus),
+            job_metrics_status=f.opt_choice("jobMetricsStatus", ApiMetricStatus),
+            batch_id=f.opt_id("batchID"),
+            project_id=f.opt_id("projectID"),
+            experience_id=f.opt_id("experienceID"),
+            experience_name=f.opt_string("experienceName"),
+            build_id=f.opt_id("buildID"),
+            creation_timestamp=f.opt_timestamp("creationTimestamp"),
+        )
+
+
+@dataclass(frozen=True, slots=True)
+class _MetricFields:
+    metric_id: uuid.UUID
+    name: str
+    type: ApiMetricType
+    status: ApiMetricStatus
+    value: float | None
+    unit: str | None
+    metric_url: str | None = field(repr=False)
+    data_ids: tuple[uuid.UUID, ...]
+    event_metric: bool
+    creation_timestamp: datetime | None
+
+    @staticmethod
+    def read(f: _Fields) -> _MetricFields:
+        return _MetricFields(
+            metric_id=f.id("metricID"),
+            name=f.string("name"),
+            type=f.choice("type", ApiMetricType),
+            status=f.choice("status", ApiMetricStatus),
+            value=f.opt_number("value"),
+            unit=f.opt_string("unit"),
+            metric_url=f.opt_string("metricURL"),
+            data_ids=f.ids("dataIDs"),
+            event_metric=f.flag("eventMetric", default=False),
+            creation_timestamp=f.opt_timestamp("creationTimestamp"),
+        )
+
+
+@dataclass(frozen=True, slots=True)
+class JobMetric:
+    """A metric a job's metrics build produced.
+
+    ``value`` is the number of a ``SCALAR`` metric (None for ``COMPOSITE``, or when the job
+    reported none). ``metric_url`` is the presigned URL of the serialized ``Metric``
+    message; it expires, so fetch it soon after listing.
+    """
+
+    metric_id: uuid.UUID
+    name: str
+    type: ApiMetricType
+    status: ApiMetricStatus
+    value: float | None = None
+    unit: str | None = None
+    metric_url: str | None = field(default=None, repr=False)
+    data_ids: tuple[uuid.UUID, ...] = ()
+    event_metric: bool = False
+    job_id: uuid.UUID | None = None
+    batch_id: uuid.UUID | None = None
+    creation_timestamp: datetime | None = None
+
+    @classmethod
+    def from_json(cls, data: Mapping[str, Any]) -> Self:
+        f = _Fields("JobMetric", data, "metricID")
+        common = _MetricFields.read(f)
+        return cls(
+            metric_id=common.metric_id,
+            name=common.name,
+            type=common.type,
+            status=common.status,
+            value=common.value,
+            unit=common.unit,
+            metric_url=common.metric_url,
+            data_ids=common.data_ids,
+            event_metric=common.event_metric,
+            job_id=f.opt_id("jobID"),
+            batch_id=f.opt_id("batchID"),
+            creation_timestamp=common.creation_timestamp,
+        )
+
+
+@dataclass(frozen=True, slots=True)
+class BatchMetric:
+    """A metric a batch's metrics build produced; same shape as :class:`JobMetric`."""
+
+    metric_id: uuid.UUID
+    name: str
+    type: ApiMetricType
+    status: ApiMetricStatus
+    value: float | None = None
+    unit: str | None = None
+    metric_url: str | None = field(default=None, repr=False)
+    data_ids: tuple[uuid.UUID, ...] = ()
+    event_metric: bool = False
+    batch_id: uuid.UUID | None = None
+    creation_timestamp: datetime | None = None
+
+    @classmethod
+    def from_json(cls, data: Mapping[str, Any]) -> Self:
+        f = _Fields("BatchMetric", data, "metricID")
+        common = _MetricFields.read(f)
+        return cls(
+            metric_id=common.metric_id,
+            name=common.name,
+            type=common.type,
+            status=common.status,
+            value=common.value,
+            unit=common.unit,
+            metric_url=common.metric_url,
+            data_ids=common.data_ids,
+            event_metric=common.event_metric,
+            batch_id=f.opt_id("batchID"),
+            creation_timestamp=common.creation_timestamp,
+        )
+
+
+@dataclass(frozen=True, slots=True)
+class JobMetricsData:
+    """A metrics-data file of a job; ``metrics_data_url`` is presigned and expires."""
+
+    data_id: uuid.UUID
+    name: str
+    metrics_data_type: MetricsDataStorageType
+    metrics_data_url: str | None = field(default=None, repr=False)
+    filename: str | None = None
+    job_id: uuid.UUID | None = None
+    creation_timestamp: datetime | None = None
+
+    @property
+    def is_standard(self) -> bool:
+        """Whether the URL holds a ``MetricsData`` message (not a video or external file)."""
+        return self.metrics_data_type is MetricsDataStorageType.STANDARD
+
+    @classmethod
+    def from_json(cls, data: Mapping[str, Any]) -> Self:
+        f = _Fields("JobMetricsData", data, "dataID")
+        return cls(
+            data_id=f.id("dataID"),
+            name=f.string("name"),
+            metrics_data_type=f.choice("metricsDataType", MetricsDataStorageType),
+            metrics_data_url=f.opt_string("metricsDataURL"),
+            filename=f.opt_string("filename"),
+            job_id=f.opt_id("jobID"),
+            creation_timestamp=f.opt_timestamp("creationTimestamp"),
+        )
+
+
+@dataclass(frozen=True, slots=True)
+class BatchMetricsData:
+    """A metrics-data file of a batch; same shape as :class:`JobMetricsData`."""
+
+    data_id: uuid.UUID
+    name: str
+    metrics_data_type: MetricsDataStorageType
+    metrics_data_url: str | None = field(default=None, repr=False)
+    filename: str | None = None
+    batch_id: uuid.UUID | None = None
+    creation_timestamp: datetime | None = None
+
+    @property
+    def is_standard(self) -> bool:
+        """Whether the URL holds a ``MetricsData`` message (not a video or external file)."""
+        return self.metrics_data_type is MetricsDataStorageType.STANDARD
+
+    @classmethod
+    def from_json(cls, data: Mapping[str, Any]) -> Self:
+        f = _Fields("BatchMetricsData", data, "dataID")
+        return cls(
+            data_id=f.id("dataID"),
+            name=f.string("name"),
+            metrics_data_type=f.choice("metricsDataType", MetricsDataStorageType),
+            metrics_data_url=f.opt_string("metricsDataURL"),
+            filename=f.opt_string("filename"),
+            batch_id=f.opt_id("batchID"),
+            creation_timestamp=f.opt_timestamp("creationTimestamp"),
+        )
+
+
+@dataclass(frozen=True, slots=True)
+class Batch:
+    """A run of a test suite (or ad-hoc set of experiences) against one build."""
+
+    batch_id: uuid.UUID
+    status: BatchStatus | None = None
+    conflated_status: ConflatedBatchStatus | None = None
+    batch_metrics_status: ApiMetricStatus | None = None
+    jobs_metrics_status: ApiMetricStatus | None = None
+    project_id: uuid.UUID | None = None
+    build_id: uuid.UUID | None = None
+    branch_id: uuid.UUID | None = None
+    test_suite_id: uuid.UUID | None = None
+    test_suite_revision: int | None = None
+    total_jobs: int | None = None
+    friendly_name: str | None = None
+    creation_timestamp: datetime | None = None
+
+    @classmethod
+    def from_json(cls, data: Mapping[str, Any]) -> Self:
+        f = _Fields("Batch", data, "batchID")
+        return cls(
+            batch_id=f.id("batchID"),
+            status=f.opt_choice("status", BatchStatus),
+            conflated_status=f.opt_choice("conflatedStatus", ConflatedBatchStatus),
+            batch_metrics_status=f.opt_choice("batchMetricsStatus", ApiMetricStatus),
+            jobs_metrics_status=f.opt_choice("jobsMetricsStatus", ApiMetricStatus),
+            project_id=f.opt_id("projectID"),
+            build_id=f.opt_id("buildID"),
+            branch_id=f.opt_id("branchID"),
+            test_suite_id=f.opt_id("testSuiteID"),
+            test_suite_revision=f.opt_integer("testSuiteRevision"),
+            total_jobs=f.opt_integer("totalJobs"),
+            friendly_name=f.opt_string("friendlyName"),
+            creation_timestamp=f.opt_timestamp("creationTimestamp"),
+        )
+
+
+@dataclass(frozen=True, slots=True)
+class Report:
+    """A report: the batches of one test suite on one branch within a time window."""
+
+    report_id: uuid.UUID
+    project_id: uuid.UUID
+    test_suite_id: uuid.UUID
+    test_suite_revision: int
+    branch_id: uuid.UUID
+    start_timestamp: datetime
+    end_timestamp: datetime
+    respect_revision_boundary: bool
+    name: str
+    creation_timestamp: datetime | None = None
+
+    @classmethod
+    def from_json(cls, data: Mapping[str, Any]) -> Self:
+        f = _Fields("Report", data, "reportID")
+        return cls(
+            report_id=f.id("reportID"),
+            project_id=f.id("projectID"),
+            test_suite_id=f.id("testSuiteID"),
+            test_suite_revision=f.integer("testSuiteRevision"),
+            branch_id=f.id("branchID"),
+            start_timestamp=f.timestamp("startTimestamp"),
+            end_timestamp=f.timestamp("endTimestamp"),
+            respect_revision_boundary=f.flag("respectRevisionBoundary", default=False),
+            name=f.opt_string("name") or "",
+            creation_timestamp=f.opt_timestamp("creationTimestamp"),
+        )
+
+
+@dataclass(frozen=True, slots=True)
+class Build:
+    """A build (system-under-test image); stook only needs it for labels."""
+
+    build_id: uuid.UUID
+    name: str | None = None
+    version: str | None = None
+    creation_timestamp: datetime | None = None
+
+    @classmethod
+    def from_json(cls, data: Mapping[str, Any]) -> Self:
+        f = _Fields("Build", data, "buildID")
+        return cls(
+            build_id=f.id("buildID"),
+            name=f.opt_string("name"),
+            version=f.opt_string("version"),
+            creation_timestamp=f.opt_timestamp("creationTimestamp"),
+        )

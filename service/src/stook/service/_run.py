@@ -1,0 +1,150 @@
+"""`stook run`: detect the mode from the inputs folder, run it, map failures to exit codes.
+
+Exit codes (also in the README):
+  0  metrics.binproto written
+  1  an unexpected error, or the user's own test-metrics function raised
+  2  bad usage, config or inputs (malformed JSON, missing key, non-UUID ID, bad TOML,
+     a metric or data name in the config that no job has)
+  3  the API or storage failed after retries, refused the token, or too many jobs
+     stayed unavailable
+  4  invalid metrics data: a downloaded item could not be decoded, or the output
+     would not validate
+
+Whatever the failure, metrics.binproto is written atomically or not at all.
+"""
+
+from __future__ import annotations
+
+import enum
+import os
+import uuid
+from dataclasses import dataclass
+from pathlib import Path
+
+import structlog
+
+from stook.sdk._errors import InvalidMetricsError, ReadError, StookError, WriterError
+from stook.service._batch import OUTPUT_NAME, run_batch
+from stook.service._config import ConfigError, StookConfig, load
+from stook.service._errors import ApiError
+from stook.service._inputs import BatchInputs, InputsError, ReportInputs, TestInputs, detect
+from stook.service._progress import for_stream
+from stook.service._test_mode import UserFunctionError, run_test_mode
+
+log = structlog.get_logger("stook.run")
+
+DEFAULT_INPUTS = Path("/tmp/resim/inputs")
+DEFAULT_OUTPUTS = Path("/tmp/resim/outputs")
+DEFAULT_CONFIG_NAME = "stook.toml"
+
+
+class ExitCode(enum.IntEnum):
+    OK = 0
+    UNEXPECTED = 1
+    USAGE = 2
+    API = 3
+    INVALID_DATA = 4
+
+
+class UsageError(StookError):
+    """A command-line or environment setting is unusable (exit code 2)."""
+
+
+@dataclass(frozen=True, slots=True)
+class RunOptions:
+    inputs: Path
+    outputs: Path
+    config: Path | None
+    allow_missing_jobs: float = 0.0
+    project_id: uuid.UUID | None = None
+
+
+def resolve_options(
+    *,
+    inputs: str | None,
+    outputs: str | None,
+    config: str | None,
+    allow_missing_jobs: float | None,
+    project_id: str | None,
+    cwd: Path | None = None,
+) -> RunOptions:
+    """Flags first, then STOOK_* environment variables, then the platform's defaults."""
+    env = os.environ
+    config_path = config or env.get("STOOK_CONFIG")
+    if config_path is None:
+        local = (cwd or Path.cwd()) / DEFAULT_CONFIG_NAME
+        config_path = str(local) if local.is_file() else None
+    share = allow_missing_jobs
+    if share is None and env.get("STOOK_ALLOW_MISSING_JOBS"):
+        try:
+            share = float(env["STOOK_ALLOW_MISSING_JOBS"])
+        except ValueError:
+            raise UsageError("STOOK_ALLOW_MISSING_JOBS must be a number from 0 to 1") from None
+    share = 0.0 if share is None else share
+    if not 0.0 <= share <= 1.0:
+        raise UsageError(f"--allow-missing-jobs must be a fraction from 0 to 1, got {share:g}")
+    project_text = project_id or env.get("STOOK_PROJECT_ID")
+    project = None
+    if project_text:
+        try:
+            project = uuid.UUID(project_text)
+        except ValueError:
+            raise UsageError(f"project ID {project_text!r} is not a UUID") from None
+    return RunOptions(
+        inputs=Path(inputs or env.get("STOOK_INPUTS") or DEFAULT_INPUTS),
+        outputs=Path(outputs or env.get("STOOK_OUTPUTS") or DEFAULT_OUTPUTS),
+        config=Path(config_path) if config_path else None,
+        allow_missing_jobs=share,
+        project_id=project,
+    )
+
+
+async def run(options: RunOptions) -> Path:
+    """Run the detected mode; raises the typed errors that `exit_code_for` maps."""
+    config: StookConfig = load(options.config)
+    mode = detect(options.inputs, project_id=options.project_id)
+    output = options.outputs / OUTPUT_NAME
+    match mode:
+        case ReportInputs():
+            raise UsageError("report mode is not available yet (report_config.json found)")
+        case BatchInputs():
+            log.info("batch mode", batch_id=str(mode.batch_id), config=config.source)
+            result = await run_batch(
+                mode,
+                config,
+                options.outputs,
+                allow_missing_jobs=options.allow_missing_jobs,
+                progress=for_stream(label="jobs"),
+            )
+            log.info(
+                "batch metrics written",
+                output=str(result.output),
+                status=result.status.name,
+                jobs=result.outcome.jobs_listed,
+                jobs_missing=len(result.outcome.missing),
+                metrics=len(result.metrics_written),
+                requests=result.requests,
+                retries=result.retries,
+                bytes=result.bytes_received,
+                seconds=round(result.outcome.seconds, 3),
+            )
+            return result.output
+        case TestInputs():
+            log.info("test mode", config=config.source)
+            return await run_test_mode(mode, config, output)
+
+
+def exit_code_for(error: BaseException) -> ExitCode:
+    """The documented exit code of an expected failure; UNEXPECTED for anything else."""
+    if isinstance(error, UsageError | ConfigError | InputsError):
+        return ExitCode.USAGE
+    if isinstance(error, ApiError):
+        return ExitCode.API
+    if isinstance(error, ReadError | InvalidMetricsError):
+        return ExitCode.INVALID_DATA
+    if isinstance(error, WriterError):
+        # A config that asks for two metrics of one name, or impossible bounds.
+        return ExitCode.USAGE
+    if isinstance(error, UserFunctionError):
+        return ExitCode.UNEXPECTED
+    return ExitCode.UNEXPECTED

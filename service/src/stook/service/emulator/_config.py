@@ -1,0 +1,101 @@
+"""The emulator's knobs, in one frozen dataclass that crosses process boundaries."""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+from typing import Any, Literal
+
+Origin = Literal["api", "storage"]
+ORIGINS: tuple[Origin, ...] = ("api", "storage")
+
+
+@dataclass(frozen=True, slots=True)
+class EmulatorConfig:
+    """What the emulated ReSim serves and how badly it behaves.
+
+    Every random choice (data, faults, jitter) derives from `seed`, so two emulators with
+    equal configs answer equal requests with equal bytes.
+    """
+
+    seed: int = 0
+    token: str = "stook-emulator-token"
+
+    # ---- the data set ----
+    jobs_per_batch: int = 30  # jobs of the main batch (the one batch mode reads)
+    experiences: int = 40  # distinct experiences, cycled across jobs
+    report_batches: int = 12  # batches of the report's test suite, one a day
+    report_jobs_per_batch: int = 40
+    decoy_batches: int = 3  # batches on another branch, inside the report window
+    report_respect_revision_boundary: bool = False
+    cache_jobs: int = 256  # generated job outputs kept (an LRU); the rest is regenerated
+
+    # ---- paging ----
+    default_page_size: int = 25
+    max_page_size: int = 100
+
+    # ---- presigned URLs ----
+    url_lifetime_s: float = 3600.0
+
+    # ---- latency and faults (both origins unless fault_origins says otherwise) ----
+    latency_ms: float = 0.0
+    latency_jitter_ms: float = 0.0
+    fault_5xx: float = 0.0
+    fault_429: float = 0.0
+    fault_reset: float = 0.0
+    fault_truncate: float = 0.0
+    fault_origins: tuple[Origin, ...] = ORIGINS
+    retry_after_max_s: int = 1  # a fault 429 carries Retry-After 0..this (whole seconds)
+    max_consecutive_faults: int = 2  # the same request never faults more often in a row
+
+    # ---- rate limits (token buckets; None: unlimited) ----
+    rate_limit_rps: float | None = None  # API origin
+    rate_limit_burst: int | None = None  # default: max(1, rate)
+    storage_rate_limit_rps: float | None = None
+    storage_rate_limit_burst: int | None = None
+
+    def __post_init__(self) -> None:
+        fractions = (self.fault_5xx, self.fault_429, self.fault_reset, self.fault_truncate)
+        if any(not 0.0 <= f <= 1.0 for f in fractions) or sum(fractions) > 1.0:
+            raise ValueError("fault fractions must lie in [0, 1] and sum to at most 1")
+        for name in ("jobs_per_batch", "report_batches", "report_jobs_per_batch", "decoy_batches"):
+            if getattr(self, name) < 0:
+                raise ValueError(f"{name} cannot be negative")
+        if self.experiences < 1:
+            raise ValueError("experiences must be at least 1")
+        if not 1 <= self.default_page_size <= self.max_page_size:
+            raise ValueError("need 1 <= default_page_size <= max_page_size")
+        if self.url_lifetime_s <= 0:
+            raise ValueError("url_lifetime_s must be positive")
+        if self.latency_ms < 0 or self.latency_jitter_ms < 0:
+            raise ValueError("latencies cannot be negative")
+        if self.max_consecutive_faults < 0 or self.retry_after_max_s < 0:
+            raise ValueError("max_consecutive_faults and retry_after_max_s cannot be negative")
+        if self.cache_jobs < 1:
+            raise ValueError("cache_jobs must be at least 1")
+        for rate in (self.rate_limit_rps, self.storage_rate_limit_rps):
+            if rate is not None and rate <= 0:
+                raise ValueError("a rate limit must be positive (or None)")
+        if any(o not in ORIGINS for o in self.fault_origins):
+            raise ValueError(f"fault_origins must be drawn from {ORIGINS}")
+
+    @property
+    def fault_total(self) -> float:
+        return self.fault_5xx + self.fault_429 + self.fault_reset + self.fault_truncate
+
+    def replace(self, **changes: Any) -> EmulatorConfig:
+        return dataclasses.replace(self, **changes)
+
+    def to_dict(self) -> dict[str, Any]:
+        return dataclasses.asdict(self)
+
+    @classmethod
+    def from_dict(cls, values: dict[str, Any]) -> EmulatorConfig:
+        known = {f.name for f in dataclasses.fields(cls)}
+        unknown = set(values) - known
+        if unknown:
+            raise ValueError(f"unknown emulator settings: {sorted(unknown)}")
+        clean = dict(values)
+        if "fault_origins" in clean:
+            clean["fault_origins"] = tuple(clean["fault_origins"])
+        return cls(**clean)

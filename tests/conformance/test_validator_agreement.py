@@ -1,0 +1,64 @@
+"""stook's validator accepts and refuses exactly what ReSim's validator does."""
+
+from __future__ import annotations
+
+from hypothesis import HealthCheck, event, given, settings
+from resim.metrics.proto import metrics_pb2 as resim_pb
+from resim.metrics.proto.validate_metrics_proto import validate_job_metrics as resim_validate
+
+from stook.proto import metrics_pb2 as pb
+from stook.sdk._validate import find_problems, validate_job_metrics
+from tests.strategies import job_metrics_cases, mutated_job_metrics, valid_job_metrics
+
+def _settings(max_examples: int) -> settings:
+    return settings(
+        max_examples=max_examples,
+        deadline=None,
+        suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large],
+    )
+
+
+def resim_accepts(msg: pb.JobMetrics) -> bool:
+    resim_msg = resim_pb.JobMetrics.FromString(msg.SerializeToString())
+    try:
+        resim_validate(resim_msg)
+    except Exception:  # noqa: BLE001 - any failure of ReSim's validator is a refusal
+        return False
+    return True
+
+
+def describe(msg: pb.JobMetrics) -> str:
+    problems = find_problems(msg)
+    return "\n".join(map(str, problems)) or "(no problems)"
+
+
+@_settings(250)
+@given(job_metrics_cases())
+def test_stook_and_resim_agree(msg: pb.JobMetrics) -> None:
+    resim = resim_accepts(msg)
+    stook = not find_problems(msg)
+    event("valid" if resim else "invalid")
+    assert stook == resim, f"ReSim accepts: {resim}; stook says:\n{describe(msg)}\n{msg}"
+
+
+@_settings(60)
+@given(valid_job_metrics())
+def test_generated_valid_outputs_are_valid(msg: pb.JobMetrics) -> None:
+    # The generator of valid outputs must really make valid ones, or the
+    # agreement test above would mostly compare refusals.
+    assert resim_accepts(msg), describe(msg)
+    validate_job_metrics(msg)
+
+
+def test_mutations_make_invalid_outputs_often() -> None:
+    refused = 0
+    total = 60
+
+    @_settings(total)
+    @given(mutated_job_metrics())
+    def count(msg: pb.JobMetrics) -> None:
+        nonlocal refused
+        refused += not resim_accepts(msg)
+
+    count()
+    assert refused >= total // 3, f"only {refused} of {total} mutated outputs were refused"
