@@ -8,6 +8,7 @@ a presigned URL (or a redirect from it) names.
 
 from __future__ import annotations
 
+import asyncio
 import json
 import re
 import uuid
@@ -79,6 +80,7 @@ class StorageClient:
         *,
         concurrency: int = DEFAULT_CONCURRENCY,
         retry: RetryPolicy | None = None,
+        slots: asyncio.Semaphore | None = None,
     ) -> None:
         self._policy = retry or RetryPolicy()
         self.stats = TransferStats()
@@ -90,6 +92,7 @@ class StorageClient:
             headers={hdrs.USER_AGENT: _USER_AGENT},
             follow_redirects=False,
             credentials_allowed=False,
+            slots=slots,
         )
 
     async def __aenter__(self) -> Self:
@@ -148,9 +151,10 @@ class ApiClient:
                 async for metric in api.list_job_metrics(project_id, batch_id, job.job_id):
                     payload = await api.storage.fetch_bytes(metric.metric_url)
 
-    ``concurrency`` bounds in-flight API requests and ``storage_concurrency`` (default: the
-    same) in-flight storage fetches; callers may start as many tasks as they like and they
-    queue for a slot, without that queueing counting against the request timeout.
+    ``concurrency`` bounds the requests in flight, API and storage together; with
+    ``storage_concurrency`` storage fetches get a bound of their own instead. Callers may
+    start as many tasks as they like: they queue for a slot, without that queueing
+    counting against the request timeout.
     """
 
     def __init__(
@@ -176,9 +180,11 @@ class ApiClient:
         self._policy = retry or RetryPolicy()
         self._page_size = page_size
         self.stats = TransferStats()
+        shared = asyncio.Semaphore(concurrency)
         self._transport = HttpTransport(
             name="api",
             concurrency=concurrency,
+            slots=shared,
             request_timeout=self._policy.request_timeout,
             stats=self.stats,
             headers={
@@ -188,7 +194,9 @@ class ApiClient:
             },
         )
         self.storage = StorageClient(
-            concurrency=storage_concurrency or concurrency, retry=self._policy
+            concurrency=storage_concurrency or concurrency,
+            retry=self._policy,
+            slots=None if storage_concurrency else shared,
         )
 
     def __repr__(self) -> str:

@@ -71,6 +71,7 @@ class HttpTransport:
         headers: Mapping[str, str] | None = None,
         follow_redirects: bool = True,
         credentials_allowed: bool = True,
+        slots: asyncio.Semaphore | None = None,
     ) -> None:
         if concurrency < 1:
             raise ValueError(f"concurrency must be at least 1, got {concurrency}")
@@ -85,7 +86,8 @@ class HttpTransport:
         self._timeout = request_timeout
         self._follow_redirects = follow_redirects
         self._credentials_allowed = credentials_allowed
-        self._slots = asyncio.Semaphore(concurrency)
+        # A semaphore shared with another transport makes one bound for both.
+        self._slots = slots or asyncio.Semaphore(concurrency)
         self._session: aiohttp.ClientSession | None = None
 
     async def __aenter__(self) -> Self:
