@@ -9,6 +9,7 @@ valid and half are not.
 
 from __future__ import annotations
 
+import itertools
 import math
 import uuid
 from collections.abc import Callable
@@ -154,7 +155,7 @@ class _Builder:
         d.external_file.path = f"images/{self.counter}.png"
         return d
 
-    def metric(self, metric_type: int) -> pb.Metric:
+    def metric(self, metric_type: pb.MetricType.ValueType) -> pb.Metric:
         m = self.job.job_level_metrics.metrics.add()
         m.metric_id.id.data = self.new_id()
         m.name = self.name(pb.MetricType.Name(metric_type).lower())
@@ -217,6 +218,7 @@ def _double_summary(b: _Builder) -> None:
 def _double_over_time(b: _Builder) -> None:
     m = b.metric(pb.DOUBLE_OVER_TIME_METRIC_TYPE)
     v = m.metric_values.double_over_time_metric_values
+    v.SetInParent()  # a metric with no series still has (empty) values
     for _ in range(b.draw(st.integers(0, 2))):
         values, statuses = b.values_with_statuses("doubles", "timestamps", b.shape())
         b.ref(v.doubles_over_time_data_id.add(), values)
@@ -231,6 +233,7 @@ def _double_over_time(b: _Builder) -> None:
 def _line_plot(b: _Builder) -> None:
     m = b.metric(pb.LINE_PLOT_METRIC_TYPE)
     v = m.metric_values.line_plot_metric_values
+    v.SetInParent()  # a metric with no series still has (empty) values
     for _ in range(b.draw(st.integers(0, 2))):
         shape = b.shape()
         index = b.data("timestamps", shape) if b.draw(st.booleans()) else None
@@ -246,6 +249,7 @@ def _line_plot(b: _Builder) -> None:
 def _bar_chart(b: _Builder) -> None:
     m = b.metric(pb.BAR_CHART_METRIC_TYPE)
     v = m.metric_values.bar_chart_metric_values
+    v.SetInParent()  # a metric with no series still has (empty) values
     for _ in range(b.draw(st.integers(0, 2))):
         values, statuses = b.values_with_statuses("doubles", "strings", b.shape())
         b.ref(v.values_data_id.add(), values)
@@ -256,6 +260,7 @@ def _bar_chart(b: _Builder) -> None:
 def _batchwise_bar_chart(b: _Builder) -> None:
     m = b.metric(pb.BATCHWISE_BAR_CHART_METRIC_TYPE)
     v = m.metric_values.batchwise_bar_chart_metric_values
+    v.SetInParent()  # a metric with no series still has (empty) values
     for _ in range(b.draw(st.integers(0, 2))):
         shape = b.shape()
         index = b.data("uuids", shape)
@@ -272,6 +277,7 @@ def _batchwise_bar_chart(b: _Builder) -> None:
 def _states_over_time(b: _Builder) -> None:
     m = b.metric(pb.STATES_OVER_TIME_METRIC_TYPE)
     v = m.metric_values.states_over_time_metric_values
+    v.SetInParent()  # a metric with no series still has (empty) values
     states = b.draw(st.lists(_WORDS, min_size=1, max_size=4, unique=True))
     v.states_set.extend(states)
     v.failure_states.extend(b.draw(st.lists(st.sampled_from(states), unique=True)))
@@ -294,7 +300,7 @@ def _histogram(b: _Builder) -> None:
     edges = [b.draw(_FINITE)]
     for width in b.draw(st.lists(st.floats(0.5, 100.0), min_size=1, max_size=4)):
         edges.append(edges[-1] + width)
-    for lower, upper in zip(edges, edges[1:], strict=False):
+    for lower, upper in itertools.pairwise(edges):
         bucket = v.buckets.add()
         bucket.lower, bucket.upper = lower, upper
     v.lower_bound, v.upper_bound = edges[0], edges[-1]
@@ -425,7 +431,7 @@ def _values_of(job: pb.JobMetrics, field_name: str) -> list[Any]:
     return [
         getattr(m.metric_values, field_name)
         for m in job.job_level_metrics.metrics
-        if m.metric_values.HasField(field_name)
+        if m.metric_values.WhichOneof("metric_values") == field_name
     ]
 
 
@@ -447,13 +453,18 @@ def _wrong_data_type(draw: Draw, job: pb.JobMetrics) -> None:
 
 
 def _unset_enum(draw: Draw, job: pb.JobMetrics) -> None:
-    targets: list[tuple[Any, str]] = [(job, "metrics_status"), (job.job_level_metrics, "metrics_status")]
+    targets: list[tuple[Any, str]] = [
+        (job, "metrics_status"),
+        (job.job_level_metrics, "metrics_status"),
+    ]
     for m in job.job_level_metrics.metrics:
         targets += [(m, "type"), (m, "status"), (m, "importance")]
     for e in job.events:
         targets += [(e, "status"), (e, "importance"), (e, "timestamp_type")]
     owner, name = draw(st.sampled_from(targets))
-    setattr(owner, name, draw(st.sampled_from([0, 0, 0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 99])))
+    setattr(
+        owner, name, draw(st.sampled_from([0, 0, 0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 99]))
+    )
 
 
 def _bad_uuid(draw: Draw, job: pb.JobMetrics) -> None:
@@ -503,7 +514,9 @@ def _wrong_series_kind(draw: Draw, job: pb.JobMetrics) -> None:
 def _bad_colour(draw: Draw, job: pb.JobMetrics) -> None:
     v = _pick(draw, _values_of(job, "batchwise_bar_chart_metric_values"))
     if v is not None:
-        v.colors.append(draw(st.sampled_from(["red", "#12345", "#1234567", "#GGGGGG", "", "#aabbcc\n\n"])))
+        v.colors.append(
+            draw(st.sampled_from(["red", "#12345", "#1234567", "#GGGGGG", "", "#aabbcc\n\n"]))
+        )
 
 
 def _bad_timestamp(draw: Draw, job: pb.JobMetrics) -> None:

@@ -10,6 +10,7 @@ from stook.proto import metrics_pb2 as pb
 from stook.sdk._validate import find_problems, validate_job_metrics
 from tests.strategies import job_metrics_cases, mutated_job_metrics, valid_job_metrics
 
+
 def _settings(max_examples: int) -> settings:
     return settings(
         max_examples=max_examples,
@@ -22,7 +23,7 @@ def resim_accepts(msg: pb.JobMetrics) -> bool:
     resim_msg = resim_pb.JobMetrics.FromString(msg.SerializeToString())
     try:
         resim_validate(resim_msg)
-    except Exception:  # noqa: BLE001 - any failure of ReSim's validator is a refusal
+    except Exception:  # any failure of ReSim's validator is a refusal
         return False
     return True
 

@@ -55,8 +55,8 @@ __all__ = [
 STATUS_DTYPE = pl.Enum([s.name for s in MetricStatus])
 """dtype of status values in frames; ``NO_METRIC_STATUS`` (unset) reads as null."""
 
-SERIES_KINDS = tuple(k for k in SeriesKind if k is not SeriesKind.EXTERNAL_FILE)
-KIND_DTYPE = pl.Enum([k.value for k in SERIES_KINDS])
+_SERIES_KINDS = tuple(k for k in SeriesKind if k is not SeriesKind.EXTERNAL_FILE)
+KIND_DTYPE = pl.Enum([k.value for k in _SERIES_KINDS])
 """dtype of the ``kind`` column of `JobMetricsView.series_frame`."""
 
 _VALUE_DTYPES: dict[SeriesKind, pl.DataType] = {
@@ -339,7 +339,7 @@ _SERIES_FRAME_SCHEMA = pl.DataFrame(
         "kind": KIND_DTYPE,
         "category": pl.String,
         "position": pl.UInt32,
-        **{f"value_{k.value}": _VALUE_DTYPES[k] for k in SERIES_KINDS},
+        **{f"value_{k.value}": _VALUE_DTYPES[k] for k in _SERIES_KINDS},
     }
 )
 
@@ -616,7 +616,7 @@ def _timestamps(timestamps: pb.TimestampSeries, name: str) -> pl.Series:
     nanos = [t.seconds * _NANOS_PER_SECOND + t.nanos for t in timestamps.series]
     try:
         ints = pl.Series(name, nanos, dtype=pl.Int64)
-    except (OverflowError, pl.exceptions.PolarsError) as exc:
+    except (OverflowError, TypeError, pl.exceptions.PolarsError) as exc:
         raise _MalformedError("a timestamp is too far from 1970 to hold in nanoseconds") from exc
     return ints.cast(pl.Datetime("ns", "UTC"))
 

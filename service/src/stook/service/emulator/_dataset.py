@@ -52,6 +52,11 @@ SCALARS: dict[str, str | None] = {
 }
 DOUBLE_SERIES = ("speeds", "accelerations", "Lateral offset")
 STEP_NS = 100_000_000  # 10 Hz samples
+# Fixed job slots that make every seed show each case: a job without metrics (index 6 of
+# batches of 8 or more jobs), a missing "Localization error" and an image (per 16 jobs).
+_ERROR_WITHOUT_METRICS = 6
+_GAP_SLOT = 9
+_IMAGE_SLOT = 4
 
 
 class BatchKind(enum.StrEnum):
@@ -397,8 +402,12 @@ class Dataset:
             conflated = "WARNING"
         else:
             conflated = "PASSED"
-        job_status = {"CANCELLED": "CANCELLED", "ERROR": "ERROR"}.get(conflated, "SUCCEEDED")
         has_metrics = conflated != "CANCELLED" and not (conflated == "ERROR" and rng.random() < 0.6)
+        if i == _ERROR_WITHOUT_METRICS and batch.job_count >= 8:
+            # Every sizeable batch has a job that died before writing any metrics, so
+            # that clients always meet that case whatever the seed.
+            conflated, has_metrics = "ERROR", False
+        job_status = {"CANCELLED": "CANCELLED", "ERROR": "ERROR"}.get(conflated, "SUCCEEDED")
         metrics_status = {
             "PASSED": "PASSED",
             "WARNING": "FAIL_WARN",
@@ -483,7 +492,11 @@ class Dataset:
         cached = self._outputs.get(job.id)
         if cached is not None:
             return cached.truth
-        # Ground truth needs no serialized bytes; skip the LRU so it is not flushed.
+        if len(self.jobs(job.batch_id)) <= self.config.cache_jobs:
+            output = self.job_output(job.batch_id, job.id)
+            assert output is not None
+            return output.truth
+        # A batch larger than the LRU would only flush it; generate without keeping.
         writer, builder = self._write_job(job)
         return builder.build(writer)
 
@@ -563,7 +576,8 @@ def _generate_job(seed: int, job: JobSpec) -> tuple[MetricsWriter, _TruthBuilder
     # and what its metrics add up to agree.
     warn = status == "WARNING"
     block = status == "BLOCKER"
-    if rng.random() >= 0.05:  # occasionally missing: gaps are part of real data
+    # Occasionally missing (always in a fixed slot): gaps are part of real data.
+    if rng.random() >= 0.05 and job.index % 16 != _GAP_SLOT:
         if warn or (block and rng.random() < 0.5):
             loc_error, loc_status = rng.uniform(0.4, 0.8), MetricStatus.FAIL_WARN
         else:
@@ -597,7 +611,7 @@ def _generate_job(seed: int, job: JobSpec) -> tuple[MetricsWriter, _TruthBuilder
         f"**{job.experience.name}**: {n} steps at {cruise:.1f} m/s cruise, top {top:.1f} m/s.",
         status=MetricStatus.RAW,
     )
-    if rng.random() < 0.2:
+    if rng.random() < 0.2 or job.index % 16 == _IMAGE_SLOT:
         writer.image("Camera snapshot", data.external_file("Camera snapshot", "camera.png"))
     return writer, truth
 

@@ -1,0 +1,70 @@
+"""What the emulator saw: counters for tests and benchmarks."""
+
+from __future__ import annotations
+
+from collections import Counter
+from dataclasses import dataclass, field
+from typing import Any
+
+
+@dataclass
+class EmulatorStats:
+    """Counters keyed by origin ("api", "storage") or "origin:detail"."""
+
+    requests: Counter[str] = field(default_factory=Counter)  # per origin
+    endpoints: Counter[str] = field(default_factory=Counter)  # "api:list_jobs", ...
+    statuses: Counter[str] = field(default_factory=Counter)  # "api:200", "storage:403", ...
+    faults: Counter[str] = field(default_factory=Counter)  # "storage:reset", "api:5xx", ...
+    rate_limited: Counter[str] = field(default_factory=Counter)  # per origin
+    bytes_served: Counter[str] = field(default_factory=Counter)  # per origin, bodies only
+    unauthorized: int = 0  # API requests answered 401
+    # Storage requests that carried an Authorization header: a leaked token.
+    storage_authorization: list[str] = field(default_factory=list)
+    expired_urls: int = 0
+    bad_signatures: int = 0
+
+    def fault_count(self, kind: str | None = None, origin: str | None = None) -> int:
+        total = 0
+        for key, n in self.faults.items():
+            o, k = key.split(":", 1)
+            if (kind is None or k == kind) and (origin is None or o == origin):
+                total += n
+        return total
+
+    @property
+    def leaked_tokens(self) -> int:
+        return len(self.storage_authorization)
+
+    def reset(self) -> None:
+        fresh = EmulatorStats()
+        for name in self.__dataclass_fields__:
+            setattr(self, name, getattr(fresh, name))
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "requests": dict(self.requests),
+            "endpoints": dict(self.endpoints),
+            "statuses": dict(self.statuses),
+            "faults": dict(self.faults),
+            "rate_limited": dict(self.rate_limited),
+            "bytes_served": dict(self.bytes_served),
+            "unauthorized": self.unauthorized,
+            "storage_authorization": list(self.storage_authorization),
+            "expired_urls": self.expired_urls,
+            "bad_signatures": self.bad_signatures,
+        }
+
+    @classmethod
+    def from_dict(cls, values: dict[str, Any]) -> EmulatorStats:
+        return cls(
+            requests=Counter(values.get("requests", {})),
+            endpoints=Counter(values.get("endpoints", {})),
+            statuses=Counter(values.get("statuses", {})),
+            faults=Counter(values.get("faults", {})),
+            rate_limited=Counter(values.get("rate_limited", {})),
+            bytes_served=Counter(values.get("bytes_served", {})),
+            unauthorized=int(values.get("unauthorized", 0)),
+            storage_authorization=list(values.get("storage_authorization", [])),
+            expired_urls=int(values.get("expired_urls", 0)),
+            bad_signatures=int(values.get("bad_signatures", 0)),
+        )
