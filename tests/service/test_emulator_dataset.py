@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import time
 from collections import Counter
 
@@ -115,7 +116,7 @@ def test_report_batches_run_the_same_experiences_over_time_with_drift() -> None:
     assert len(batches) == 14
     times = [b.created for b in batches]
     assert times == sorted(times)
-    assert all(round((b - a).total_seconds() / 86400) == 1 for a, b in zip(times, times[1:]))
+    assert all(round((b - a).total_seconds() / 86400) == 1 for a, b in itertools.pairwise(times))
     experiences = {tuple(j.experience.id for j in ds.jobs(b.id)) for b in batches}
     assert len(experiences) == 1
     # Failure rates drift: early and late batches differ in their pass rates.

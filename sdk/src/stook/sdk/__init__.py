@@ -22,16 +22,37 @@ from stook.sdk._errors import (
     StookError,
     WriterError,
 )
+from stook.sdk._reader import (
+    KIND_DTYPE,
+    STATUS_DTYPE,
+    EventView,
+    JobMetricsView,
+    MetricsDataView,
+    MetricView,
+    parse_job_metrics,
+    parse_metric,
+    parse_metrics_data,
+    read_job_metrics,
+    read_metric,
+    read_metrics_data,
+)
+from stook.sdk._validate import find_problems, validate_job_metrics
 from stook.sdk._writer import MetricHandle, MetricOptions, MetricsWriter
 
 __all__ = [
+    "KIND_DTYPE",
+    "STATUS_DTYPE",
+    "EventView",
     "InvalidMetricsError",
+    "JobMetricsView",
     "MetricHandle",
     "MetricImportance",
     "MetricOptions",
     "MetricStatus",
     "MetricType",
+    "MetricView",
     "MetricsData",
+    "MetricsDataView",
     "MetricsWriter",
     "Problem",
     "ReadError",
@@ -39,5 +60,13 @@ __all__ = [
     "StookError",
     "WriterError",
     "data",
+    "find_problems",
+    "parse_job_metrics",
+    "parse_metric",
+    "parse_metrics_data",
+    "read_job_metrics",
+    "read_metric",
+    "read_metrics_data",
+    "validate_job_metrics",
     "write_atomic",
 ]

@@ -252,18 +252,13 @@ def status_like(data: MetricsData, status: MetricStatus, *, name: str | None = N
     The platform wants a status series beside most value series; this builds the
     obvious one when a metric is given none.
     """
-    label = name or f"{data.name} (statuses)"
+    status = MetricStatus(status)
+    values: _Elements | dict[str, _Elements]
     if isinstance(data.values, dict):
-        return _per_category(
-            label,
-            SeriesKind.STATUS,
-            {k: [status] * len(v) for k, v in data.values.items()},
-            "",
-            data.index,
-            None,
-        )
-    length = len(data.values) if data.values is not None else 0
-    return _series(label, SeriesKind.STATUS, [status] * length, "", data.index, None)
+        values = {k: [status] * len(v) for k, v in data.values.items()}
+    else:
+        values = [status] * (len(data.values) if data.values is not None else 0)
+    return MetricsData(name or f"{data.name} (statuses)", SeriesKind.STATUS, values, "", data.index)
 
 
 def sequence_of(items: MetricsData | Sequence[MetricsData]) -> list[MetricsData]:

@@ -626,6 +626,10 @@ class MetricsWriter:
             return MetricStatus.FAIL_WARN
         return MetricStatus.PASSED
 
+    def has_metric(self, name: str) -> bool:
+        """Whether a (non-event) metric of this name was written."""
+        return name in self._metric_names
+
     @property
     def metrics(self) -> list[MetricHandle]:
         return [MetricHandle(self, m) for m in self._metrics]
@@ -688,8 +692,6 @@ def _fill_series(series: pb.Series, kind: SeriesKind, values: Sequence[Any]) -> 
             target.series.extend(_timestamp_proto(v) for v in values)
         case SeriesKind.UUID:
             target.series.extend(uuid_pb2.UUID(data=v) for v in values)
-        case SeriesKind.STATUS:
-            target.series.extend(int(v) for v in values)
         case _:
             target.series.extend(values)
 

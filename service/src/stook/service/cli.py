@@ -19,10 +19,10 @@ from stook.service._test_mode import UserFunctionError
 log = structlog.get_logger("stook.cli")
 
 
-def _add_logging(parser: argparse.ArgumentParser) -> None:
+def _add_logging(parser: argparse.ArgumentParser, *, default_level: str = "info") -> None:
     parser.add_argument(
         "--log-level",
-        default=os.environ.get("STOOK_LOG_LEVEL", "info"),
+        default=os.environ.get("STOOK_LOG_LEVEL", default_level),
         choices=["debug", "info", "warning", "error"],
         help="log level (env STOOK_LOG_LEVEL; default info)",
     )
@@ -64,7 +64,7 @@ def build_parser() -> argparse.ArgumentParser:
     demo_p.add_argument("--jobs", type=int, default=200, help="jobs in the emulated batch")
     demo_p.add_argument("--output", default="demo-output", help="where to write the output")
     demo_p.add_argument("--seed", type=int, default=7)
-    _add_logging(demo_p)
+    _add_logging(demo_p, default_level="warning")
 
     emulate_p = sub.add_parser("emulate", help="serve the ReSim API emulator on loopback")
     emulate_p.add_argument("--jobs", type=int, default=200, help="jobs per batch")
@@ -125,7 +125,7 @@ def _dispatch(args: argparse.Namespace) -> int:
         case "demo":
             from stook.service._demo import run_demo
 
-            return asyncio.run(run_demo(jobs=args.jobs, output=Path(args.output), seed=args.seed))
+            return run_demo(jobs=args.jobs, output=Path(args.output), seed=args.seed)
         case "emulate":
             from stook.service._emulate_cli import emulate
 

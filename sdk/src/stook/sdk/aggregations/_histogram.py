@@ -46,6 +46,7 @@ class MergedHistogram(Aggregation):
     def __post_init__(self) -> None:
         # Raises WriterError on bad bounds now, at configuration time, not at the end.
         self._edges = histogram_buckets(self.name, self.buckets, self.lower, self.upper)
+        self._lowers = pl.Series([lo for lo, _ in self._edges], dtype=pl.Float64)
         if self.max_values < 1:
             raise ValueError(f"{self.name!r}: max_values must be at least 1")
 
@@ -58,9 +59,12 @@ class MergedHistogram(Aggregation):
 
     def _bin(self, s: pl.Series) -> None:
         assert self.counts is not None  # only called once binned
-        width = (self.upper - self.lower) / self.buckets
         self.outside += int(((s < self.lower) | (s > self.upper)).sum())
-        index = ((s - self.lower) / width).floor().clip(0, self.buckets - 1).cast(pl.Int64)
+        # Search the bucket edges rather than divide by the width: division rounds a value
+        # on an inner edge into the bucket below, against the "[lower, upper)" buckets.
+        index = (self._lowers.search_sorted(s, side="right").cast(pl.Int64) - 1).clip(
+            0, self.buckets - 1
+        )
         for bucket, count in index.value_counts().iter_rows():
             self.counts[bucket] += count
 
@@ -110,7 +114,10 @@ class MergedHistogram(Aggregation):
         histogram does not depend on the order of its values, so sorted output is stable."""
         if not self.chunks:
             return pl.Series(self.data, [], dtype=pl.Float64)
-        return pl.concat(self.chunks, rechunk=True).sort()
+        values = pl.concat(self.chunks, rechunk=True)
+        # -0.0 becomes 0.0: they compare equal, so sorting alone keeps their arrival order.
+        # (polars folds `x + 0.0` to x, so the usual arithmetic trick does not work here.)
+        return values.zip_with(values != 0.0, pl.Series([0.0] * values.len())).sort()
 
     def finish(self, writer: MetricsWriter) -> None:
         if self.total == 0:

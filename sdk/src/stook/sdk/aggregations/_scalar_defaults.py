@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 from array import array
+from collections import Counter
 from dataclasses import dataclass, field
 from typing import Self
 
@@ -11,6 +12,7 @@ from stook.sdk import _data
 from stook.sdk._writer import MetricsWriter
 from stook.sdk.aggregations._base import Aggregation
 from stook.sdk.aggregations._record import JobRecord
+from stook.sdk.aggregations._units import pick_unit
 
 
 def auto_buckets(low: float, high: float, count: int) -> tuple[float, float, int]:
@@ -24,7 +26,7 @@ def auto_buckets(low: float, high: float, count: int) -> tuple[float, float, int
 @dataclass
 class _Column:
     values: array[float] = field(default_factory=lambda: array("d"))
-    unit: str = ""
+    units: Counter[str] = field(default_factory=Counter)
 
 
 @dataclass
@@ -39,37 +41,39 @@ class ScalarDefaults(Aggregation):
         for metric, scalar in job.scalars.items():
             column = self.columns.get(metric)
             if column is None:
-                column = self.columns[metric] = _Column(unit=scalar.unit)
+                column = self.columns[metric] = _Column()
             column.values.append(scalar.value)
-            column.unit = column.unit or scalar.unit
+            column.units[scalar.unit] += 1
 
     def merge(self, other: Self) -> None:
         for metric, theirs in other.columns.items():
-            mine = self.columns.setdefault(metric, _Column(unit=theirs.unit))
+            mine = self.columns.setdefault(metric, _Column())
             mine.values.extend(theirs.values)
-            mine.unit = mine.unit or theirs.unit
+            mine.units.update(theirs.units)
 
     def finish(self, writer: MetricsWriter) -> None:
         for metric in sorted(self.columns):
             column = self.columns[metric]
             values = column.values
-            # Sorted: the output must not depend on the order jobs arrived in.
-            finite = sorted(v for v in values if math.isfinite(v))
+            # Sorted, and -0.0 made 0.0 (they compare equal, so sorting keeps arrival
+            # order): the output must not depend on the order jobs arrived in.
+            finite = sorted(v + 0.0 for v in values if math.isfinite(v))
+            unit = pick_unit(column.units)
             if not finite:
                 continue
             writer.scalar(
                 f"{metric} (mean)",
                 math.fsum(finite) / len(finite),
-                unit=column.unit,
+                unit=unit,
                 description=f"Mean of {metric!r} over the {len(finite)} jobs that reported it.",
             )
             low, high, buckets = auto_buckets(min(finite), max(finite), len(finite))
             writer.histogram(
                 f"{metric} (distribution)",
-                _data.doubles(f"{metric} (distribution) values", finite, unit=column.unit),
+                _data.doubles(f"{metric} (distribution) values", finite, unit=unit),
                 buckets=buckets,
                 lower=low,
                 upper=high,
-                x_axis_name=f"{metric} [{column.unit}]" if column.unit else metric,
+                x_axis_name=f"{metric} [{unit}]" if unit else metric,
                 description=f"{metric!r} of each of the {len(finite)} jobs that reported it.",
             )

@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 import re
 from array import array
+from collections import Counter
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Self
@@ -15,6 +16,7 @@ from stook.sdk._errors import WriterError
 from stook.sdk._writer import MetricsWriter
 from stook.sdk.aggregations._base import Aggregation, Needs
 from stook.sdk.aggregations._record import JobRecord
+from stook.sdk.aggregations._units import pick_unit
 
 _QUANTILE = re.compile(r"^p(\d{1,2}(?:\.\d+)?)$")
 _PLAIN = ("mean", "min", "max", "std", "count")
@@ -41,7 +43,8 @@ class ScalarStats(Aggregation):
     unit: str | None = None
 
     values: array[float] = field(default_factory=lambda: array("d"), init=False)
-    seen_unit: str = field(default="", init=False)
+    not_finite: int = field(default=0, init=False)
+    units: Counter[str] = field(default_factory=Counter, init=False)
 
     def __post_init__(self) -> None:
         _check_stats(self.stats)
@@ -52,13 +55,18 @@ class ScalarStats(Aggregation):
 
     def update(self, job: JobRecord) -> None:
         x = job.scalars.get(self.metric)
-        if x is not None:
-            self.values.append(x.value)
-            self.seen_unit = self.seen_unit or x.unit
+        if x is None:
+            return
+        if not math.isfinite(x.value):
+            self.not_finite += 1
+            return
+        self.values.append(x.value)
+        self.units[x.unit] += 1
 
     def merge(self, other: Self) -> None:
         self.values.extend(other.values)
-        self.seen_unit = self.seen_unit or other.seen_unit
+        self.not_finite += other.not_finite
+        self.units.update(other.units)
 
     def compute(self) -> dict[str, float]:
         """Each statistic's value; empty when no job reported the metric."""
@@ -83,11 +91,16 @@ class ScalarStats(Aggregation):
         return out
 
     def finish(self, writer: MetricsWriter) -> None:
-        unit = self.unit if self.unit is not None else self.seen_unit
+        unit = self.unit if self.unit is not None else pick_unit(self.units)
         for stat, value in self.compute().items():
+            name = f"{self.name} ({stat})"
+            if writer.has_metric(name):
+                # The default batch metrics already wrote "N (mean)": the same number.
+                continue
             writer.scalar(
-                f"{self.name} ({stat})",
+                name,
                 value,
                 unit="" if stat == "count" else unit,
-                description=f"{stat} of {self.metric!r} over {len(self.values)} jobs.",
+                description=f"{stat} of {self.metric!r} over {len(self.values)} jobs"
+                + (f" ({self.not_finite} non-finite values left out)." if self.not_finite else "."),
             )

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 from array import array
+from collections import Counter
 from dataclasses import dataclass, field
 from typing import Self
 
@@ -11,6 +12,7 @@ from stook.sdk._enums import MetricStatus
 from stook.sdk._writer import MetricsWriter
 from stook.sdk.aggregations._base import Aggregation, Needs
 from stook.sdk.aggregations._record import JobRecord
+from stook.sdk.aggregations._units import pick_unit
 
 
 @dataclass
@@ -32,7 +34,8 @@ class WeightedMean(Aggregation):
     weights: array[float] = field(default_factory=lambda: array("d"), init=False)
     jobs: int = field(default=0, init=False)
     jobs_without_weight: int = field(default=0, init=False)
-    seen_unit: str = field(default="", init=False)
+    jobs_not_finite: int = field(default=0, init=False)
+    units: Counter[str] = field(default_factory=Counter, init=False)
 
     def needs(self) -> Needs:
         names = {self.metric} | ({self.weight} if self.weight else set())
@@ -49,17 +52,21 @@ class WeightedMean(Aggregation):
                 self.jobs_without_weight += 1
                 return
             w = weight.value
+        if not (math.isfinite(w) and math.isfinite(x.value)):
+            self.jobs_not_finite += 1
+            return
         self.products.append(w * x.value)
         self.weights.append(w)
         self.jobs += 1
-        self.seen_unit = self.seen_unit or x.unit
+        self.units[x.unit] += 1
 
     def merge(self, other: Self) -> None:
         self.products.extend(other.products)
         self.weights.extend(other.weights)
         self.jobs += other.jobs
         self.jobs_without_weight += other.jobs_without_weight
-        self.seen_unit = self.seen_unit or other.seen_unit
+        self.jobs_not_finite += other.jobs_not_finite
+        self.units.update(other.units)
 
     @property
     def value(self) -> float | None:
@@ -78,14 +85,14 @@ class WeightedMean(Aggregation):
                 status=MetricStatus.NOT_APPLICABLE,
             )
             return
-        note = (
-            f"; {self.jobs_without_weight} jobs without {self.weight!r} left out"
-            if self.jobs_without_weight
-            else ""
-        )
+        note = ""
+        if self.jobs_without_weight:
+            note += f"; {self.jobs_without_weight} jobs without {self.weight!r} left out"
+        if self.jobs_not_finite:
+            note += f"; {self.jobs_not_finite} jobs with non-finite values left out"
         writer.scalar(
             self.name,
             value,
-            unit=self.unit if self.unit is not None else self.seen_unit,
+            unit=self.unit if self.unit is not None else pick_unit(self.units),
             description=f"Mean of {self.metric!r} over {self.jobs} jobs, {how}{note}.",
         )

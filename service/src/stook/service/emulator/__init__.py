@@ -35,6 +35,7 @@ from stook.service.emulator._server import (
     EmulatorProcess,
     main,
     serve,
+    serve_with_inputs,
 )
 from stook.service.emulator._stats import EmulatorStats
 
@@ -60,4 +61,5 @@ __all__ = [
     "Truth",
     "main",
     "serve",
+    "serve_with_inputs",
 ]

@@ -133,8 +133,15 @@ async def _admit(state: EmulatorState, request: web.Request, origin: Origin) -> 
     return None
 
 
-def _finish(stats: EmulatorStats, origin: str, response: web.StreamResponse) -> web.StreamResponse:
-    stats.statuses[f"{origin}:{response.status}"] += 1
+def _finish(
+    stats: EmulatorStats, origin: str, response: web.StreamResponse, fault: Fault | None = None
+) -> web.StreamResponse:
+    # A reset or truncated answer never arrives whole; count it as what the client sees.
+    broken = fault is not None and fault.kind in (FaultKind.RESET, FaultKind.TRUNCATED)
+    label = fault.kind.value if broken and fault is not None else str(response.status)
+    stats.statuses[f"{origin}:{label}"] += 1
+    if broken:
+        return response
     if isinstance(response, web.Response) and isinstance(response.body, bytes):
         stats.bytes_served[origin] += len(response.body)
     return response
@@ -164,7 +171,7 @@ def build_api_app(state: EmulatorState) -> web.Application:
             response = _error(exc.status, exc.message)
         except web.HTTPException as exc:
             response = _error(exc.status, exc.reason)
-        return _finish(state.stats, "api", response)
+        return _finish(state.stats, "api", response, fault)
 
     app = web.Application(middlewares=[middleware])
     routes = _ApiRoutes(state)
@@ -469,7 +476,7 @@ def build_storage_app(state: EmulatorState) -> web.Application:
                 response = await handler(request)
         except web.HTTPException as exc:
             response = _s3_error(exc.status, "NoSuchKey", exc.reason)
-        return _finish(stats, "storage", response)
+        return _finish(stats, "storage", response, fault)
 
     routes = _StorageRoutes(state)
     app = web.Application(middlewares=[middleware])

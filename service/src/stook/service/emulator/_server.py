@@ -218,9 +218,25 @@ async def serve(
     api_port: int = 0,
     storage_port: int = 0,
 ) -> None:
-    """Serve until cancelled, after printing where (for `stook emulate`)."""
+    """Serve until cancelled, after printing where."""
+    await serve_with_inputs(config, host=host, api_port=api_port, storage_port=storage_port)
+
+
+async def serve_with_inputs(
+    config: EmulatorConfig | None = None,
+    *,
+    host: str = "127.0.0.1",
+    api_port: int = 0,
+    storage_port: int = 0,
+    inputs_dir: Path | None = None,
+) -> None:
+    """Serve until cancelled (for `stook emulate`); with `inputs_dir`, first write the
+    platform's batch config there, so that `stook run --inputs inputs_dir` uses it."""
     async with Emulator(config, host=host, api_port=api_port, storage_port=storage_port) as emu:
         info = emu.info
+        written = ""
+        if inputs_dir is not None:
+            written = f"  wrote:     {emu.write_batch_config(inputs_dir)}\n"
         print(
             f"ReSim emulator ready\n"
             f"  apiURL:    {info.api_url}\n"
@@ -229,6 +245,7 @@ async def serve(
             f"  projectID: {info.project_id}\n"
             f"  batchID:   {info.batch_id}  ({emu.config.jobs_per_batch} jobs)\n"
             f"  reportID:  {info.report_id}\n"
+            f"{written}"
             "Press Ctrl-C to stop.",
             flush=True,
         )
