@@ -53,8 +53,7 @@ def job(
         job_id=uuid.uuid4(),
         conflated_status=status,
         scalars={
-            k: v if isinstance(v, Scalar) else Scalar(float(v))
-            for k, v in (scalars or {}).items()
+            k: v if isinstance(v, Scalar) else Scalar(float(v)) for k, v in (scalars or {}).items()
         },
         series={k: pl.Series(k, list(v), dtype=pl.Float64) for k, v in (series or {}).items()},
         metric_statuses=tuple(metric_statuses),
@@ -192,16 +191,45 @@ def test_weighted_mean_needs_its_scalars() -> None:
     assert WeightedMean(name="n", metric="x").needs().data == frozenset()
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="BUG: WeightedMean.value calls math.fsum on [inf, -inf] products, which raises "
-    "ValueError (not a StookError) instead of writing a NOT_APPLICABLE text",
-)
-def test_weighted_mean_survives_opposite_infinities() -> None:
-    # +inf and -inf are valid SCALAR values (both validators accept them).
+def test_weighted_mean_leaves_out_non_finite_values() -> None:
+    # +inf and -inf are valid SCALAR values (both validators accept them); math.fsum
+    # would raise ValueError on inf + -inf, so such jobs are left out and counted.
+    jobs = [
+        job(scalars={"x": Scalar(2.0, "m"), "w": 1.0}),
+        job(scalars={"x": Scalar(math.inf, "m"), "w": 1.0}),
+        job(scalars={"x": Scalar(-math.inf, "m"), "w": 1.0}),
+        job(scalars={"x": Scalar(6.0, "m"), "w": 3.0}),
+        job(scalars={"x": Scalar(1.0, "m"), "w": math.inf}),
+        job(scalars={"x": Scalar(1.0, "m")}),
+    ]
+    out = Output(fold(WeightedMean(name="WM", metric="x", weight="w"), jobs))
+    m = out.metric("WM", MetricType.SCALAR)
+    assert m.value == (2.0 + 18.0) / 4.0
+    assert m.unit == "m"
+    assert m.description == (
+        "Mean of 'x' over 2 jobs, weighted by 'w'; 1 jobs without 'w' left out; "
+        "3 jobs with non-finite values left out."
+    )
+
+
+def test_weighted_mean_of_only_opposite_infinities_is_not_applicable() -> None:
     jobs = [job(scalars={"x": math.inf}), job(scalars={"x": -math.inf})]
     out = Output(fold(WeightedMean(name="WM", metric="x"), jobs))
     assert out.names == ["WM"]
+    assert out.metric("WM", MetricType.TEXT).status is MetricStatus.NOT_APPLICABLE
+
+
+def test_weighted_mean_reports_the_most_common_unit() -> None:
+    def mean_unit(units: list[str]) -> str:
+        jobs = [job(scalars={"x": Scalar(1.0, u)}) for u in units]
+        unit = Output(fold(WeightedMean(name="WM", metric="x"), jobs)).by_name["WM"].unit
+        assert unit is not None
+        return unit
+
+    assert mean_unit(["", "km", "m", "m"]) == "m"
+    assert mean_unit(["m", "km"]) == "km"  # a tie: the first by name
+    assert mean_unit(["km", "m"]) == "km"
+    assert mean_unit(["", ""]) == ""
 
 
 # ---------------------------------------------------------------- MergedHistogram
@@ -307,21 +335,28 @@ def test_histogram_counts_match_an_independent_binning_on_many_values() -> None:
     ]
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="BUG: MergedHistogram._bin uses floor((v - lower) / width); a value on an inner "
-    "bucket edge (e.g. -2.2 for [-3.3, 0] in 3 buckets) lands in the bucket below, "
-    "disagreeing with the bucket bounds and the '[lo, hi)' labels",
+@pytest.mark.parametrize(
+    ("lower", "upper", "buckets"),
+    [(-3.3, 0.0, 3), (-3.3, 0.0, 20), (-1.0, -0.3, 3), (0.0, 1.0, 10), (0.1, 3.4, 7)],
 )
-def test_histogram_counts_put_edge_values_in_the_bucket_they_start() -> None:
-    edges = histogram_buckets("H", 3, -3.3, 0.0)
-    on_edge = edges[1][0]  # -2.2, the lower bound of the middle bucket
+def test_histogram_counts_put_edge_values_in_the_bucket_they_start(
+    lower: float, upper: float, buckets: int
+) -> None:
+    # Values exactly on each edge: a division by the bucket width rounds some of them into
+    # the bucket below (e.g. -2.2 for [-3.3, 0] in 3 buckets).
+    edges = histogram_buckets("H", buckets, lower, upper)
+    on_edges = [lo for lo, _ in edges] + [upper]
     agg = fold(
-        MergedHistogram(name="H", data="d", lower=-3.3, upper=0.0, buckets=3, max_values=1),
-        [job(series={"d": [on_edge, on_edge]})],
+        MergedHistogram(
+            name="H", data="d", lower=lower, upper=upper, buckets=buckets, max_values=1
+        ),
+        [job(series={"d": on_edges})],
     )
     assert isinstance(agg, MergedHistogram)
-    assert agg.counts == reference_counts([on_edge, on_edge], edges) == [0, 2, 0]
+    expected = [1] * buckets
+    expected[-1] = 2  # the upper bound belongs to the last bucket
+    assert agg.counts == reference_counts(on_edges, edges) == expected
+    assert agg.outside == 0
 
 
 def test_histogram_without_values_is_not_applicable() -> None:
@@ -415,19 +450,30 @@ def test_scalar_stats_refuses_unknown_statistics(stat: str) -> None:
         ScalarStats(metric="x", stats=["mean", stat])
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="BUG: ScalarStats keeps non-finite values (ScalarDefaults drops them): with an inf "
-    "scalar, std is NaN and MetricsWriter.scalar raises WriterError in finish",
-)
-def test_scalar_stats_survives_an_infinite_scalar() -> None:
-    # inf is a valid SCALAR value: the writer and both validators accept it.
-    agg = fold(
-        ScalarStats(metric="x", stats=["mean", "std", "p50"]),
-        [job(scalars={"x": 1.0}), job(scalars={"x": math.inf})],
-    )
+def test_scalar_stats_leaves_out_non_finite_values() -> None:
+    # inf is a valid SCALAR value (the writer and both validators accept it); kept, it
+    # would make std NaN, which no SCALAR may be.
+    jobs = [job(scalars={"x": Scalar(v, "s")}) for v in (1.0, math.inf, 3.0, -math.inf, math.nan)]
+    agg = fold(ScalarStats(metric="x", stats=["mean", "std", "p50", "count"]), jobs)
+    assert isinstance(agg, ScalarStats)
+    assert agg.not_finite == 3
     out = Output(agg)
-    assert out.names == ["x (mean)", "x (std)", "x (p50)"]
+    assert out.names == ["x (mean)", "x (std)", "x (p50)", "x (count)"]
+    assert [out.by_name[n].value for n in out.names] == [
+        2.0,
+        statistics.stdev([1.0, 3.0]),
+        2.0,
+        2.0,
+    ]
+    assert out.by_name["x (mean)"].description == (
+        "mean of 'x' over 2 jobs (3 non-finite values left out)."
+    )
+    assert out.by_name["x (mean)"].unit == "s"
+
+
+def test_scalar_stats_of_only_non_finite_values_writes_nothing() -> None:
+    agg = fold(ScalarStats(metric="x"), [job(scalars={"x": math.inf})])
+    assert Output(agg).names == []
 
 
 # ---------------------------------------------------------------- ScalarDefaults
@@ -442,7 +488,12 @@ def test_scalar_defaults_mean_and_distribution_of_every_scalar() -> None:
     ]
     out = Output(fold(ScalarDefaults(), jobs))
     # Sorted by scalar name; a scalar with no finite value writes nothing.
-    assert out.names == ["count (mean)", "count (distribution)", "dist (mean)", "dist (distribution)"]
+    assert out.names == [
+        "count (mean)",
+        "count (distribution)",
+        "dist (mean)",
+        "dist (distribution)",
+    ]
 
     mean = out.metric("dist (mean)", MetricType.SCALAR)
     assert mean.value == 4.0
@@ -480,19 +531,28 @@ def test_scalar_defaults_without_scalars_writes_nothing() -> None:
     assert Output(fold(ScalarDefaults(), [job(), job("ERROR")])).names == []
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="BUG: with the default config (defaults = true) a [[batch.scalar_stats]] for "
-    "metric N writes 'N (mean)', which ScalarDefaults also writes: WriterError "
-    "'a metric named ... was already written' fails the batch",
-)
 def test_scalar_defaults_and_scalar_stats_can_share_a_batch() -> None:
-    jobs = [job(scalars={"lat": v}) for v in (1.0, 2.0)]
+    # With defaults = true, a [[batch.scalar_stats]] for "lat" would write "lat (mean)"
+    # a second time; the mean is the same number, so it is written once.
+    jobs = [job(scalars={"lat": Scalar(v, "ms")}) for v in (1.0, 2.0)]
     aggregations = [*default_batch_aggregations(), ScalarStats(metric="lat")]
     for aggregation in aggregations:
         fold(aggregation, jobs)
     out = Output(*aggregations)
-    assert "lat (p95)" in out.by_name
+    assert out.names.count("lat (mean)") == 1
+    assert out.by_name["lat (mean)"].value == 1.5
+    assert out.by_name["lat (mean)"].description == (
+        "Mean of 'lat' over the 2 jobs that reported it."
+    )
+    assert [n for n in out.names if n.startswith("lat (")] == [
+        "lat (mean)",
+        "lat (distribution)",
+        "lat (min)",
+        "lat (max)",
+        "lat (p50)",
+        "lat (p95)",
+    ]
+    assert out.by_name["lat (p95)"].value == 1.95
 
 
 # ---------------------------------------------------------------- status counts
@@ -575,9 +635,7 @@ def test_metric_status_counts() -> None:
 
 
 def test_metric_status_counts_block_and_pass_and_empty() -> None:
-    blocked = Output(
-        fold(MetricStatusCounts(), [job(metric_statuses=["FAIL_WARN", "FAIL_BLOCK"])])
-    )
+    blocked = Output(fold(MetricStatusCounts(), [job(metric_statuses=["FAIL_WARN", "FAIL_BLOCK"])]))
     assert blocked.by_name["Job metric statuses"].status is MetricStatus.FAIL_BLOCK
     passed = Output(fold(MetricStatusCounts(name="MS"), [job(metric_statuses=["PASSED"])]))
     assert passed.by_name["MS"].status is MetricStatus.PASSED

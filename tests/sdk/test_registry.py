@@ -24,10 +24,10 @@ from stook.sdk.aggregations import (
     Scalar,
     ScalarStats,
     WeightedMean,
+    _registry,
     build,
     build_all,
 )
-from stook.sdk.aggregations import _registry
 
 # ---------------------------------------------------------------- a user's own aggregation
 
@@ -130,7 +130,9 @@ def test_unknown_kind_is_named() -> None:
     with pytest.raises(AggregationConfigError) as info:
         build_all({"weighted_maen": [{"name": "x", "metric": "y"}]}, section="batch")
     message = str(info.value)
-    assert message.startswith("[[batch.weighted_maen]] #1: unknown aggregation kind 'weighted_maen'")
+    assert message.startswith(
+        "[[batch.weighted_maen]] #1: unknown aggregation kind 'weighted_maen'"
+    )
     for known in ("weighted_mean", "histogram", "scalar_stats", "pass_rate", "custom"):
         assert known in message
 
@@ -223,10 +225,13 @@ def test_custom_class_is_loaded_and_works() -> None:
 @pytest.mark.parametrize(
     ("options", "needle"),
     [
-        pytest.param({"metric": "x"}, "a custom aggregation needs class = 'module:Class'", id="none"),
+        pytest.param(
+            {"metric": "x"}, "a custom aggregation needs class = 'module:Class'", id="none"
+        ),
         pytest.param({"class": 5}, "a custom aggregation needs class", id="not-a-string"),
         pytest.param(
-            {"class": f"{HERE}.MaxOfScalar"}, f"class '{HERE}.MaxOfScalar' is not 'module:Class'",
+            {"class": f"{HERE}.MaxOfScalar"},
+            f"class '{HERE}.MaxOfScalar' is not 'module:Class'",
             id="no-colon",
         ),
         pytest.param({"class": ":MaxOfScalar"}, "is not 'module:Class'", id="no-module"),
@@ -279,7 +284,7 @@ def test_a_failing_import_is_reported_not_raised(
 ) -> None:
     (tmp_path / "stook_test_broken_plugin.py").write_text("import no_such_dependency_xyz\n")
     monkeypatch.syspath_prepend(str(tmp_path))
-    with pytest.raises(AggregationConfigError, match="cannot import .*no_such_dependency_xyz"):
+    with pytest.raises(AggregationConfigError, match=r"cannot import .*no_such_dependency_xyz"):
         build("custom", {"class": "stook_test_broken_plugin:Agg"}, where="[[batch.custom]] #1")
 
 

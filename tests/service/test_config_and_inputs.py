@@ -43,7 +43,9 @@ def test_the_docstring_example_parses(tmp_path: Path) -> None:
     path = write_toml(tmp_path, DOCSTRING_EXAMPLE)
     config = load(path)
     assert config.source == str(path)
-    assert config.fetch == FetchSettings(concurrency=64, timeout=30.0, max_attempts=6, page_size=100)
+    assert config.fetch == FetchSettings(
+        concurrency=64, timeout=30.0, max_attempts=6, page_size=100
+    )
     assert config.test_metrics == "my_metrics.test:compute"
     assert config.batch_defaults is True
     built = config.batch_aggregations()
@@ -112,7 +114,7 @@ def test_no_config_is_the_defaults() -> None:
 
 
 def test_bad_toml_names_the_file_and_line(tmp_path: Path) -> None:
-    path = write_toml(tmp_path, '[fetch]\nconcurrency = 4\ntimeout = \n[batch]\n')
+    path = write_toml(tmp_path, "[fetch]\nconcurrency = 4\ntimeout = \n[batch]\n")
     with pytest.raises(ConfigError) as info:
         load(path)
     message = str(info.value)
@@ -236,14 +238,24 @@ def test_bad_batch_tables_fail_at_parse_time(tmp_path: Path) -> None:
         load(path)
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="BUG: option types in [[batch.*]] tables are not checked; name = 5 parses, and "
-    "finish() later raises TypeError from protobuf (exit 1 instead of a ConfigError, exit 2)",
-)
 def test_wrong_option_types_in_batch_tables_are_config_errors() -> None:
-    with pytest.raises(ConfigError, match=r"\[\[batch\.weighted_mean\]\] #1"):
+    with pytest.raises(ConfigError, match=r"\[\[batch\.weighted_mean\]\] #1") as info:
         parse({"batch": {"weighted_mean": [{"name": 5, "metric": "x"}]}})
+    assert "option 'name' cannot be 5 (expected str)" in str(info.value)
+    with pytest.raises(ConfigError, match="option 'buckets' cannot be 2.5"):
+        parse(
+            {
+                "batch": {
+                    "histogram": [
+                        {"name": "h", "data": "d", "lower": 0, "upper": 1, "buckets": 2.5}
+                    ]
+                }
+            }
+        )
+    with pytest.raises(ConfigError, match="option 'stats' cannot be"):
+        parse({"batch": {"scalar_stats": [{"metric": "m", "stats": ["mean", 3]}]}})
+    # ints are fine where floats are expected
+    parse({"batch": {"histogram": [{"name": "h", "data": "d", "lower": 0, "upper": 1}]}})
 
 
 def test_toml_types_round_trip() -> None:
@@ -340,8 +352,7 @@ def test_malformed_json_names_the_file_and_the_line(tmp_path: Path) -> None:
     text = '{\n  "authToken": "' + TOKEN + '",\n  "apiURL": "https://x"\n  "batchID": "1"\n}\n'
     put(tmp_path, "batch_metrics_config.json", text)
     assert detect_error(tmp_path) == (
-        "batch_metrics_config.json: not valid JSON "
-        "(Expecting ',' delimiter at line 4 column 3)"
+        "batch_metrics_config.json: not valid JSON (Expecting ',' delimiter at line 4 column 3)"
     )
 
 
@@ -375,7 +386,9 @@ def test_empty_or_non_string_token(tmp_path: Path, value: Any) -> None:
 
 def test_non_uuid_batch_id(tmp_path: Path) -> None:
     put(tmp_path, "batch_metrics_config.json", batch_doc(batchID="batch-42"))
-    assert detect_error(tmp_path) == "batch_metrics_config.json: 'batchID' is not a UUID: 'batch-42'"
+    assert (
+        detect_error(tmp_path) == "batch_metrics_config.json: 'batchID' is not a UUID: 'batch-42'"
+    )
 
 
 def test_a_long_non_uuid_is_shortened(tmp_path: Path) -> None:
@@ -583,7 +596,12 @@ def test_bad_project_id(env: pytest.MonkeyPatch, tmp_path: Path) -> None:
         (WriterError("two metrics named x"), ExitCode.USAGE),
         (ApiError("down"), ExitCode.API),
         (AuthError(status=401, method="GET", url="https://api.example/x"), ExitCode.API),
-        (RetriesExhaustedError("gave up"), ExitCode.API),
+        (
+            RetriesExhaustedError(
+                method="GET", url="https://api.example/x", attempts=6, last_reason="timeout"
+            ),
+            ExitCode.API,
+        ),
         (MissingJobsError("3 of 4 jobs missing"), ExitCode.API),
         (ReadError("truncated"), ExitCode.INVALID_DATA),
         (InvalidMetricsError([Problem("metric 'x'", "broken")]), ExitCode.INVALID_DATA),

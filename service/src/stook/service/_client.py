@@ -185,6 +185,7 @@ class ApiClient:
             name="api",
             concurrency=concurrency,
             slots=shared,
+            proxy_for=self._base,
             request_timeout=self._policy.request_timeout,
             stats=self.stats,
             headers={

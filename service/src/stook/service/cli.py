@@ -78,6 +78,10 @@ def build_parser() -> argparse.ArgumentParser:
     )
     _add_logging(emulate_p)
 
+    bench_p = sub.add_parser("bench", help="measure batch mode against the emulator and ReSim")
+    bench_p.add_argument("--quick", action="store_true", help="small sizes; a smoke test")
+    bench_p.add_argument("--out", default="docs/benchmarks", help="where results are written")
+
     validate_p = sub.add_parser("validate", help="check a metrics.binproto against every rule")
     validate_p.add_argument("file", type=Path)
 
@@ -130,6 +134,11 @@ def _dispatch(args: argparse.Namespace) -> int:
             from stook.service._emulate_cli import emulate
 
             return asyncio.run(emulate(args))
+        case "bench":
+            from stook.service.bench import run_bench
+
+            run_bench(Path(args.out), quick=args.quick)
+            return 0
         case "validate":
             from stook.service._inspect import validate_file
 

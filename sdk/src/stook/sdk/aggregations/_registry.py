@@ -3,7 +3,12 @@ group, and ``module:Class`` references; built from the config's ``[[batch.<kind>
 
 from __future__ import annotations
 
+import collections.abc
+import dataclasses
 import importlib
+import sys
+import types
+import typing
 from collections.abc import Mapping, Sequence
 from importlib.metadata import entry_points
 from typing import Any
@@ -78,12 +83,66 @@ def build(kind: str, options: Mapping[str, Any], *, where: str) -> Aggregation:
             )
         found = known[kind]
         cls = found if isinstance(found, type) else load_class(found, where=where)
+    _check_option_types(cls, options, where)
     try:
         return cls(**options)
     except TypeError as exc:
         raise AggregationConfigError(f"{where}: {exc}") from None
     except ValueError as exc:
         raise AggregationConfigError(f"{where}: {exc}") from None
+
+
+_SIMPLE: dict[Any, tuple[type, ...]] = {
+    str: (str,),
+    int: (int,),
+    float: (int, float),
+    bool: (bool,),
+}
+
+
+def _accepts(hint: Any, value: Any) -> bool | None:
+    """Whether a TOML value fits a field annotation; None when the annotation is not simple."""
+    if hint in _SIMPLE:
+        if isinstance(value, bool) and hint is not bool:
+            return False
+        return isinstance(value, _SIMPLE[hint])
+    origin, args = typing.get_origin(hint), typing.get_args(hint)
+    if origin in (types.UnionType, typing.Union):
+        verdicts = [v for a in args if (v := _accepts(a, value)) is not None or a is type(None)]
+        if value is None and type(None) in args:
+            return True
+        return any(bool(v) for v in verdicts) if verdicts else None
+    if origin in (list, tuple, collections.abc.Sequence) and args:
+        if not isinstance(value, list):
+            return False
+        inner = [_accepts(args[0], item) for item in value]
+        return None if any(v is None for v in inner) else all(inner)
+    return None
+
+
+def _check_option_types(cls: type[Aggregation], options: Mapping[str, Any], where: str) -> None:
+    """A TOML value of the wrong type is a config error now, not a crash after the fetch."""
+    if not dataclasses.is_dataclass(cls):
+        return
+    namespace = vars(sys.modules[cls.__module__])
+    for field in dataclasses.fields(cls):
+        if not field.init or field.name not in options:
+            continue
+        hint: Any = field.type
+        if isinstance(hint, str):
+            try:
+                hint = eval(hint, namespace)  # the class's own annotation text
+            except Exception:
+                continue  # not a simple annotation: leave the check to the class
+        value = options[field.name]
+        if _accepts(hint, value) is False:
+            raise AggregationConfigError(
+                f"{where}: option {field.name!r} cannot be {value!r} (expected {_describe(hint)})"
+            )
+
+
+def _describe(hint: Any) -> str:
+    return getattr(hint, "__name__", None) or str(hint).replace("typing.", "")
 
 
 def build_all(

@@ -256,6 +256,13 @@ class _ApiRoutes:
             raise ApiError(400, str(exc)) from None
         return list(page.items), page.next_token, page.total
 
+    def _broken(self, batch_id: uuid.UUID, job_id: uuid.UUID) -> bool:
+        broken = self.state.config.broken_jobs
+        if not broken or batch_id != self.ds.main_batch_id:
+            return False
+        job = self.ds.job(batch_id, job_id)
+        return job is not None and job.index in broken
+
     # ---- handlers ----
 
     async def list_batches(self, request: web.Request) -> web.Response:
@@ -301,6 +308,9 @@ class _ApiRoutes:
 
     def _job_output(self, request: web.Request) -> tuple[uuid.UUID, uuid.UUID, MetricsOutput]:
         batch_id, job_id = self._job(request)
+        if self._broken(batch_id, job_id):
+            self.state.stats.broken_job_answers += 1
+            raise ApiError(500, f"job {job_id} is broken (emulated permanent server error)")
         output = self.ds.job_output(batch_id, job_id)
         assert output is not None
         return batch_id, job_id, output

@@ -47,6 +47,9 @@ class EmulatorConfig:
     fault_origins: tuple[Origin, ...] = ORIGINS
     retry_after_max_s: int = 1  # a fault 429 carries Retry-After 0..this (whole seconds)
     max_consecutive_faults: int = 2  # the same request never faults more often in a row
+    # Indices of main-batch jobs whose metrics and metrics-data listings always answer 500:
+    # permanent, unlike the faults above, so a client exhausts its retries on them.
+    broken_jobs: tuple[int, ...] = ()
 
     # ---- rate limits (token buckets; None: unlimited) ----
     rate_limit_rps: float | None = None  # API origin
@@ -78,6 +81,8 @@ class EmulatorConfig:
                 raise ValueError("a rate limit must be positive (or None)")
         if any(o not in ORIGINS for o in self.fault_origins):
             raise ValueError(f"fault_origins must be drawn from {ORIGINS}")
+        if any(isinstance(i, bool) or not isinstance(i, int) or i < 0 for i in self.broken_jobs):
+            raise ValueError("broken_jobs must hold job indices (whole numbers from 0)")
 
     @property
     def fault_total(self) -> float:
@@ -96,6 +101,7 @@ class EmulatorConfig:
         if unknown:
             raise ValueError(f"unknown emulator settings: {sorted(unknown)}")
         clean = dict(values)
-        if "fault_origins" in clean:
-            clean["fault_origins"] = tuple(clean["fault_origins"])
+        for name in ("fault_origins", "broken_jobs"):
+            if name in clean:
+                clean[name] = tuple(clean[name])
         return cls(**clean)

@@ -22,6 +22,7 @@ class EmulatorStats:
     storage_authorization: list[str] = field(default_factory=list)
     expired_urls: int = 0
     bad_signatures: int = 0
+    broken_job_answers: int = 0  # 500s answered for EmulatorConfig.broken_jobs
 
     def fault_count(self, kind: str | None = None, origin: str | None = None) -> int:
         total = 0
@@ -52,6 +53,7 @@ class EmulatorStats:
             "storage_authorization": list(self.storage_authorization),
             "expired_urls": self.expired_urls,
             "bad_signatures": self.bad_signatures,
+            "broken_job_answers": self.broken_job_answers,
         }
 
     @classmethod
@@ -67,4 +69,5 @@ class EmulatorStats:
             storage_authorization=list(values.get("storage_authorization", [])),
             expired_urls=int(values.get("expired_urls", 0)),
             bad_signatures=int(values.get("bad_signatures", 0)),
+            broken_job_answers=int(values.get("broken_job_answers", 0)),
         )

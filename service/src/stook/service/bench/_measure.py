@@ -1,0 +1,115 @@
+"""One measured run, each in a fresh spawned process so that its peak RSS is its own.
+
+The emulator runs in yet another process (EmulatorProcess), so the client measured
+never shares an event loop or a core's time slice with the server's Python code.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import resource
+import sys
+import tempfile
+import time
+import tomllib
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass
+from multiprocessing import get_context
+from pathlib import Path
+from typing import Any, ParamSpec, TypeVar
+
+from stook.service.emulator import EmulatorInfo
+
+_P = ParamSpec("_P")
+_T = TypeVar("_T")
+
+
+@dataclass(frozen=True, slots=True)
+class Measurement:
+    """What one client run cost. `requests` and `retries` are as the client counted them."""
+
+    client: str
+    jobs: int
+    seconds: float
+    requests: int
+    retries: int
+    bytes_received: int
+    peak_rss_mb: float
+
+    @property
+    def requests_per_second(self) -> float:
+        return self.requests / self.seconds if self.seconds else 0.0
+
+
+def peak_rss_mb() -> float:
+    # ru_maxrss is in KiB on Linux and bytes on macOS.
+    scale = 1 if sys.platform == "darwin" else 1024
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * scale / 2**20
+
+
+def in_fresh_process(fn: Any, *args: Any) -> Any:
+    """Run fn(*args) in a new spawned interpreter and return its result."""
+    with ProcessPoolExecutor(max_workers=1, mp_context=get_context("spawn")) as pool:
+        return pool.submit(fn, *args).result()
+
+
+def measure_stook(info: EmulatorInfo, config_toml: str, concurrency: int) -> Measurement:
+    """Batch mode as `stook run` does it, minus the process start-up."""
+    from stook.service._batch import run_batch
+    from stook.service._config import parse
+    from stook.service._inputs import BatchInputs, detect
+    from stook.service._logging import configure_logging
+
+    configure_logging(json=True, level="error")
+    doc = tomllib.loads(config_toml)
+    doc.setdefault("fetch", {})["concurrency"] = concurrency
+    config = parse(doc, source="bench")
+    with tempfile.TemporaryDirectory() as tmp:
+        inputs = Path(tmp) / "inputs"
+        info.write_batch_config(inputs)
+        batch = detect(inputs)
+        assert isinstance(batch, BatchInputs)
+        started = time.perf_counter()
+        result = asyncio.run(run_batch(batch, config, Path(tmp) / "outputs"))
+        seconds = time.perf_counter() - started
+    return Measurement(
+        client="stook",
+        jobs=result.outcome.jobs_listed,
+        seconds=seconds,
+        requests=result.requests,
+        retries=result.retries,
+        bytes_received=result.bytes_received,
+        peak_rss_mb=peak_rss_mb(),
+    )
+
+
+def measure_resim(info: EmulatorInfo) -> Measurement:
+    """ReSim's own `fetch_job_metrics_by_batch` (resim-open-core), as its docs show it."""
+    from resim.metrics.fetch_job_metrics import fetch_job_metrics_by_batch
+
+    started = time.perf_counter()
+    fetched = fetch_job_metrics_by_batch(
+        token=info.token,
+        api_url=info.api_url,
+        project_id=info.project_id,
+        batch_id=info.batch_id,
+    )
+    seconds = time.perf_counter() - started
+    # ReSim's fetcher keeps no counters; the emulator's stats give its requests.
+    return Measurement(
+        client="resim fetch_job_metrics_by_batch",
+        jobs=len(fetched),
+        seconds=seconds,
+        requests=0,
+        retries=0,
+        bytes_received=0,
+        peak_rss_mb=peak_rss_mb(),
+    )
+
+
+def resim_available() -> bool:
+    try:
+        import resim.metrics.fetch_job_metrics  # noqa: F401
+    except ImportError:
+        return False
+    return True

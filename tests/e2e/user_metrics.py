@@ -1,0 +1,34 @@
+"""Test-mode metrics functions that the end-to-end tests name in stook.toml."""
+
+from __future__ import annotations
+
+import asyncio
+from pathlib import Path
+
+from stook.proto import metrics_pb2 as pb
+from stook.sdk import MetricsWriter
+
+ASYNC_VALUE = 42.5
+
+
+def unset_status(experience_dir: Path, logs_dir: Path, writer: MetricsWriter) -> None:
+    """Reaches past the writer's checks through the public `MetricHandle.proto`: the
+    output then breaks a platform rule, which only the final validation can catch."""
+    writer.scalar("Lane keeping score", 0.93)
+    writer.scalar("Broken scalar", 1.0).proto.status = pb.NO_METRIC_STATUS
+
+
+def raises(experience_dir: Path, logs_dir: Path, writer: MetricsWriter) -> None:
+    writer.scalar("Written before the bug", 1.0)
+    _lane_model_step(experience_dir)
+
+
+def _lane_model_step(experience_dir: Path) -> None:
+    raise RuntimeError(f"lane model diverged on {experience_dir.name}")
+
+
+async def async_metrics(experience_dir: Path, logs_dir: Path, writer: MetricsWriter) -> None:
+    await asyncio.sleep(0)
+    log_lines = (logs_dir / "run.log").read_text().splitlines()
+    writer.scalar("Log lines", float(len(log_lines)))
+    writer.scalar("Async value", ASYNC_VALUE, unit="m")
