@@ -11,10 +11,11 @@ from stook.sdk._validate import find_problems, validate_job_metrics
 from tests.strategies import job_metrics_cases, mutated_job_metrics, valid_job_metrics
 
 
-def _settings(max_examples: int) -> settings:
+def _settings(max_examples: int, *, derandomize: bool = False) -> settings:
     return settings(
         max_examples=max_examples,
         deadline=None,
+        derandomize=derandomize,
         suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large],
     )
 
@@ -55,7 +56,8 @@ def test_mutations_make_invalid_outputs_often() -> None:
     refused = 0
     total = 60
 
-    @_settings(total)
+    # A count over random draws: derandomized, so that CI cannot flake on an unlucky seed.
+    @_settings(total, derandomize=True)
     @given(mutated_job_metrics())
     def count(msg: pb.JobMetrics) -> None:
         nonlocal refused

@@ -12,6 +12,7 @@ from array import array
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
+from typing import TypeAlias
 
 import polars as pl
 
@@ -22,7 +23,8 @@ from stook.sdk._errors import WriterError
 TimestampLike = datetime | int
 UuidLike = uuid.UUID | str
 
-_Elements = list[float] | list[int] | list[str] | list[MetricStatus]
+# Doubles are kept packed (8 bytes each), not as a list of Python floats (32 bytes each).
+_Elements: TypeAlias = "array[float] | list[int] | list[str] | list[MetricStatus]"
 
 
 @dataclass(frozen=True, eq=False, slots=True)
@@ -86,12 +88,20 @@ def _check_index(name: str, shape: int | dict[str, int], index: MetricsData | No
         )
 
 
-def _as_float_list(name: str, values: Iterable[float] | pl.Series) -> list[float]:
+_CHUNK = 1 << 16
+
+
+def _as_doubles(name: str, values: Iterable[float] | pl.Series) -> array[float]:
     if isinstance(values, pl.Series):
-        return values.cast(pl.Float64).to_list()
+        packed: array[float] = array("d")
+        # In slices, so that the transient Python floats stay few whatever the length.
+        doubles = values.cast(pl.Float64).fill_null(float("nan"))
+        for offset in range(0, doubles.len(), _CHUNK):
+            packed.extend(doubles.slice(offset, _CHUNK).to_list())
+        return packed
     try:
         # array() converts and checks in C; a per-element float() loop is ~10x slower.
-        return array("d", values).tolist()
+        return array("d", values)
     except (TypeError, ValueError) as exc:
         raise WriterError(f"metrics data {name!r}: values must be numbers ({exc})") from None
 
@@ -118,7 +128,7 @@ def _as_uuid(value: UuidLike) -> str:
 def _convert(name: str, kind: SeriesKind, values: Iterable[object]) -> _Elements:
     match kind:
         case SeriesKind.DOUBLE:
-            return _as_float_list(name, values)  # type: ignore[arg-type]
+            return _as_doubles(name, values)  # type: ignore[arg-type]
         case SeriesKind.TIMESTAMP:
             return [timestamp_ns(v) for v in values]  # type: ignore[arg-type]
         case SeriesKind.UUID:

@@ -18,6 +18,7 @@ import itertools
 import json
 import math
 import uuid
+from array import array
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any, Self, TypedDict, Unpack
@@ -688,12 +689,25 @@ def _fill_series(series: pb.Series, kind: SeriesKind, values: Sequence[Any]) -> 
     target = getattr(series, field)
     target.SetInParent()
     match kind:
+        case SeriesKind.DOUBLE if isinstance(values, array):
+            # Parsing the packed wire form is a memcpy in C; extend() would box every value.
+            raw = values.tobytes()
+            target.MergeFromString(b"\x0a" + _varint(len(raw)) + raw)
         case SeriesKind.TIMESTAMP:
             target.series.extend(_timestamp_proto(v) for v in values)
         case SeriesKind.UUID:
             target.series.extend(uuid_pb2.UUID(data=v) for v in values)
         case _:
             target.series.extend(values)
+
+
+def _varint(n: int) -> bytes:
+    out = bytearray()
+    while n > 0x7F:
+        out.append((n & 0x7F) | 0x80)
+        n >>= 7
+    out.append(n)
+    return bytes(out)
 
 
 def data_to_proto(data: MetricsData, ids: Mapping[str, uuid.UUID]) -> pb.MetricsData:
