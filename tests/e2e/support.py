@@ -59,7 +59,7 @@ STATUS_RANK = {"PASSED": 0, "NOT_APPLICABLE": 0, "RAW": 0, "FAIL_WARN": 1, "FAIL
 
 def config(**overrides: object) -> EmulatorConfig:
     """The testing helper's small pages, plus overrides."""
-    return EmulatorConfig(**{**TEST_DEFAULTS, **overrides})  # type: ignore[arg-type]
+    return EmulatorConfig(**{**TEST_DEFAULTS, **overrides})
 
 
 class EmulatorThread:

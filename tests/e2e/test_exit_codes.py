@@ -24,10 +24,10 @@ from tests.e2e.support import (
     BATCH_TOML,
     OUTPUT_NAME,
     EmulatorThread,
+    assert_matches_truth,
     by_name,
     config,
     expected_from_truth,
-    assert_matches_truth,
     outputs_left,
     read_output,
     text_of,
@@ -273,12 +273,15 @@ def test_broken_job_within_the_allowance(
     assert outputs_left(outputs) == [OUTPUT_NAME]
     view = read_output(outputs / OUTPUT_NAME)
     missing = by_name(view)["Missing jobs"]
-    assert missing.type is not None and missing.type.name == "TEXT"
+    assert missing.type is not None
+    assert missing.type.name == "TEXT"
     assert str(job.id) in text_of(missing)
     assert job.experience.name in text_of(missing)
     assert "1 of 40 jobs" in text_of(missing)
-    assert missing.status is not None and missing.status.name == "FAIL_WARN"
-    assert view.status is not None and view.status.name in ("FAIL_WARN", "FAIL_BLOCK")
+    assert missing.status is not None
+    assert missing.status.name == "FAIL_WARN"
+    assert view.status is not None
+    assert view.status.name in ("FAIL_WARN", "FAIL_BLOCK")
     # Everything else is computed from the 39 other jobs.
     assert_matches_truth(view, expected_from_truth(broken_emu, skip_jobs=(BROKEN,)))
 

@@ -5,13 +5,14 @@ from __future__ import annotations
 import asyncio
 import tomllib
 from pathlib import Path
+from typing import Any
 
 import pytest
 import tenacity
 
 from stook.service._batch import BatchResult, run_batch
 from stook.service._config import parse
-from stook.service._inputs import detect
+from stook.service._inputs import BatchInputs, detect
 from stook.service._retry import RetryPolicy
 from stook.service.emulator import Emulator
 from stook.service.testing import emulated_batch
@@ -20,14 +21,21 @@ from tests.e2e.support import BATCH_TOML, assert_matches_truth, expected_from_tr
 JOBS = 80
 SEED = 23
 FAST = RetryPolicy(backoff=tenacity.wait_none(), request_timeout=5.0)
-FAULTS = {"fault_5xx": 0.10, "fault_429": 0.03, "fault_reset": 0.01, "retry_after_max_s": 0}
+FAULTS: dict[str, Any] = {
+    "fault_5xx": 0.10,
+    "fault_429": 0.03,
+    "fault_reset": 0.01,
+    "retry_after_max_s": 0,
+}
 
 
 async def _run(tmp: Path, emu: Emulator) -> BatchResult:
     inputs = tmp / "inputs"
     emu.write_batch_config(inputs)
     config = parse(tomllib.loads(BATCH_TOML), source="stook.toml")
-    return await run_batch(detect(inputs), config, tmp / "outputs", retry=FAST)
+    batch = detect(inputs)
+    assert isinstance(batch, BatchInputs)
+    return await run_batch(batch, config, tmp / "outputs", retry=FAST)
 
 
 @pytest.fixture(scope="module")

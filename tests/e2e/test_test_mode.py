@@ -72,7 +72,7 @@ def test_the_example_writes_every_metric_type(
     written = {m.type.name for m in view.metrics if m.type is not None}
     every = {
         name.removesuffix("_METRIC_TYPE")
-        for name in rp.MetricType.keys()
+        for name, _ in rp.MetricType.items()
         if name != "NO_METRIC_TYPE"
     }
     assert len(every) == 12

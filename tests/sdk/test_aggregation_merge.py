@@ -14,7 +14,7 @@ from hypothesis import strategies as st
 
 from stook.sdk._writer import MetricsWriter
 from stook.sdk.aggregations import (
-    Aggregation,
+    BatchAggregation,
     JobRecord,
     JobStatusCounts,
     MergedHistogram,
@@ -29,7 +29,7 @@ from stook.sdk.aggregations._status_counts import JOB_STATUSES, METRIC_STATUSES
 
 BATCH_ID = uuid.UUID("0c0c0c0c-1111-4222-8333-444444444444")
 
-FACTORIES: dict[str, Callable[[], Aggregation]] = {
+FACTORIES: dict[str, Callable[[], BatchAggregation]] = {
     "weighted_mean": lambda: WeightedMean(name="WM", metric="a", weight="w"),
     "unweighted_mean": lambda: WeightedMean(name="UM", metric="b"),
     "histogram_exact": lambda: MergedHistogram(name="H", data="s", lower=-10, upper=10, buckets=5),
@@ -78,13 +78,13 @@ def job_records(draw: st.DrawFn) -> JobRecord:
     )
 
 
-def written(aggregation: Aggregation) -> bytes:
+def written(aggregation: BatchAggregation) -> bytes:
     writer = MetricsWriter(BATCH_ID, deterministic=True)
     aggregation.finish(writer)
     return writer.serialize()
 
 
-def fold_all(factory: Callable[[], Aggregation], records: list[JobRecord]) -> bytes:
+def fold_all(factory: Callable[[], BatchAggregation], records: list[JobRecord]) -> bytes:
     whole = factory()
     for record in records:
         whole.update(record)

@@ -23,7 +23,7 @@ from stook.sdk._reader import JobMetricsView, MetricView, read_job_metrics
 from stook.sdk._validate import validate_job_metrics
 from stook.sdk._writer import MetricsWriter, histogram_buckets
 from stook.sdk.aggregations import (
-    Aggregation,
+    BatchAggregation,
     JobRecord,
     JobStatusCounts,
     MergedHistogram,
@@ -60,7 +60,7 @@ def job(
     )
 
 
-def fold(aggregation: Aggregation, jobs: Iterable[JobRecord]) -> Aggregation:
+def fold(aggregation: BatchAggregation, jobs: Iterable[JobRecord]) -> BatchAggregation:
     for record in jobs:
         aggregation.update(record)
     return aggregation
@@ -69,7 +69,7 @@ def fold(aggregation: Aggregation, jobs: Iterable[JobRecord]) -> Aggregation:
 class Output:
     """What a set of finished aggregations wrote, read back and validated."""
 
-    def __init__(self, *aggregations: Aggregation) -> None:
+    def __init__(self, *aggregations: BatchAggregation) -> None:
         self.writer = MetricsWriter(BATCH_ID, deterministic=True)
         for aggregation in aggregations:
             aggregation.finish(self.writer)

@@ -13,8 +13,8 @@ import pytest
 from stook.sdk._reader import read_job_metrics
 from stook.sdk._writer import MetricsWriter
 from stook.sdk.aggregations import (
-    Aggregation,
     AggregationConfigError,
+    BatchAggregation,
     JobRecord,
     JobStatusCounts,
     MergedHistogram,
@@ -33,7 +33,7 @@ from stook.sdk.aggregations import (
 
 
 @dataclass
-class MaxOfScalar(Aggregation):
+class MaxOfScalar(BatchAggregation):
     """The largest value of one scalar across the batch: an example of a user's aggregation."""
 
     metric: str

@@ -242,7 +242,7 @@ def test_wrong_option_types_in_batch_tables_are_config_errors() -> None:
     with pytest.raises(ConfigError, match=r"\[\[batch\.weighted_mean\]\] #1") as info:
         parse({"batch": {"weighted_mean": [{"name": 5, "metric": "x"}]}})
     assert "option 'name' cannot be 5 (expected str)" in str(info.value)
-    with pytest.raises(ConfigError, match="option 'buckets' cannot be 2.5"):
+    with pytest.raises(ConfigError, match=r"option 'buckets' cannot be 2\.5"):
         parse(
             {
                 "batch": {

@@ -11,7 +11,7 @@ import structlog
 
 from stook.sdk._enums import MetricStatus
 from stook.sdk._writer import MetricsWriter
-from stook.sdk.aggregations import Aggregation, JobRecord, Needs, default_batch_aggregations
+from stook.sdk.aggregations import BatchAggregation, JobRecord, Needs, default_batch_aggregations
 from stook.service._batch_fetch import BatchFetcher, FetchOutcome, FetchPlan
 from stook.service._client import ApiClient
 from stook.service._config import ConfigError, StookConfig
@@ -40,12 +40,12 @@ class BatchResult:
     bytes_received: int
 
 
-def aggregations_for(config: StookConfig) -> list[Aggregation]:
+def aggregations_for(config: StookConfig) -> list[BatchAggregation]:
     defaults = default_batch_aggregations() if config.batch_defaults else []
     return defaults + config.batch_aggregations()
 
 
-def plan_for(aggregations: Iterable[Aggregation]) -> tuple[Needs, FetchPlan]:
+def plan_for(aggregations: Iterable[BatchAggregation]) -> tuple[Needs, FetchPlan]:
     needs = Needs()
     for aggregation in aggregations:
         needs = needs | aggregation.needs()

@@ -26,7 +26,7 @@ from pathlib import Path
 from typing import Any
 
 from stook.sdk._errors import StookError
-from stook.sdk.aggregations import Aggregation, AggregationConfigError, build_all
+from stook.sdk.aggregations import AggregationConfigError, BatchAggregation, build_all
 
 
 class ConfigError(StookError):
@@ -51,7 +51,7 @@ class StookConfig:
     batch_tables: Mapping[str, list[dict[str, Any]]] = field(default_factory=dict)
     report: Mapping[str, Any] = field(default_factory=dict)
 
-    def batch_aggregations(self) -> list[Aggregation]:
+    def batch_aggregations(self) -> list[BatchAggregation]:
         try:
             return build_all(self.batch_tables, section="batch")
         except AggregationConfigError as exc:

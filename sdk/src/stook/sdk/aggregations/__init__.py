@@ -7,7 +7,7 @@ dataclass, and name it in the config as ``[[batch.custom]] class = "pkg.mod:Clas
 or register it under the ``stook.aggregations`` entry-point group.
 """
 
-from stook.sdk.aggregations._base import Aggregation, Needs
+from stook.sdk.aggregations._base import Aggregation, BatchAggregation, Needs
 from stook.sdk.aggregations._histogram import MergedHistogram
 from stook.sdk.aggregations._record import JobRecord, Scalar
 from stook.sdk.aggregations._registry import (
@@ -24,6 +24,7 @@ from stook.sdk.aggregations._weighted_mean import WeightedMean
 __all__ = [
     "Aggregation",
     "AggregationConfigError",
+    "BatchAggregation",
     "JobRecord",
     "JobStatusCounts",
     "MergedHistogram",

@@ -5,7 +5,7 @@ from __future__ import annotations
 import dataclasses
 from abc import ABC, abstractmethod
 from dataclasses import dataclass
-from typing import Self
+from typing import Generic, Self, TypeVar
 
 from stook.sdk._writer import MetricsWriter
 from stook.sdk.aggregations._record import JobRecord
@@ -15,25 +15,36 @@ from stook.sdk.aggregations._record import JobRecord
 class Needs:
     """What an aggregation reads, so that the fetcher downloads no more than that.
 
-    Scalars come with the job listing at no extra cost; each name in `data` costs a
-    download per job that has it.
+    Scalars come with the metric listings at no extra cost; each name in `data` costs a
+    download per job that has it. In report mode, `job_metrics` asks for the metric
+    listing of every job of every batch (one request per job).
     """
 
     scalars: frozenset[str] = frozenset()
     data: frozenset[str] = frozenset()
+    job_metrics: bool = False
 
     def __or__(self, other: Needs) -> Needs:
-        return Needs(self.scalars | other.scalars, self.data | other.data)
+        return Needs(
+            self.scalars | other.scalars,
+            self.data | other.data,
+            self.job_metrics or other.job_metrics,
+        )
 
 
-class Aggregation(ABC):
-    """A batch metric computed as a mergeable partial state.
+R = TypeVar("R")
+
+
+class Aggregation(ABC, Generic[R]):
+    """A metric computed as a mergeable partial state over records: the jobs of a batch
+    (`JobRecord`, batch mode) or the batches of a report (`BatchRecord`, report mode).
 
     Subclasses are dataclasses: their init fields are the configuration (what the
     TOML table holds) and their non-init fields the partial state. `update` folds in
-    one job, `merge` folds in another partial state of the same configuration (built
-    from other jobs), and `finish` writes the result. Folding jobs into several
-    partials and merging them must give what folding them all into one gives.
+    one record, `merge` folds in another partial state of the same configuration (built
+    from other records), and `finish` writes the result. Folding records into several
+    partials and merging them must give what folding them all into one gives, in any
+    order.
     """
 
     #: the name of the first metric it writes; used in errors and logs
@@ -43,7 +54,7 @@ class Aggregation(ABC):
         return Needs()
 
     @abstractmethod
-    def update(self, job: JobRecord) -> None: ...
+    def update(self, record: R) -> None: ...
 
     @abstractmethod
     def merge(self, other: Self) -> None: ...
@@ -54,3 +65,7 @@ class Aggregation(ABC):
     def fresh(self) -> Self:
         """An empty partial state with this one's configuration."""
         return dataclasses.replace(self)  # type: ignore[type-var]
+
+
+#: an aggregation over the jobs of a batch (batch mode)
+BatchAggregation = Aggregation[JobRecord]

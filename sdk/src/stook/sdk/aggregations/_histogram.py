@@ -18,7 +18,7 @@ DEFAULT_MAX_VALUES = 2_000_000
 
 
 @dataclass
-class MergedHistogram(Aggregation):
+class MergedHistogram(Aggregation[JobRecord]):
     """Appends the series `data` of every job and writes it as a HISTOGRAM.
 
     While the appended values number at most `max_values`, the histogram's values

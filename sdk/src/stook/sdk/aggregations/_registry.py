@@ -23,7 +23,7 @@ from stook.sdk.aggregations._weighted_mean import WeightedMean
 
 ENTRY_POINT_GROUP = "stook.aggregations"
 
-BUILTIN: dict[str, type[Aggregation]] = {
+BUILTIN: dict[str, type[Aggregation[Any]]] = {
     "weighted_mean": WeightedMean,
     "histogram": MergedHistogram,
     "scalar_stats": ScalarStats,
@@ -37,13 +37,13 @@ class AggregationConfigError(StookError):
     """A config table does not describe an aggregation that can be built."""
 
 
-def default_batch_aggregations() -> list[Aggregation]:
+def default_batch_aggregations() -> list[Aggregation[Any]]:
     """What every batch gets, with or without a config."""
     return [ScalarDefaults(), JobStatusCounts(), MetricStatusCounts(), PassRate()]
 
 
-def load_class(reference: str, *, where: str) -> type[Aggregation]:
-    """Import ``package.module:Class`` and check that it is an Aggregation."""
+def load_class(reference: str, *, where: str) -> type[Aggregation[Any]]:
+    """Import ``package.module:Class`` and check that it is an Aggregation[Any]."""
     module_name, _, attr = reference.partition(":")
     if not module_name or not attr:
         raise AggregationConfigError(f"{where}: class {reference!r} is not 'module:Class'")
@@ -56,15 +56,15 @@ def load_class(reference: str, *, where: str) -> type[Aggregation]:
     return obj
 
 
-def kinds() -> dict[str, type[Aggregation] | str]:
+def kinds() -> dict[str, type[Aggregation[Any]] | str]:
     """Every aggregation kind a config may name: built-ins and installed plugins."""
-    found: dict[str, type[Aggregation] | str] = dict(BUILTIN)
+    found: dict[str, type[Aggregation[Any]] | str] = dict(BUILTIN)
     for ep in entry_points(group=ENTRY_POINT_GROUP):
         found.setdefault(ep.name, ep.value)
     return found
 
 
-def build(kind: str, options: Mapping[str, Any], *, where: str) -> Aggregation:
+def build(kind: str, options: Mapping[str, Any], *, where: str) -> Aggregation[Any]:
     """One aggregation from a config table, e.g. kind 'weighted_mean' and its keys."""
     options = dict(options)
     if kind == "custom":
@@ -120,7 +120,9 @@ def _accepts(hint: Any, value: Any) -> bool | None:
     return None
 
 
-def _check_option_types(cls: type[Aggregation], options: Mapping[str, Any], where: str) -> None:
+def _check_option_types(
+    cls: type[Aggregation[Any]], options: Mapping[str, Any], where: str
+) -> None:
     """A TOML value of the wrong type is a config error now, not a crash after the fetch."""
     if not dataclasses.is_dataclass(cls):
         return
@@ -147,9 +149,9 @@ def _describe(hint: Any) -> str:
 
 def build_all(
     tables: Mapping[str, Sequence[Mapping[str, Any]]], *, section: str
-) -> list[Aggregation]:
+) -> list[Aggregation[Any]]:
     """Every aggregation of a config section such as ``batch``: one per array-of-tables entry."""
-    built: list[Aggregation] = []
+    built: list[Aggregation[Any]] = []
     for kind, entries in tables.items():
         if not isinstance(entries, list):
             raise AggregationConfigError(

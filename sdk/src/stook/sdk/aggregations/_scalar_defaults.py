@@ -30,7 +30,7 @@ class _Column:
 
 
 @dataclass
-class ScalarDefaults(Aggregation):
+class ScalarDefaults(Aggregation[JobRecord]):
     """Writes ``N (mean)`` (a SCALAR, unit carried over) and ``N (distribution)`` (a
     HISTOGRAM of the per-job values) for every SCALAR job metric ``N`` in the batch."""
 

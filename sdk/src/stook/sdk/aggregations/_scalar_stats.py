@@ -31,7 +31,7 @@ def _check_stats(stats: Sequence[str]) -> None:
 
 
 @dataclass
-class ScalarStats(Aggregation):
+class ScalarStats(Aggregation[JobRecord]):
     """Statistics of one scalar job metric, each written as a SCALAR named ``metric (stat)``.
 
     One value per job is kept (8 bytes each), so quantiles are exact.

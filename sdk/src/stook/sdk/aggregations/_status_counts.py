@@ -33,7 +33,7 @@ def _ordered(
 
 
 @dataclass
-class JobStatusCounts(Aggregation):
+class JobStatusCounts(Aggregation[JobRecord]):
     """A BAR_CHART of the jobs' conflated statuses. Any BLOCKER job makes it FAIL_BLOCK,
     any WARNING or ERROR job FAIL_WARN, so the batch's status follows its jobs."""
 
@@ -66,7 +66,7 @@ class JobStatusCounts(Aggregation):
 
 
 @dataclass
-class MetricStatusCounts(Aggregation):
+class MetricStatusCounts(Aggregation[JobRecord]):
     """A BAR_CHART of the statuses of every job metric across the batch."""
 
     name: str = "Job metric statuses"
@@ -97,7 +97,7 @@ class MetricStatusCounts(Aggregation):
 
 
 @dataclass
-class PassRate(Aggregation):
+class PassRate(Aggregation[JobRecord]):
     """The share of jobs whose conflated status is PASSED, in percent."""
 
     name: str = "Pass rate"

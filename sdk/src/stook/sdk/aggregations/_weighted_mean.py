@@ -16,7 +16,7 @@ from stook.sdk.aggregations._units import pick_unit
 
 
 @dataclass
-class WeightedMean(Aggregation):
+class WeightedMean(Aggregation[JobRecord]):
     """``sum(w * x) / sum(w)`` over the jobs that report both `metric` and `weight`.
 
     Without a weight every job weighs 1. Jobs that report the metric but not the
