@@ -332,3 +332,51 @@ def test_the_process_exit_status(tmp_path: Path, emu: Emulator, case: str, code:
         assert "RuntimeError: lane model diverged on experience" in done.stderr
     else:
         assert "Traceback" not in done.stderr
+
+
+@pytest.mark.parametrize(
+    ("case", "named"),
+    [
+        ("empty-file", ("batch_metrics_config.json", "not valid JSON")),
+        ("json-list", ("batch_metrics_config.json", "JSON object")),
+        ("ftp-url", ("batch_metrics_config.json", "'apiURL'")),
+        ("no-project", ("batch_metrics_config.json", "'projectID'", "--project-id")),
+        ("no-inputs-folder", ("inputs folder", "does not exist")),
+        ("histogram-bounds", ("stook.toml", "[[batch.histogram]] #1")),
+        ("zero-concurrency", ("stook.toml", "[fetch] concurrency")),
+        ("share-above-one", ("--allow-missing-jobs", "1.5")),
+    ],
+)
+def test_more_bad_inputs(
+    capsys: pytest.CaptureFixture[str],
+    tmp_path: Path,
+    emu: Emulator,
+    case: str,
+    named: tuple[str, ...],
+) -> None:
+    inputs = tmp_path / "inputs"
+    body: object = batch_config(emu)
+    toml: str | None = None
+    extra: list[str] = []
+    if case == "empty-file":
+        body = ""
+    elif case == "json-list":
+        body = [batch_config(emu)]
+    elif case == "ftp-url":
+        body = batch_config(emu, apiURL="ftp://127.0.0.1/v1")
+    elif case == "no-project":
+        assert isinstance(body, dict)
+        del body["projectID"]
+    elif case == "histogram-bounds":
+        toml = BATCH_TOML.replace("upper = 40.0", "upper = 0.0")
+    elif case == "zero-concurrency":
+        toml = "[fetch]\nconcurrency = 0\n"
+    elif case == "share-above-one":
+        extra = ["--allow-missing-jobs", "1.5"]
+    if case != "no-inputs-folder":
+        write_json(inputs, body)
+    before = emu.stats.requests["api"]
+    code, err = stook_run(capsys, tmp_path, *extra, toml=toml)
+    assert code == 2, err
+    assert_failed(err, tmp_path / "outputs", *named)
+    assert emu.stats.requests["api"] == before  # refused before any fetching

@@ -15,6 +15,7 @@ from stook.sdk.aggregations._base import Aggregation, Needs
 from stook.sdk.aggregations._record import JobRecord
 
 DEFAULT_MAX_VALUES = 2_000_000
+_CONSOLIDATE_AT = 256
 
 
 @dataclass
@@ -80,6 +81,9 @@ class MergedHistogram(Aggregation[JobRecord]):
             self._bin(s)
             return
         self.chunks.append(s)
+        if len(self.chunks) >= _CONSOLIDATE_AT:
+            # Thousands of small Series cost far more than their values; one big one does not.
+            self.chunks = [pl.concat(self.chunks, rechunk=True)]
         if self.total > self.max_values:
             self._switch_to_counts()
 
