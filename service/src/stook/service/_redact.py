@@ -25,7 +25,12 @@ _MIN_SECRET_LENGTH: Final = 8
 _secrets: set[str] = set()
 
 _URL_IN_TEXT: Final = re.compile(r"""https?://[^\s'"<>`]+""", re.IGNORECASE)
-_BEARER_IN_TEXT: Final = re.compile(r"(Bearer\s+)[A-Za-z0-9._~+/=-]+", re.IGNORECASE)
+# A short lower-case word after "bearer" ("invalid bearer token") is prose, not a secret;
+# registered secrets are masked whatever their shape (see _mask_secrets).
+_BEARER_IN_TEXT: Final = re.compile(
+    r"(Bearer\s+)(?!(?-i:[a-z]{1,10})(?![A-Za-z0-9._~+/=-]))[A-Za-z0-9._~+/=-]+",
+    re.IGNORECASE,
+)
 
 
 def register_secret(secret: str) -> None:

@@ -26,7 +26,7 @@ import structlog
 from stook.sdk._errors import InvalidMetricsError, ReadError, StookError, WriterError
 from stook.service._batch import OUTPUT_NAME, run_batch
 from stook.service._config import ConfigError, StookConfig, load
-from stook.service._errors import ApiError
+from stook.service._errors import ApiError, AuthError
 from stook.service._inputs import BatchInputs, InputsError, ReportInputs, TestInputs, detect
 from stook.service._progress import for_stream
 from stook.service._test_mode import UserFunctionError, run_test_mode
@@ -132,6 +132,13 @@ async def run(options: RunOptions) -> Path:
         case TestInputs():
             log.info("test mode", config=config.source)
             return await run_test_mode(mode, config, output)
+
+
+def explain(error: BaseException) -> str:
+    """The one line printed for a failure, with a hint where the cause is likely local."""
+    if isinstance(error, AuthError):
+        return f"the API refused the token (authToken in the inputs config): {error}"
+    return str(error)
 
 
 def exit_code_for(error: BaseException) -> ExitCode:

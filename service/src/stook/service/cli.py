@@ -13,7 +13,7 @@ from pathlib import Path
 import structlog
 
 from stook.service._logging import configure_logging
-from stook.service._run import ExitCode, exit_code_for, resolve_options, run
+from stook.service._run import ExitCode, exit_code_for, explain, resolve_options, run
 from stook.service._test_mode import UserFunctionError
 
 log = structlog.get_logger("stook.cli")
@@ -109,8 +109,9 @@ def run_cli(argv: Sequence[str] | None = None) -> int:
             traceback.print_exception(error.__cause__)
         elif code is ExitCode.UNEXPECTED:
             traceback.print_exception(error)
-        log.error("stook failed", error=str(error), exit_code=int(code))
-        print(f"stook: error: {error}", file=sys.stderr)
+        message = explain(error)
+        log.error("stook failed", error=message, exit_code=int(code))
+        print(f"stook: error: {message}", file=sys.stderr)
         return int(code)
 
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 import uuid
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
+from datetime import datetime
 
 import polars as pl
 
@@ -46,3 +47,35 @@ class JobRecord:
             },
             schema={"name": pl.String, "value": pl.Float64, "unit": pl.String, "status": pl.String},
         )
+
+
+@dataclass(frozen=True, slots=True)
+class JobSummary:
+    """One job of a report's batch: what report aggregations read of it."""
+
+    job_id: uuid.UUID
+    experience_name: str
+    conflated_status: str
+    experience_id: uuid.UUID | None = None
+
+
+@dataclass(frozen=True, slots=True)
+class BatchRecord:
+    """One batch folded into report aggregations.
+
+    `scalars` holds the batch's SCALAR batch metrics by name; `metric_statuses` the
+    status of every batch metric. `jobs` lists its jobs. When the plan asks for job
+    metrics, `job_scalars` holds each SCALAR job metric's values across the batch's
+    jobs and `job_metric_statuses` every job metric's status.
+    """
+
+    batch_id: uuid.UUID
+    name: str
+    created: datetime
+    conflated_status: str = ""
+    scalars: Mapping[str, Scalar] = field(default_factory=dict)
+    metric_statuses: Sequence[str] = ()
+    jobs: Sequence[JobSummary] = ()
+    job_scalars: Mapping[str, Sequence[float]] = field(default_factory=dict)
+    job_scalar_units: Mapping[str, str] = field(default_factory=dict)
+    job_metric_statuses: Sequence[str] = ()

@@ -1,0 +1,162 @@
+"""`N over time` for every SCALAR batch metric, and the regression verdict on its latest batch."""
+
+from __future__ import annotations
+
+import uuid
+from collections import Counter
+from dataclasses import dataclass, field
+from datetime import datetime
+from typing import Self
+
+from stook.sdk import _data
+from stook.sdk._enums import MetricStatus
+from stook.sdk._writer import MetricsWriter
+from stook.sdk.aggregations._base import Aggregation
+from stook.sdk.aggregations._record import BatchRecord
+from stook.sdk.aggregations._units import pick_unit
+from stook.sdk.aggregations.report._regression import Verdict, check
+from stook.sdk.aggregations.report._timeline import BatchPoint, api_status, axis, axis_name
+
+
+@dataclass(frozen=True, slots=True)
+class _Value:
+    point: BatchPoint
+    value: float
+    status: str
+
+
+@dataclass
+class ScalarLines(Aggregation[BatchRecord]):
+    """A LINE_PLOT ``N over time`` per SCALAR batch metric ``N``: its value in each batch
+    that has it (gaps stay gaps), by creation time, with each batch's status.
+
+    The latest batch is compared with the median and MAD of up to `window` batches
+    before it; past `threshold` robust deviations the line's status is FAIL_WARN.
+    A TEXT metric ``Regressions`` says what moved, by how much, since which batch.
+    """
+
+    name: str = "Regressions"
+    window: int = 10
+    threshold: float = 3.5
+
+    values: dict[str, dict[uuid.UUID, _Value]] = field(default_factory=dict, init=False)
+    units: dict[str, Counter[str]] = field(default_factory=dict, init=False)
+    batches: set[BatchPoint] = field(default_factory=set, init=False)
+
+    def __post_init__(self) -> None:
+        if self.window < 1 or self.threshold <= 0:
+            raise ValueError("window must be at least 1 and threshold positive")
+
+    def update(self, record: BatchRecord) -> None:
+        point = BatchPoint(record.created, record.batch_id, record.name)
+        self.batches.add(point)
+        for metric, scalar in record.scalars.items():
+            self.values.setdefault(metric, {})[record.batch_id] = _Value(
+                point, scalar.value, scalar.status
+            )
+            self.units.setdefault(metric, Counter())[scalar.unit] += 1
+
+    def merge(self, other: Self) -> None:
+        self.batches |= other.batches
+        for metric, by_batch in other.values.items():
+            self.values.setdefault(metric, {}).update(by_batch)
+        for metric, units in other.units.items():
+            self.units.setdefault(metric, Counter()).update(units)
+
+    def verdicts(self) -> dict[str, tuple[Verdict, list[_Value]]]:
+        out = {}
+        for metric in sorted(self.values):
+            series = sorted(self.values[metric].values(), key=lambda v: v.point)
+            out[metric] = (
+                check([v.value for v in series], window=self.window, threshold=self.threshold),
+                series,
+            )
+        return out
+
+    def finish(self, writer: MetricsWriter) -> None:
+        if not self.batches:
+            return
+        origin = min(self.batches).created
+        verdicts = self.verdicts()
+        for metric, (verdict, series) in verdicts.items():
+            unit = pick_unit(self.units[metric])
+            label = f"{metric} over time"
+            times, x = axis(label, origin, [v.point for v in series])
+            y = _data.doubles(label, [v.value for v in series], unit=unit, index=times)
+            statuses = _data.statuses(
+                f"{label} (statuses)", [api_status(v.status) for v in series], index=times
+            )
+            writer.line_plot(
+                label,
+                x,
+                y,
+                statuses=[statuses],
+                x_axis_name=axis_name(origin),
+                y_axis_name=f"{metric} [{unit}]" if unit else metric,
+                legend=[metric],
+                status=MetricStatus.FAIL_WARN if verdict.regressed else MetricStatus.PASSED,
+                description=_describe(metric, verdict, series, unit),
+            )
+        self._write_summary(writer, verdicts)
+
+    def _write_summary(
+        self, writer: MetricsWriter, verdicts: dict[str, tuple[Verdict, list[_Value]]]
+    ) -> None:
+        latest = max(self.batches)
+        if len(self.batches) == 1:
+            writer.text(
+                self.name,
+                f"Only one batch in the report ({latest.name}): no regression verdict.",
+                status=MetricStatus.NOT_APPLICABLE,
+            )
+            return
+        moved = [
+            _describe(m, v, s, pick_unit(self.units[m]))
+            for m, (v, s) in verdicts.items()
+            if v.regressed
+        ]
+        judged = sum(v.regressed is not None for v, _ in verdicts.values())
+        if moved:
+            text = (
+                f"{len(moved)} of {judged} batch metrics moved in the latest batch "
+                f"({latest.name}, {latest.created:%Y-%m-%d %H:%M} UTC):\n"
+                + "\n".join(f"- {line}" for line in moved)
+            )
+            writer.text(self.name, text, status=MetricStatus.FAIL_WARN)
+            return
+        if judged == 0:
+            writer.text(
+                self.name,
+                f"No regression verdict: no batch metric has {3} or more earlier batches "
+                "to compare the latest one with.",
+                status=MetricStatus.NOT_APPLICABLE,
+            )
+            return
+        writer.text(
+            self.name,
+            f"No regression: in the latest batch ({latest.name}) all {judged} judged batch "
+            f"metrics are within {self.threshold:g} robust deviations of the median of "
+            f"up to {self.window} earlier batches.",
+        )
+
+
+def _describe(metric: str, verdict: Verdict, series: list[_Value], unit: str) -> str:
+    u = f" {unit}" if unit else ""
+    if verdict.regressed is None:
+        return f"{metric!r}: no regression verdict ({verdict.reason})."
+    since = series[-2].point
+    first = series[-1 - verdict.baseline_size].point
+    relative = verdict.relative_change
+    pct = f" ({relative:+.1%})" if relative is not None else ""
+    state = "moved" if verdict.regressed else "is stable"
+    return (
+        f"{metric!r} {state}: {verdict.latest:.6g}{u} in {series[-1].point.name} against a "
+        f"median of {verdict.baseline_median:.6g}{u} (MAD {verdict.baseline_mad:.3g}) over "
+        f"{verdict.baseline_size} batches from {first.name} to {since.name}: "
+        f"{verdict.change:+.6g}{u}{pct}, {verdict.deviations:.1f} robust deviations, "
+        f"since batch {since.name} ({since.created:%Y-%m-%d})."
+    )
+
+
+def _unused(_: datetime) -> None:  # pragma: no cover - keeps datetime imported for typing
+    pass
