@@ -14,7 +14,14 @@ from stook.sdk._errors import InvalidMetricsError, Problem, ReadError, StookErro
 from stook.sdk.aggregations import JobStatusCounts, MergedHistogram, ScalarStats, WeightedMean
 from stook.service import _config, _inputs
 from stook.service._batch import MissingJobsError
-from stook.service._config import ConfigError, FetchSettings, StookConfig, load, parse
+from stook.service._config import (
+    ConfigError,
+    FetchSettings,
+    ReportSettings,
+    StookConfig,
+    load,
+    parse,
+)
 from stook.service._errors import ApiError, AuthError, RetriesExhaustedError
 from stook.service._inputs import ApiAccess, BatchInputs, InputsError, ReportInputs, detect
 from stook.service._run import (
@@ -88,7 +95,9 @@ stats = ["p99"]
 [[batch.job_status_counts]]
 
 [report]
-anything = "kept as is"
+top_n = 5
+regression_threshold = 4
+job_metrics = ["Localization error"]
 """,
     )
     config = load(path)
@@ -96,7 +105,10 @@ anything = "kept as is"
     assert isinstance(config.fetch.timeout, float)
     assert config.batch_defaults is False
     assert config.test_metrics is None
-    assert config.report == {"anything": "kept as is"}
+    assert config.report == ReportSettings(
+        top_n=5, regression_threshold=4.0, job_metrics=("Localization error",)
+    )
+    assert isinstance(config.report.regression_threshold, float)
     assert [type(a) for a in config.batch_aggregations()] == [
         MergedHistogram,
         ScalarStats,

@@ -26,7 +26,12 @@ from pathlib import Path
 from typing import Any
 
 from stook.sdk._errors import StookError
-from stook.sdk.aggregations import AggregationConfigError, BatchAggregation, build_all
+from stook.sdk.aggregations import (
+    AggregationConfigError,
+    BatchAggregation,
+    ReportAggregation,
+    build_all,
+)
 
 
 class ConfigError(StookError):
@@ -42,6 +47,15 @@ class FetchSettings:
 
 
 @dataclass(frozen=True, slots=True)
+class ReportSettings:
+    defaults: bool = True
+    top_n: int = 10
+    regression_window: int = 10
+    regression_threshold: float = 3.5
+    job_metrics: tuple[str, ...] | None = None  # None: every SCALAR job metric
+
+
+@dataclass(frozen=True, slots=True)
 class StookConfig:
     source: str = "(built-in defaults)"
     fetch: FetchSettings = field(default_factory=FetchSettings)
@@ -49,11 +63,19 @@ class StookConfig:
     batch_defaults: bool = True
     # Raw [[batch.<kind>]] tables; built into fresh aggregations per run.
     batch_tables: Mapping[str, list[dict[str, Any]]] = field(default_factory=dict)
-    report: Mapping[str, Any] = field(default_factory=dict)
+    report: ReportSettings = field(default_factory=lambda: ReportSettings())
+    # Raw [[report.<kind>]] tables: custom report aggregations.
+    report_tables: Mapping[str, list[dict[str, Any]]] = field(default_factory=dict)
 
     def batch_aggregations(self) -> list[BatchAggregation]:
         try:
             return build_all(self.batch_tables, section="batch")
+        except AggregationConfigError as exc:
+            raise ConfigError(f"{self.source}: {exc}") from None
+
+    def report_aggregations(self) -> list[ReportAggregation]:
+        try:
+            return build_all(self.report_tables, section="report")
         except AggregationConfigError as exc:
             raise ConfigError(f"{self.source}: {exc}") from None
 
@@ -96,15 +118,19 @@ def parse(doc: Mapping[str, Any], *, source: str = "stook.toml") -> StookConfig:
     defaults = batch.pop("defaults", True)
     if not isinstance(defaults, bool):
         raise ConfigError(f"{source}: [batch] defaults must be true or false")
+    report, report_tables = _report(_table(doc, "report", source), source)
     config = StookConfig(
         source=source,
         fetch=fetch,
         test_metrics=metrics,
         batch_defaults=defaults,
         batch_tables=batch,
-        report=_table(doc, "report", source),
+        report=report,
+        report_tables=report_tables,
     )
-    config.batch_aggregations()  # fail now, before any fetching, on a bad table
+    # Fail now, before any fetching, on a bad table.
+    config.batch_aggregations()
+    config.report_aggregations()
     return config
 
 
@@ -122,6 +148,46 @@ def _only(table: Mapping[str, Any], allowed: set[str], where: str, source: str) 
             f"{source}: unknown key {sorted(extra)[0]!r} in {where} "
             f"(known: {', '.join(sorted(allowed))})"
         )
+
+
+def _report(
+    table: Mapping[str, Any], source: str
+) -> tuple[ReportSettings, dict[str, list[dict[str, Any]]]]:
+    settings = {k: v for k, v in table.items() if not isinstance(v, list | dict)}
+    # Tables are checked by build_all, which names a dict where a list belongs.
+    tables: dict[str, Any] = {k: v for k, v in table.items() if isinstance(v, list | dict)}
+    job_metrics = table.get("job_metrics")
+    if job_metrics is not None:
+        tables.pop("job_metrics", None)
+        if not isinstance(job_metrics, list) or not all(isinstance(m, str) for m in job_metrics):
+            raise ConfigError(f"{source}: [report] job_metrics must be a list of metric names")
+    known = {"defaults", "top_n", "regression_window", "regression_threshold"}
+    _only(settings, known, "[report]", source)
+    defaults = ReportSettings()
+    flag = settings.get("defaults", True)
+    if not isinstance(flag, bool):
+        raise ConfigError(f"{source}: [report] defaults must be true or false")
+
+    def number(key: str, kind: type[int] | type[float], default: float) -> Any:
+        value = settings.get(key, default)
+        if isinstance(value, bool) or not isinstance(value, int | float) or value <= 0:
+            raise ConfigError(f"{source}: [report] {key} must be a positive number")
+        if kind is int and not isinstance(value, int):
+            raise ConfigError(f"{source}: [report] {key} must be a whole number")
+        return kind(value)
+
+    return (
+        ReportSettings(
+            defaults=flag,
+            top_n=number("top_n", int, defaults.top_n),
+            regression_window=number("regression_window", int, defaults.regression_window),
+            regression_threshold=number(
+                "regression_threshold", float, defaults.regression_threshold
+            ),
+            job_metrics=tuple(job_metrics) if job_metrics is not None else None,
+        ),
+        tables,
+    )
 
 
 def _fetch(table: Mapping[str, Any], source: str) -> FetchSettings:

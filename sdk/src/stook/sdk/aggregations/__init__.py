@@ -7,14 +7,15 @@ dataclass, and name it in the config as ``[[batch.custom]] class = "pkg.mod:Clas
 or register it under the ``stook.aggregations`` entry-point group.
 """
 
-from stook.sdk.aggregations._base import Aggregation, BatchAggregation, Needs
+from stook.sdk.aggregations._base import Aggregation, BatchAggregation, Needs, ReportAggregation
 from stook.sdk.aggregations._histogram import MergedHistogram
-from stook.sdk.aggregations._record import JobRecord, Scalar
+from stook.sdk.aggregations._record import BatchRecord, JobRecord, JobSummary, Scalar
 from stook.sdk.aggregations._registry import (
     AggregationConfigError,
     build,
     build_all,
     default_batch_aggregations,
+    default_report_aggregations,
 )
 from stook.sdk.aggregations._scalar_defaults import ScalarDefaults
 from stook.sdk.aggregations._scalar_stats import ScalarStats
@@ -25,12 +26,15 @@ __all__ = [
     "Aggregation",
     "AggregationConfigError",
     "BatchAggregation",
+    "BatchRecord",
     "JobRecord",
     "JobStatusCounts",
+    "JobSummary",
     "MergedHistogram",
     "MetricStatusCounts",
     "Needs",
     "PassRate",
+    "ReportAggregation",
     "Scalar",
     "ScalarDefaults",
     "ScalarStats",
@@ -38,4 +42,5 @@ __all__ = [
     "build",
     "build_all",
     "default_batch_aggregations",
+    "default_report_aggregations",
 ]

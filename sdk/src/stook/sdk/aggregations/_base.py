@@ -8,7 +8,7 @@ from dataclasses import dataclass
 from typing import Generic, Self, TypeVar
 
 from stook.sdk._writer import MetricsWriter
-from stook.sdk.aggregations._record import JobRecord
+from stook.sdk.aggregations._record import BatchRecord, JobRecord
 
 
 @dataclass(frozen=True, slots=True)
@@ -69,3 +69,5 @@ class Aggregation(ABC, Generic[R]):
 
 #: an aggregation over the jobs of a batch (batch mode)
 BatchAggregation = Aggregation[JobRecord]
+#: an aggregation over the batches of a report (report mode)
+ReportAggregation = Aggregation[BatchRecord]

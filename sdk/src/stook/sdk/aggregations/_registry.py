@@ -1,5 +1,6 @@
-"""Aggregations by name: the built-ins, plugins from the `stook.aggregations` entry-point
-group, and ``module:Class`` references; built from the config's ``[[batch.<kind>]]`` tables."""
+"""Aggregations by name: the built-ins, plugins from the `stook.aggregations` (batch) and
+`stook.report_aggregations` (report) entry-point groups, and ``module:Class`` references;
+built from the config's ``[[batch.<kind>]]`` and ``[[report.<kind>]]`` tables."""
 
 from __future__ import annotations
 
@@ -20,8 +21,18 @@ from stook.sdk.aggregations._scalar_defaults import ScalarDefaults
 from stook.sdk.aggregations._scalar_stats import ScalarStats
 from stook.sdk.aggregations._status_counts import JobStatusCounts, MetricStatusCounts, PassRate
 from stook.sdk.aggregations._weighted_mean import WeightedMean
+from stook.sdk.aggregations.report import (
+    BatchMetricStatusCounts,
+    FlakyExperiences,
+    JobMetricStatusCounts,
+    JobScalarDistributions,
+    MostFailedExperiences,
+    ScalarLines,
+    TestStatusOverTime,
+)
 
 ENTRY_POINT_GROUP = "stook.aggregations"
+ENTRY_POINT_GROUPS = {"batch": ENTRY_POINT_GROUP, "report": "stook.report_aggregations"}
 
 BUILTIN: dict[str, type[Aggregation[Any]]] = {
     "weighted_mean": WeightedMean,
@@ -31,6 +42,16 @@ BUILTIN: dict[str, type[Aggregation[Any]]] = {
     "metric_status_counts": MetricStatusCounts,
     "pass_rate": PassRate,
 }
+REPORT_BUILTIN: dict[str, type[Aggregation[Any]]] = {
+    "scalar_lines": ScalarLines,
+    "most_failed_experiences": MostFailedExperiences,
+    "flaky_experiences": FlakyExperiences,
+    "test_status_over_time": TestStatusOverTime,
+    "job_metric_status_counts": JobMetricStatusCounts,
+    "batch_metric_status_counts": BatchMetricStatusCounts,
+    "job_scalar_distributions": JobScalarDistributions,
+}
+_BUILTIN_BY_SECTION = {"batch": BUILTIN, "report": REPORT_BUILTIN}
 
 
 class AggregationConfigError(StookError):
@@ -40,6 +61,26 @@ class AggregationConfigError(StookError):
 def default_batch_aggregations() -> list[Aggregation[Any]]:
     """What every batch gets, with or without a config."""
     return [ScalarDefaults(), JobStatusCounts(), MetricStatusCounts(), PassRate()]
+
+
+def default_report_aggregations(
+    *,
+    project_id: str,
+    top_n: int = 10,
+    regression_window: int = 10,
+    regression_threshold: float = 3.5,
+    job_metrics: Sequence[str] | None = None,
+) -> list[Aggregation[Any]]:
+    """What every report gets; the arguments are the ``[report]`` settings."""
+    return [
+        ScalarLines(window=regression_window, threshold=regression_threshold),
+        MostFailedExperiences(top_n=top_n),
+        TestStatusOverTime(project_id=project_id),
+        JobMetricStatusCounts(),
+        BatchMetricStatusCounts(),
+        JobScalarDistributions(metrics=job_metrics),
+        FlakyExperiences(top_n=top_n),
+    ]
 
 
 def load_class(reference: str, *, where: str) -> type[Aggregation[Any]]:
@@ -56,15 +97,17 @@ def load_class(reference: str, *, where: str) -> type[Aggregation[Any]]:
     return obj
 
 
-def kinds() -> dict[str, type[Aggregation[Any]] | str]:
-    """Every aggregation kind a config may name: built-ins and installed plugins."""
-    found: dict[str, type[Aggregation[Any]] | str] = dict(BUILTIN)
-    for ep in entry_points(group=ENTRY_POINT_GROUP):
+def kinds(section: str = "batch") -> dict[str, type[Aggregation[Any]] | str]:
+    """Every aggregation kind a config section may name: built-ins and installed plugins."""
+    found: dict[str, type[Aggregation[Any]] | str] = dict(_BUILTIN_BY_SECTION[section])
+    for ep in entry_points(group=ENTRY_POINT_GROUPS[section]):
         found.setdefault(ep.name, ep.value)
     return found
 
 
-def build(kind: str, options: Mapping[str, Any], *, where: str) -> Aggregation[Any]:
+def build(
+    kind: str, options: Mapping[str, Any], *, where: str, section: str = "batch"
+) -> Aggregation[Any]:
     """One aggregation from a config table, e.g. kind 'weighted_mean' and its keys."""
     options = dict(options)
     if kind == "custom":
@@ -75,7 +118,7 @@ def build(kind: str, options: Mapping[str, Any], *, where: str) -> Aggregation[A
             )
         cls = load_class(reference, where=where)
     else:
-        known = kinds()
+        known = kinds(section)
         if kind not in known:
             raise AggregationConfigError(
                 f"{where}: unknown aggregation kind {kind!r} "
@@ -158,5 +201,6 @@ def build_all(
                 f"[{section}.{kind}] must be an array of tables: write [[{section}.{kind}]]"
             )
         for i, options in enumerate(entries):
-            built.append(build(kind, options, where=f"[[{section}.{kind}]] #{i + 1}"))
+            where = f"[[{section}.{kind}]] #{i + 1}"
+            built.append(build(kind, options, where=where, section=section))
     return built

@@ -24,7 +24,7 @@ METRIC_STATUSES = (
 )
 
 
-def _ordered(
+def ordered_counts(
     counts: Counter[str], order: tuple[str, ...], always: tuple[str, ...]
 ) -> dict[str, float]:
     keys = [k for k in order if k in always or counts[k]]
@@ -57,7 +57,7 @@ class JobStatusCounts(Aggregation[JobRecord]):
     def finish(self, writer: MetricsWriter) -> None:
         writer.bar_chart_from(
             self.name,
-            _ordered(self.counts, JOB_STATUSES, _ALWAYS_SHOWN_JOB_STATUSES),
+            ordered_counts(self.counts, JOB_STATUSES, _ALWAYS_SHOWN_JOB_STATUSES),
             x_axis_name="Conflated job status",
             y_axis_name="Jobs",
             status=self.status,
@@ -88,7 +88,7 @@ class MetricStatusCounts(Aggregation[JobRecord]):
             status = MetricStatus.FAIL_WARN
         writer.bar_chart_from(
             self.name,
-            _ordered(self.counts, METRIC_STATUSES, ("PASSED", "FAIL_WARN", "FAIL_BLOCK")),
+            ordered_counts(self.counts, METRIC_STATUSES, ("PASSED", "FAIL_WARN", "FAIL_BLOCK")),
             x_axis_name="Metric status",
             y_axis_name="Job metrics",
             status=status,

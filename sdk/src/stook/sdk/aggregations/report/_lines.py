@@ -5,7 +5,6 @@ from __future__ import annotations
 import uuid
 from collections import Counter
 from dataclasses import dataclass, field
-from datetime import datetime
 from typing import Self
 
 from stook.sdk import _data
@@ -14,7 +13,7 @@ from stook.sdk._writer import MetricsWriter
 from stook.sdk.aggregations._base import Aggregation
 from stook.sdk.aggregations._record import BatchRecord
 from stook.sdk.aggregations._units import pick_unit
-from stook.sdk.aggregations.report._regression import Verdict, check
+from stook.sdk.aggregations.report._regression import MIN_BASELINE, Verdict, check
 from stook.sdk.aggregations.report._timeline import BatchPoint, api_status, axis, axis_name
 
 
@@ -127,8 +126,8 @@ class ScalarLines(Aggregation[BatchRecord]):
         if judged == 0:
             writer.text(
                 self.name,
-                f"No regression verdict: no batch metric has {3} or more earlier batches "
-                "to compare the latest one with.",
+                f"No regression verdict: no batch metric has {MIN_BASELINE} or more earlier "
+                "batches to compare the latest one with.",
                 status=MetricStatus.NOT_APPLICABLE,
             )
             return
@@ -156,7 +155,3 @@ def _describe(metric: str, verdict: Verdict, series: list[_Value], unit: str) ->
         f"{verdict.change:+.6g}{u}{pct}, {verdict.deviations:.1f} robust deviations, "
         f"since batch {since.name} ({since.created:%Y-%m-%d})."
     )
-
-
-def _unused(_: datetime) -> None:  # pragma: no cover - keeps datetime imported for typing
-    pass

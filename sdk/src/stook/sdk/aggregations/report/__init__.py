@@ -1,0 +1,26 @@
+"""Report aggregations: longitudinal metrics over a test suite's batches.
+
+Each folds in one `BatchRecord` at a time, like batch aggregations fold in jobs.
+"""
+
+from stook.sdk.aggregations.report._experiences import FlakyExperiences, MostFailedExperiences
+from stook.sdk.aggregations.report._job_distributions import JobScalarDistributions
+from stook.sdk.aggregations.report._lines import ScalarLines
+from stook.sdk.aggregations.report._regression import Verdict, check
+from stook.sdk.aggregations.report._statuses import (
+    BatchMetricStatusCounts,
+    JobMetricStatusCounts,
+    TestStatusOverTime,
+)
+
+__all__ = [
+    "BatchMetricStatusCounts",
+    "FlakyExperiences",
+    "JobMetricStatusCounts",
+    "JobScalarDistributions",
+    "MostFailedExperiences",
+    "ScalarLines",
+    "TestStatusOverTime",
+    "Verdict",
+    "check",
+]
