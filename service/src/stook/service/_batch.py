@@ -12,7 +12,7 @@ import structlog
 from stook.sdk._enums import MetricStatus
 from stook.sdk._writer import MetricsWriter
 from stook.sdk.aggregations import BatchAggregation, JobRecord, Needs, default_batch_aggregations
-from stook.service._batch_fetch import BatchFetcher, FetchOutcome, FetchPlan
+from stook.service._batch_fetch import BatchFetcher, FetchOutcome, FetchPlan, MissingJob
 from stook.service._client import ApiClient
 from stook.service._config import ConfigError, StookConfig
 from stook.service._errors import ApiError
@@ -127,7 +127,7 @@ async def run_batch(
 
     check_names(needs, outcome, config.source)
     writer = MetricsWriter(inputs.batch_id, deterministic=True)
-    _write_missing(writer, outcome, allow_missing_jobs)
+    write_missing_jobs(writer, outcome.missing, outcome.jobs_listed, allow_missing_jobs)
     if outcome.jobs_listed == 0:
         writer.text(
             "Batch summary",
@@ -149,24 +149,26 @@ async def run_batch(
     )
 
 
-def _write_missing(writer: MetricsWriter, outcome: FetchOutcome, allowed: float) -> None:
-    missing = outcome.missing
+def write_missing_jobs(
+    writer: MetricsWriter, missing: list[MissingJob], jobs: int, allowed: float
+) -> None:
+    """Fail naming the first missing job, or, within the allowed share, say which are missing."""
     if not missing:
         return
-    share = len(missing) / max(outcome.jobs_listed, 1)
+    share = len(missing) / max(jobs, 1)
     first = missing[0]
     if share > allowed:
         more = f" and {len(missing) - 1} more" if len(missing) > 1 else ""
         raise MissingJobsError(
             f"job {first.job_id} could not be fetched ({first.reason}){more}; "
-            f"{len(missing)} of {outcome.jobs_listed} jobs missing, allowed share {allowed:g}"
+            f"{len(missing)} of {jobs} jobs missing, allowed share {allowed:g}"
         )
     lines = [
         f"- {m.job_id} ({m.experience_name or 'unknown experience'}): {m.reason}" for m in missing
     ]
     writer.text(
         "Missing jobs",
-        f"{len(missing)} of {outcome.jobs_listed} jobs could not be fetched and are left out "
+        f"{len(missing)} of {jobs} jobs could not be fetched and are left out "
         "of every batch metric:\n" + "\n".join(lines),
         status=MetricStatus.FAIL_WARN,
     )

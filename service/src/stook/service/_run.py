@@ -29,6 +29,7 @@ from stook.service._config import ConfigError, StookConfig, load
 from stook.service._errors import ApiError, AuthError
 from stook.service._inputs import BatchInputs, InputsError, ReportInputs, TestInputs, detect
 from stook.service._progress import for_stream
+from stook.service._report import run_report
 from stook.service._test_mode import UserFunctionError, run_test_mode
 
 log = structlog.get_logger("stook.run")
@@ -106,7 +107,28 @@ async def run(options: RunOptions) -> Path:
     output = options.outputs / OUTPUT_NAME
     match mode:
         case ReportInputs():
-            raise UsageError("report mode is not available yet (report_config.json found)")
+            log.info("report mode", report_id=str(mode.report_id), config=config.source)
+            report = await run_report(
+                mode,
+                config,
+                options.outputs,
+                allow_missing_jobs=options.allow_missing_jobs,
+                progress=for_stream(label="jobs"),
+            )
+            log.info(
+                "report metrics written",
+                output=str(report.output),
+                status=report.status.name,
+                batches=report.outcome.batches,
+                jobs=report.outcome.jobs,
+                jobs_missing=len(report.outcome.missing),
+                metrics=len(report.metrics_written),
+                requests=report.requests,
+                retries=report.retries,
+                bytes=report.bytes_received,
+                seconds=round(report.outcome.seconds, 3),
+            )
+            return report.output
         case BatchInputs():
             log.info("batch mode", batch_id=str(mode.batch_id), config=config.source)
             result = await run_batch(
