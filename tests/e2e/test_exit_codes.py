@@ -167,13 +167,18 @@ def test_unknown_data_in_a_histogram(
     assert_failed(err, tmp_path / "outputs", "stook.toml", "metrics data named 'speed'")
 
 
-def test_report_config_present(
-    capsys: pytest.CaptureFixture[str], tmp_path: Path, emu: Emulator
-) -> None:
-    emu.write_report_config(tmp_path / "inputs")
+def test_unknown_report(capsys: pytest.CaptureFixture[str], tmp_path: Path, emu: Emulator) -> None:
+    unknown = uuid.uuid4()
+    config = {
+        "authToken": emu.token,
+        "apiURL": emu.api_url,
+        "reportID": str(unknown),
+        "projectID": str(emu.project_id),
+    }
+    write_json(tmp_path / "inputs", config, name="report_config.json")
     code, err = stook_run(capsys, tmp_path)
-    assert code == 2, err
-    assert_failed(err, tmp_path / "outputs", "report mode", "report_config.json")
+    assert code == 3, err
+    assert_failed(err, tmp_path / "outputs", f"report {unknown} does not exist")
 
 
 # ---- 3: the API refused or failed ----

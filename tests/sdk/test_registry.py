@@ -154,10 +154,19 @@ def test_unknown_option_names_the_table_and_the_option() -> None:
 
 
 def test_missing_option_names_the_table() -> None:
-    with pytest.raises(AggregationConfigError, match=r"^\[\[report\.histogram\]\] #1: .*'upper'"):
+    with pytest.raises(AggregationConfigError, match=r"^\[\[batch\.histogram\]\] #1: .*'upper'"):
         build_all(
             {"histogram": [{"name": "H", "data": "d", "lower": 0}]},
-            section="report",
+            section="batch",
+        )
+
+
+def test_report_sections_know_their_own_kinds() -> None:
+    built = build_all({"scalar_lines": [{"window": 5}]}, section="report")
+    assert [type(a).__name__ for a in built] == ["ScalarLines"]
+    with pytest.raises(AggregationConfigError, match=r"unknown aggregation kind 'histogram'"):
+        build_all(
+            {"histogram": [{"name": "H", "data": "d", "lower": 0, "upper": 1}]}, section="report"
         )
 
 
