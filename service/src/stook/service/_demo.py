@@ -3,6 +3,8 @@
 1. Test mode: the SDK example writes every metric type for one synthetic test.
 2. Batch mode: the emulator (in its own process, with latency and transient faults)
    serves a batch; stook fetches and aggregates it with an example config.
+3. Report mode: the same emulator serves a test suite's batches over two weeks;
+   stook draws them over time and says what regressed.
 Each output is validated and summarised; the batch summary adds jobs, requests,
 retries and seconds.
 """
@@ -18,11 +20,14 @@ from stook.sdk._reader import read_job_metrics
 from stook.sdk._validate import find_problems
 from stook.service._batch import run_batch
 from stook.service._config import StookConfig, parse
-from stook.service._inputs import BatchInputs, TestInputs, detect
+from stook.service._inputs import BatchInputs, ReportInputs, TestInputs, detect
 from stook.service._inspect import summary_lines
 from stook.service._progress import for_stream
+from stook.service._report import run_report
 from stook.service._test_mode import run_test_mode
 from stook.service.emulator import EmulatorConfig, EmulatorProcess
+
+REPORT_BATCHES = 14
 
 EXAMPLE_CONFIG = """\
 # The example stook.toml the demo runs with.
@@ -47,6 +52,11 @@ buckets = 20
 [[batch.scalar_stats]]
 metric = "Max speed"
 stats = ["min", "p50", "p95", "max"]
+
+[report]
+top_n = 8
+regression_window = 10
+regression_threshold = 3.5
 """
 
 
@@ -82,13 +92,16 @@ def run_demo(*, jobs: int, output: Path, seed: int) -> int:
     emulator_config = EmulatorConfig(
         seed=seed,
         jobs_per_batch=jobs,
-        cache_jobs=max(jobs, 1),
+        report_batches=REPORT_BATCHES,
+        report_jobs_per_batch=40,
+        cache_jobs=max(jobs, 1) + REPORT_BATCHES * 40,
         latency_ms=10.0,
         fault_5xx=0.03,
         fault_429=0.01,
         retry_after_max_s=0,
     )
     inputs = output / "inputs"
+    report_inputs = output / "report-inputs"
     with EmulatorProcess(emulator_config) as emulator:
         emulator.write_batch_config(inputs)
         batch = detect(inputs)
@@ -97,13 +110,29 @@ def run_demo(*, jobs: int, output: Path, seed: int) -> int:
         result = asyncio.run(run_batch(batch, config, output, progress=for_stream(label="jobs")))
         seconds = time.perf_counter() - started
         stats = emulator.stats()
-    invalid += _print_output(result.output)
-    faults = sum(stats.faults.values())
+        invalid += _print_output(result.output)
+        faults = sum(stats.faults.values())
+        print(
+            f"  {result.outcome.jobs_listed} jobs ({len(result.outcome.missing)} missing), "
+            f"{result.requests:,} requests, {result.retries} retries after {faults} injected "
+            f"faults, {result.bytes_received / 1e6:.1f} MB, {seconds:.2f} s"
+        )
+
+        print(f"\n== report mode: {REPORT_BATCHES} batches of a test suite over time ==")
+        emulator.write_report_config(report_inputs)
+        report_mode = detect(report_inputs)
+        assert isinstance(report_mode, ReportInputs)
+        started = time.perf_counter()
+        report = asyncio.run(
+            run_report(report_mode, config, output / "report", progress=for_stream(label="jobs"))
+        )
+        seconds = time.perf_counter() - started
+    invalid += _print_output(report.output)
     print(
-        f"  {result.outcome.jobs_listed} jobs ({len(result.outcome.missing)} missing), "
-        f"{result.requests:,} requests, {result.retries} retries after {faults} injected "
-        f"faults, {result.bytes_received / 1e6:.1f} MB, {seconds:.2f} s"
+        f"  {report.outcome.batches} batches, {report.outcome.jobs} jobs, "
+        f"{report.requests:,} requests, {report.retries} retries, {seconds:.2f} s"
     )
+    print("  Regressions: " + report.regressions.replace("\n", "\n    "))
     print(
         f"\nConfig used: {config_path}. Run it yourself: stook run --inputs {inputs} "
         f"--outputs {output} --config {config_path} (with `stook emulate` serving)."
