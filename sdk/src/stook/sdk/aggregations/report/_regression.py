@@ -6,6 +6,7 @@ baseline, where a mean and a standard deviation would be dragged along by them.
 
 from __future__ import annotations
 
+import math
 import statistics
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -49,7 +50,11 @@ def check(values: Sequence[float], *, window: int, threshold: float) -> Verdict:
     if not values:
         raise ValueError("no values to check")
     latest = values[-1]
-    baseline = list(values[-1 - window : -1]) if window > 0 else []
+    if not math.isfinite(latest):
+        return Verdict(None, latest, reason="the latest value is not a finite number")
+    # Infinite or NaN batches say nothing about the usual level; they are left out.
+    earlier = list(values[-1 - window : -1]) if window > 0 else []
+    baseline = [v for v in earlier if math.isfinite(v)]
     if len(baseline) < MIN_BASELINE:
         return Verdict(
             None,
