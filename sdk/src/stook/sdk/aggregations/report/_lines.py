@@ -63,13 +63,22 @@ class ScalarLines(Aggregation[BatchRecord]):
             self.units.setdefault(metric, Counter()).update(units)
 
     def verdicts(self) -> dict[str, tuple[Verdict, list[_Value]]]:
+        latest = max(self.batches) if self.batches else None
         out = {}
         for metric in sorted(self.values):
             series = sorted(self.values[metric].values(), key=lambda v: v.point)
-            out[metric] = (
-                check([v.value for v in series], window=self.window, threshold=self.threshold),
-                series,
-            )
+            if latest is not None and series[-1].point != latest:
+                # Judging an older batch would report it as "moved in the latest batch".
+                verdict = Verdict(
+                    None,
+                    series[-1].value,
+                    reason=f"the latest batch ({latest.name}) does not report it",
+                )
+            else:
+                verdict = check(
+                    [v.value for v in series], window=self.window, threshold=self.threshold
+                )
+            out[metric] = (verdict, series)
         return out
 
     def finish(self, writer: MetricsWriter) -> None:
@@ -143,8 +152,8 @@ def _describe(metric: str, verdict: Verdict, series: list[_Value], unit: str) ->
     u = f" {unit}" if unit else ""
     if verdict.regressed is None:
         return f"{metric!r}: no regression verdict ({verdict.reason})."
-    since = series[-2].point
-    first = series[-1 - verdict.baseline_size].point
+    first = series[verdict.baseline_span[0]].point
+    since = series[verdict.baseline_span[1]].point
     relative = verdict.relative_change
     pct = f" ({relative:+.1%})" if relative is not None else ""
     state = "moved" if verdict.regressed else "is stable"

@@ -9,7 +9,7 @@ from __future__ import annotations
 import math
 import statistics
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 # 1.4826 * MAD estimates the standard deviation of normally distributed values.
 MAD_TO_SIGMA = 1.4826
@@ -29,6 +29,9 @@ class Verdict:
     deviations: float = 0.0
     baseline_size: int = 0
     reason: str = ""
+    #: positions in the checked values of the baseline's first and last value; where a
+    #: baseline sits says nothing about the verdict, so equal verdicts may differ here
+    baseline_span: tuple[int, int] = field(default=(0, 0), compare=False)
 
     @property
     def change(self) -> float:
@@ -53,8 +56,9 @@ def check(values: Sequence[float], *, window: int, threshold: float) -> Verdict:
     if not math.isfinite(latest):
         return Verdict(None, latest, reason="the latest value is not a finite number")
     # Infinite or NaN batches say nothing about the usual level; they are left out.
-    earlier = list(values[-1 - window : -1]) if window > 0 else []
-    baseline = [v for v in earlier if math.isfinite(v)]
+    start = max(len(values) - 1 - window, 0)
+    positions = [i for i in range(start, len(values) - 1) if math.isfinite(values[i])]
+    baseline = [values[i] for i in positions]
     if len(baseline) < MIN_BASELINE:
         return Verdict(
             None,
@@ -73,4 +77,5 @@ def check(values: Sequence[float], *, window: int, threshold: float) -> Verdict:
         baseline_mad=mad,
         deviations=deviations,
         baseline_size=len(baseline),
+        baseline_span=(positions[0], positions[-1]),
     )
