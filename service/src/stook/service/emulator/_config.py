@@ -28,6 +28,13 @@ class EmulatorConfig:
     report_jobs_per_batch: int = 40
     decoy_batches: int = 3  # batches on another branch, inside the report window
     report_respect_revision_boundary: bool = False
+    # The latest report batch's "Mean localization error" jumps to twice its usual level
+    # (a seeded regression); "Mean distance driven" always stays within 1% of its level.
+    report_regression: bool = True
+    # Indices (creation order, from 0) of report batches that list no batch metrics at all,
+    # and of report batches whose batch metrics lack "Mean localization error" (gaps).
+    report_batches_without_metrics: tuple[int, ...] = ()
+    report_partial_metric_batches: tuple[int, ...] = ()
     cache_jobs: int = 256  # generated job outputs kept (an LRU); the rest is regenerated
 
     # ---- paging ----
@@ -81,8 +88,14 @@ class EmulatorConfig:
                 raise ValueError("a rate limit must be positive (or None)")
         if any(o not in ORIGINS for o in self.fault_origins):
             raise ValueError(f"fault_origins must be drawn from {ORIGINS}")
-        if any(isinstance(i, bool) or not isinstance(i, int) or i < 0 for i in self.broken_jobs):
-            raise ValueError("broken_jobs must hold job indices (whole numbers from 0)")
+        for name in (
+            "broken_jobs",
+            "report_batches_without_metrics",
+            "report_partial_metric_batches",
+        ):
+            indices = getattr(self, name)
+            if any(isinstance(i, bool) or not isinstance(i, int) or i < 0 for i in indices):
+                raise ValueError(f"{name} must hold indices (whole numbers from 0)")
 
     @property
     def fault_total(self) -> float:
@@ -101,7 +114,12 @@ class EmulatorConfig:
         if unknown:
             raise ValueError(f"unknown emulator settings: {sorted(unknown)}")
         clean = dict(values)
-        for name in ("fault_origins", "broken_jobs"):
+        for name in (
+            "fault_origins",
+            "broken_jobs",
+            "report_batches_without_metrics",
+            "report_partial_metric_batches",
+        ):
             if name in clean:
                 clean[name] = tuple(clean[name])
         return cls(**clean)

@@ -57,6 +57,11 @@ STEP_NS = 100_000_000  # 10 Hz samples
 _ERROR_WITHOUT_METRICS = 6
 _GAP_SLOT = 9
 _IMAGE_SLOT = 4
+# The report's stable batch metrics stay within this share of their level; a seeded
+# regression multiplies "Mean localization error" by REGRESSION_FACTOR, past its limit.
+STABLE_NOISE = 0.01
+REGRESSION_FACTOR = 2.0
+LOCALIZATION_LIMIT = 0.3
 
 
 class BatchKind(enum.StrEnum):
@@ -172,6 +177,7 @@ class Truth:
     data_names: tuple[str, ...]
     external_data_names: tuple[str, ...]
     overall_status: str
+    units: dict[str, str] = field(default_factory=dict)  # scalar name -> unit ("" for none)
 
 
 @dataclass(frozen=True, slots=True)
@@ -260,7 +266,9 @@ class Dataset:
         revision_cut = c.report_batches // 3  # earlier batches ran the previous revision
         latest_revision = 2 if revision_cut > 0 else 1
         out: list[BatchSpec] = []
-        main_created = BASE_TIME + timedelta(days=c.report_batches, hours=6)
+        # A day after the last report batch, past the report's window (which ends 12 hours
+        # after its last batch, or after BASE_TIME when it has none).
+        main_created = BASE_TIME + timedelta(days=max(1, c.report_batches), hours=6)
         out.append(
             BatchSpec(
                 self._id("batch:main"),
@@ -508,13 +516,75 @@ class Dataset:
             batch = self.batch(batch_id)
             if batch is None:
                 return None
-            cached = _split(batch_id, _generate_batch(batch, self.jobs(batch_id)))
+            generated = _generate_batch(
+                self.seed, batch, self.jobs(batch_id), self.batch_metrics_plan(batch)
+            )
+            cached = _split(batch_id, generated)
             self._batch_outputs[batch_id] = cached
         return cached
 
     def batch_metrics(self, batch_id: uuid.UUID) -> pb.JobMetrics:
         batch = self._batch_index[batch_id]
-        return _generate_batch(batch, self.jobs(batch_id))[0].to_proto()
+        plan = self.batch_metrics_plan(batch)
+        return _generate_batch(self.seed, batch, self.jobs(batch_id), plan)[0].to_proto()
+
+    def batch_metrics_plan(self, batch: BatchSpec) -> BatchMetricsPlan:
+        """What the config makes of a batch's batch metrics (only report batches vary)."""
+        c = self.config
+        if batch.kind is not BatchKind.REPORT:
+            return BatchMetricsPlan()
+        return BatchMetricsPlan(
+            with_metrics=batch.index not in c.report_batches_without_metrics,
+            with_localization=batch.index not in c.report_partial_metric_batches,
+            regressed=c.report_regression and batch.index == c.report_batches - 1,
+        )
+
+    # ---- ground truth over a report ----
+
+    def report_batch_scalars(
+        self, report_id: uuid.UUID | None = None
+    ) -> list[tuple[BatchSpec, dict[str, tuple[float, str, str]]]]:
+        """Each batch of the report, oldest first, with its SCALAR batch metrics as
+        name -> (value, unit, API status); a batch without batch metrics maps to {}."""
+        out: list[tuple[BatchSpec, dict[str, tuple[float, str, str]]]] = []
+        for batch in self.report_batches(report_id):
+            truth = self._batch_truth(batch)
+            out.append(
+                (
+                    batch,
+                    {
+                        name: (value, truth.units.get(name, ""), truth.statuses[name])
+                        for name, value in truth.scalars.items()
+                    },
+                )
+            )
+        return out
+
+    def report_batch_metric_statuses(
+        self, report_id: uuid.UUID | None = None
+    ) -> list[tuple[BatchSpec, dict[str, str]]]:
+        """Each batch of the report, oldest first, with every batch metric's API status."""
+        return [(b, dict(self._batch_truth(b).statuses)) for b in self.report_batches(report_id)]
+
+    def report_job_statuses(
+        self, report_id: uuid.UUID | None = None
+    ) -> list[tuple[BatchSpec, dict[str, list[str]]]]:
+        """Each batch of the report, oldest first, with experience name -> the conflated
+        statuses of its jobs in that batch (in job order)."""
+        out: list[tuple[BatchSpec, dict[str, list[str]]]] = []
+        for batch in self.report_batches(report_id):
+            per_experience: dict[str, list[str]] = {}
+            for job in self.jobs(batch.id):
+                per_experience.setdefault(job.experience.name, []).append(job.conflated_status)
+            out.append((batch, per_experience))
+        return out
+
+    def _batch_truth(self, batch: BatchSpec) -> Truth:
+        if batch.kind is BatchKind.MAIN:  # its batch metrics are being computed: none yet
+            return _TruthBuilder().build(MetricsWriter(batch.id, deterministic=True))
+        output = self.batch_output(batch.id)
+        assert output is not None
+        return output.truth
 
 
 # ---- generation ----
@@ -524,6 +594,7 @@ class _TruthBuilder:
     def __init__(self) -> None:
         self.scalars: dict[str, float] = {}
         self.series: dict[str, tuple[float, ...]] = {}
+        self.units: dict[str, str] = {}
 
     def build(self, writer: MetricsWriter) -> Truth:
         metrics = writer.metrics
@@ -535,6 +606,7 @@ class _TruthBuilder:
             data_names=tuple(d.name for d in writer.data),
             external_data_names=tuple(d.name for d in writer.data if d.external_path is not None),
             overall_status=writer.status.name if metrics else "NO_STATUS_REPORTED",
+            units=dict(self.units),
         )
 
 
@@ -627,24 +699,59 @@ def _scalar(
 ) -> None:
     writer.scalar(name, value, unit=SCALARS[name], status=status, blocking=blocking)
     truth.scalars[name] = value
+    truth.units[name] = SCALARS[name] or ""
+
+
+@dataclass(frozen=True, slots=True)
+class BatchMetricsPlan:
+    """How one batch's batch metrics deviate from the usual: none at all, a gap in
+    "Mean localization error", or that metric at `REGRESSION_FACTOR` times its level."""
+
+    with_metrics: bool = True
+    with_localization: bool = True
+    regressed: bool = False
 
 
 def _generate_batch(
-    batch: BatchSpec, jobs: tuple[JobSpec, ...]
+    seed: int,
+    batch: BatchSpec,
+    jobs: tuple[JobSpec, ...],
+    plan: BatchMetricsPlan,
 ) -> tuple[MetricsWriter, _TruthBuilder]:
     """Batch-level metrics as a batch metrics build would have written them."""
     writer = MetricsWriter(batch.id, deterministic=True)
     truth = _TruthBuilder()
+    if not plan.with_metrics:
+        return writer, truth
     counted = [j for j in jobs if j.conflated_status != "CANCELLED"]
     failed = sum(j.conflated_status in ("WARNING", "BLOCKER", "ERROR") for j in counted)
     errors = sum(j.conflated_status == "ERROR" for j in counted)
     writer.scalar("Failed tests", failed, status=MetricStatus.RAW)
     writer.scalar("Errored tests", errors, status=MetricStatus.RAW)
     truth.scalars = {"Failed tests": float(failed), "Errored tests": float(errors)}
+    truth.units = {"Failed tests": "", "Errored tests": ""}
+    # Two stable series: within STABLE_NOISE of a level fixed by the seed, so that the 2%
+    # floor of the regression check keeps them unflagged; one of them can jump.
+    levels = random.Random(f"{seed}:batch-metric-levels")
+    loc_level = levels.uniform(0.18, 0.22)
+    distance_level = levels.uniform(1200.0, 1800.0)
+    rng = random.Random(f"{seed}:batch-metrics:{batch.id}")
+    loc = loc_level * (1.0 + rng.uniform(-STABLE_NOISE, STABLE_NOISE))
+    distance = distance_level * (1.0 + rng.uniform(-STABLE_NOISE, STABLE_NOISE))
+    if plan.regressed:
+        loc *= REGRESSION_FACTOR
+    if plan.with_localization:
+        writer.scalar("Mean localization error", loc, unit="m", fails_above=LOCALIZATION_LIMIT)
+        truth.scalars["Mean localization error"] = loc
+        truth.units["Mean localization error"] = "m"
+    writer.scalar("Mean distance driven", distance, unit="m", status=MetricStatus.RAW)
+    truth.scalars["Mean distance driven"] = distance
+    truth.units["Mean distance driven"] = "m"
     if counted:
         pass_rate = 100.0 * sum(j.conflated_status == "PASSED" for j in counted) / len(counted)
         writer.scalar("Pass rate", pass_rate, unit="%", fails_below=80.0)
         truth.scalars["Pass rate"] = pass_rate
+        truth.units["Pass rate"] = "%"
         per_experience: dict[str, list[bool]] = {}
         for j in counted:
             per_experience.setdefault(j.experience.name, []).append(j.conflated_status == "PASSED")
