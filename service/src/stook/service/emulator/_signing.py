@@ -5,7 +5,6 @@ from __future__ import annotations
 import hashlib
 import hmac
 from collections.abc import Mapping
-from urllib.parse import urlencode
 
 
 class UrlSigner:
@@ -23,13 +22,12 @@ class UrlSigner:
         # Milliseconds and a decimal lifetime let tests use sub-second expiry.
         issued = str(int(now * 1000))
         expires = _decimal(self.lifetime_s)
-        query = {
-            "X-Amz-Algorithm": "EMU-HMAC-SHA256",
-            "X-Amz-Date": issued,
-            "X-Amz-Expires": expires,
-            "X-Amz-Signature": self._signature(path, issued, expires),
-        }
-        return f"{base_url}{path}?{urlencode(query)}"
+        # Every value is already URL-safe (digits, hex, letters, '-' and '.'), so the
+        # query is joined directly: urlencode was a third of the server's time per listing.
+        return (
+            f"{base_url}{path}?X-Amz-Algorithm=EMU-HMAC-SHA256&X-Amz-Date={issued}"
+            f"&X-Amz-Expires={expires}&X-Amz-Signature={self._signature(path, issued, expires)}"
+        )
 
     def check(self, path: str, query: Mapping[str, str], now: float) -> str | None:
         """None when the URL is valid now, else why it is refused."""
