@@ -93,6 +93,8 @@ _CHUNK = 1 << 16
 
 def _as_doubles(name: str, values: Iterable[float] | pl.Series) -> array[float]:
     if isinstance(values, pl.Series):
+        if not values.dtype.is_numeric():
+            raise WriterError(f"metrics data {name!r}: a {values.dtype} series is not numbers")
         packed: array[float] = array("d")
         # In slices, so that the transient Python floats stay few whatever the length.
         doubles = values.cast(pl.Float64).fill_null(float("nan"))
@@ -137,7 +139,12 @@ def _convert(name: str, kind: SeriesKind, values: Iterable[object]) -> _Elements
             out = [str(v) for v in values]
             return out
         case SeriesKind.STATUS:
-            return [MetricStatus(v) for v in values]  # type: ignore[arg-type]
+            try:
+                return [MetricStatus(v) for v in values]  # type: ignore[arg-type]
+            except (ValueError, TypeError):
+                raise WriterError(
+                    f"metrics data {name!r}: statuses must be MetricStatus values"
+                ) from None
         case SeriesKind.EXTERNAL_FILE:
             raise WriterError(f"metrics data {name!r}: an external file has no series")
 

@@ -24,8 +24,9 @@ class IdScheme:
         key = f"{kind}:{name}"
         self._uses[key] += 1
         n = self._uses[key]
-        # Event metrics may share a name; the counter keeps their IDs apart.
-        return uuid.uuid5(self._namespace, key if n == 1 else f"{key}#{n}")
+        # Event metrics may share a name; the counter keeps their IDs apart, in its own
+        # prefix so that no name can spell another's repeat ("a#2" is not "a", twice).
+        return uuid.uuid5(self._namespace, key if n == 1 else f"{kind}#{n}:{name}")
 
     def metric_id(self, name: str) -> uuid.UUID:
         return self._derive("metric", name) if self.deterministic else uuid.uuid4()

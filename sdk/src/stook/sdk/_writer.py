@@ -14,14 +14,15 @@ Metrics data referenced by a metric is written with it, index chains included;
 
 from __future__ import annotations
 
+import functools
 import itertools
 import json
 import math
 import uuid
 from array import array
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
-from typing import Any, Self, TypedDict, Unpack
+from typing import Any, Concatenate, ParamSpec, Self, TypedDict, TypeVar, Unpack
 
 from google.protobuf import struct_pb2, timestamp_pb2
 
@@ -115,6 +116,28 @@ class MetricHandle:
         return self
 
 
+_P = ParamSpec("_P")
+_R = TypeVar("_R")
+
+
+def _all_or_nothing(
+    method: Callable[Concatenate[MetricsWriter, _P], _R],
+) -> Callable[Concatenate[MetricsWriter, _P], _R]:
+    """A metric call that fails leaves the writer as it was: no half-built metric, no
+    reserved name, no data written on its behalf."""
+
+    @functools.wraps(method)
+    def wrapper(self: MetricsWriter, /, *args: _P.args, **kwargs: _P.kwargs) -> _R:
+        metrics, data = len(self._metrics), len(self._data)
+        try:
+            return method(self, *args, **kwargs)
+        except BaseException:
+            self._roll_back(metrics, data)
+            raise
+
+    return wrapper
+
+
 class MetricsWriter:
     """Collects metrics and metrics data for one job (or batch, or report) output."""
 
@@ -143,8 +166,19 @@ class MetricsWriter:
                     continue
                 if known is not None:
                     raise WriterError(f"two different metrics data are named {node.name!r}")
+                _check_not_empty(node)
                 self._data[node.name] = node
                 self._data_ids[node.name] = self._ids.data_id(node.name, node.id)
+
+    def _roll_back(self, metrics: int, data: int) -> None:
+        del self._metrics[metrics:]
+        for name in list(self._data)[data:]:
+            del self._data[name]
+            del self._data_ids[name]
+        self._metric_names = {m.name for m in self._metrics if not m.event_metric}
+        self._made_statuses = {
+            k: v for k, v in self._made_statuses.items() if self._data.get(v.name) is v
+        }
 
     def _ref(self, item: MetricsData) -> pb.MetricsDataId:
         self.add_data(item)
@@ -184,8 +218,14 @@ class MetricsWriter:
         return proto, handle
 
     def _status_ref(
-        self, values: MetricsData, statuses: MetricsData | None, options: MetricOptions
+        self,
+        metric: str,
+        values: MetricsData,
+        statuses: MetricsData | None,
+        options: MetricOptions,
     ) -> pb.MetricsDataId:
+        if statuses is not None:
+            _matching(metric, [values], [statuses], _status_of(options), self._statuses_for)
         return self._ref(self._statuses_for(values, statuses, _status_of(options)))
 
     def _statuses_for(
@@ -204,6 +244,7 @@ class MetricsWriter:
 
     # ---- metrics: one method per type ----
 
+    @_all_or_nothing
     def scalar(
         self,
         name: str,
@@ -235,6 +276,7 @@ class MetricsWriter:
             values.failure_definition.CopyFrom(_failure(fails_above, fails_below))
         return handle
 
+    @_all_or_nothing
     def double_summary(
         self,
         name: str,
@@ -255,8 +297,14 @@ class MetricsWriter:
         proto, handle = self._new_metric(name, MetricType.DOUBLE_SUMMARY, options)
         mv = proto.metric_values.double_metric_values
         mv.value_data_id.CopyFrom(self._ref(values))
-        mv.status_data_id.CopyFrom(self._status_ref(values, statuses, options))
-        kind = index_kind or (values.index.kind if values.index is not None else None)
+        mv.status_data_id.CopyFrom(self._status_ref(name, values, statuses, options))
+        own_kind = values.index.kind if values.index is not None else None
+        if index_kind is not None and index_kind is not own_kind:
+            raise WriterError(
+                f"metric {name!r}: index_kind {index_kind.value} does not match the index of "
+                f"{values.name!r} ({own_kind.value if own_kind else 'none'})"
+            )
+        kind = own_kind
         if index is None:
             pass
         elif (
@@ -268,7 +316,7 @@ class MetricsWriter:
         elif kind is SeriesKind.TIMESTAMP:
             mv.timestamp_index.CopyFrom(_timestamp_proto(_data.timestamp_ns(index)))  # type: ignore[arg-type]
         elif kind is SeriesKind.UUID:
-            mv.uuid_index.data = str(uuid.UUID(str(index)))
+            mv.uuid_index.data = _canonical_uuid(name, index)
         elif kind is SeriesKind.STRING:
             mv.string_index = str(index)
         else:
@@ -280,6 +328,7 @@ class MetricsWriter:
             mv.failure_definition.CopyFrom(_failure(*failure))
         return handle
 
+    @_all_or_nothing
     def double_over_time(
         self,
         name: str,
@@ -316,6 +365,7 @@ class MetricsWriter:
         mv.legend_series_names.extend(_legend(name, legend, series))
         return handle
 
+    @_all_or_nothing
     def line_plot(
         self,
         name: str,
@@ -335,6 +385,11 @@ class MetricsWriter:
         for xi, yi in zip(xs, ys, strict=True):
             _require_kind(name, xi, SeriesKind.DOUBLE)
             _require_kind(name, yi, SeriesKind.DOUBLE)
+            if xi.index is not None and xi.index.kind is not SeriesKind.TIMESTAMP:
+                raise WriterError(
+                    f"metric {name!r}: line data may be indexed by timestamps only, "
+                    f"{xi.name!r} is indexed by {xi.index.kind.value}s"
+                )
             if xi.shape() != yi.shape() or xi.index is not yi.index:
                 raise WriterError(
                     f"metric {name!r}: x series {xi.name!r} and y series {yi.name!r} differ in "
@@ -354,6 +409,7 @@ class MetricsWriter:
         mv.legend_series_names.extend(_legend(name, legend, ys))
         return handle
 
+    @_all_or_nothing
     def bar_chart(
         self,
         name: str,
@@ -398,6 +454,7 @@ class MetricsWriter:
         values = _data.doubles(data_name or name, list(bars.values()), index=labels)
         return self.bar_chart(name, values, **options)
 
+    @_all_or_nothing
     def states_over_time(
         self,
         name: str,
@@ -433,6 +490,7 @@ class MetricsWriter:
         mv.legend_series_names.extend(_legend(name, legend, series))
         return handle
 
+    @_all_or_nothing
     def histogram(
         self,
         name: str,
@@ -452,7 +510,7 @@ class MetricsWriter:
         proto, handle = self._new_metric(name, MetricType.HISTOGRAM, options)
         mv = proto.metric_values.histogram_metric_values
         mv.values_data_id.CopyFrom(self._ref(values))
-        mv.statuses_data_id.CopyFrom(self._status_ref(values, statuses, options))
+        mv.statuses_data_id.CopyFrom(self._status_ref(name, values, statuses, options))
         for lo, hi in edges:
             mv.buckets.add(lower=lo, upper=hi)
         mv.lower_bound = edges[0][0]
@@ -461,6 +519,7 @@ class MetricsWriter:
             mv.x_axis_name = x_axis_name
         return handle
 
+    @_all_or_nothing
     def batchwise_bar_chart(
         self,
         name: str,
@@ -497,7 +556,7 @@ class MetricsWriter:
             mv.statuses_data_id.append(self._ref(st))
         mv.categories.extend(categories)
         mv.colors.extend(colors)
-        mv.project_id.data = str(uuid.UUID(str(project_id)))
+        mv.project_id.data = _canonical_uuid(name, project_id)
         if x_axis_name is not None:
             mv.x_axis_name = x_axis_name
         if y_axis_name is not None:
@@ -506,6 +565,7 @@ class MetricsWriter:
             mv.stack_bars = stack_bars
         return handle
 
+    @_all_or_nothing
     def text(
         self,
         name: str,
@@ -519,6 +579,7 @@ class MetricsWriter:
         proto.metric_values.text_metric_values.text = text
         return handle
 
+    @_all_or_nothing
     def plotly(
         self,
         name: str,
@@ -530,12 +591,15 @@ class MetricsWriter:
             doc = json.loads(figure) if isinstance(figure, str) else dict(figure)
         except (TypeError, ValueError) as exc:
             raise WriterError(f"metric {name!r}: plotly figure is not JSON ({exc})") from None
+        if not isinstance(doc, dict):
+            raise WriterError(f"metric {name!r}: a plotly figure is a JSON object, not {doc!r:.40}")
         proto, handle = self._new_metric(name, MetricType.PLOTLY, options)
         struct = struct_pb2.Struct()
         struct.update(doc)
         proto.metric_values.plotly_metric_values.json.CopyFrom(struct)
         return handle
 
+    @_all_or_nothing
     def image(
         self,
         name: str,
@@ -548,6 +612,7 @@ class MetricsWriter:
         proto.metric_values.image_metric_values.image_data_id.CopyFrom(self._ref(image))
         return handle
 
+    @_all_or_nothing
     def image_list(
         self,
         name: str,
@@ -583,6 +648,8 @@ class MetricsWriter:
         All events of one output share one timestamp type (absolute or relative)."""
         if not name or any(e.name == name for e in self._events):
             raise WriterError(f"event names must be non-empty and unique: {name!r}")
+        if _data.timestamp_ns(timestamp) < 0:
+            raise WriterError(f"event {name!r}: timestamps before 1970 (or negative) are refused")
         kind = pb.RELATIVE_TIMESTAMP if relative else pb.ABSOLUTE_TIMESTAMP
         if self._events and self._events[0].timestamp_type != kind:
             raise WriterError(f"event {name!r}: all events must be all absolute or all relative")
@@ -746,6 +813,13 @@ def histogram_buckets(
             )
         width = (upper - lower) / buckets
         edges = [lower + i * width for i in range(buckets)] + [upper]
+        if not all(math.isfinite(e) for e in edges) or any(
+            a >= b for a, b in itertools.pairwise(edges)
+        ):
+            raise WriterError(
+                f"metric {name!r}: {buckets} buckets between {lower} and {upper} cannot be told "
+                "apart in floating point; use fewer buckets or wider bounds"
+            )
         return list(itertools.pairwise(edges))
     pairs = [(float(lo), float(hi)) for lo, hi in buckets]
     if not pairs:
@@ -763,6 +837,16 @@ def histogram_buckets(
     ):
         raise WriterError(f"metric {name!r}: lower/upper must match the first and last bucket")
     return pairs
+
+
+def _check_not_empty(data: MetricsData) -> None:
+    # The platform refuses a series (or a category) with no elements.
+    if data.kind is SeriesKind.EXTERNAL_FILE:
+        return
+    shape = data.shape()
+    lengths = shape.values() if isinstance(shape, dict) else [shape]
+    if any(n == 0 for n in lengths):
+        raise WriterError(f"metrics data {data.name!r} is empty; the platform refuses empty series")
 
 
 def _require_kind(
@@ -812,6 +896,13 @@ def _flat_strings(data: MetricsData) -> list[str]:
     if isinstance(data.values, dict):
         return [str(v) for vs in data.values.values() for v in vs]
     return [str(v) for v in data.values or []]
+
+
+def _canonical_uuid(metric: str, value: object) -> str:
+    try:
+        return str(value if isinstance(value, uuid.UUID) else uuid.UUID(str(value)))
+    except ValueError:
+        raise WriterError(f"metric {metric!r}: {value!r} is not a UUID") from None
 
 
 def _check_color(metric: str, color: str) -> None:

@@ -6,7 +6,7 @@ import sys
 from pathlib import Path
 from typing import TextIO
 
-from stook.sdk._enums import MetricType
+from stook.sdk._enums import MetricType, SeriesKind
 from stook.sdk._errors import InvalidMetricsError, ReadError
 from stook.sdk._reader import JobMetricsView, MetricView, read_job_metrics
 from stook.sdk._validate import find_problems
@@ -19,7 +19,7 @@ def _read(path: Path) -> JobMetricsView:
         payload = path.read_bytes()
     except OSError as exc:
         raise ReadError(f"could not read JobMetrics from {str(path)!r}: {exc.strerror}") from None
-    return read_job_metrics(payload, source=repr(str(path)))
+    return read_job_metrics(payload, source=str(path))
 
 
 def validate_file(path: Path, out: TextIO | None = None) -> int:
@@ -42,12 +42,12 @@ def _value(metric: MetricView, view: JobMetricsView) -> str:
     if metric.type is MetricType.SCALAR and metric.value is not None:
         return f"{metric.value:.6g} {metric.unit or ''}".rstrip()
     if metric.type is MetricType.TEXT:
-        text = metric.raw.metric_values.text_metric_values.text.splitlines()[0]
+        text = (metric.raw.metric_values.text_metric_values.text.splitlines() or [""])[0]
         return text if len(text) <= 48 else text[:45] + "..."
     sizes = []
     for data_id in metric.data_ids:
         data = view.data_by_id.get(data_id)
-        if data is not None and not data.is_external and not data.name.endswith(" status)"):
+        if data is not None and not data.is_external and data.kind is not SeriesKind.STATUS:
             sizes.append(data.frame().height)
     return f"{sum(sizes)} values" if sizes else ""
 

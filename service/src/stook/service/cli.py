@@ -99,6 +99,9 @@ def run_cli(argv: Sequence[str] | None = None) -> int:
     if hasattr(args, "log_format"):
         json_logs = None if args.log_format == "auto" else args.log_format == "json"
         configure_logging(json=json_logs, level=args.log_level)
+    else:
+        # Commands without logging flags still log to stderr, never onto their stdout.
+        configure_logging(level="warning")
     try:
         return _dispatch(args)
     except KeyboardInterrupt:
