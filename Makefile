@@ -39,8 +39,11 @@ demo: setup
 proto: setup
 	$(BIN)/python -m tools.generate_proto
 
+# The full sweep (tens of minutes; results into docs/benchmarks/), then the decode and
+# reduce micro-benchmarks with timing on (the normal test run only smoke-tests them).
 bench: setup
 	$(BIN)/stook bench
+	$(BIN)/pytest tests/bench --benchmark-enable --benchmark-only
 
 clean:
 	rm -rf $(VENV) demo-output .pytest_cache .mypy_cache .ruff_cache .hypothesis

@@ -5,6 +5,7 @@ from __future__ import annotations
 import asyncio
 import time
 import uuid
+from typing import Any
 
 import pytest
 from tenacity import wait_none
@@ -61,7 +62,7 @@ def presigned(server: ScriptedServer, path: str) -> str:
     return server.url(path) + f"?X-Amz-Expires=900&X-Amz-Signature={SIGNATURE}"
 
 
-def client(server: ScriptedServer, policy: RetryPolicy, **kwargs: int) -> ApiClient:
+def client(server: ScriptedServer, policy: RetryPolicy, **kwargs: Any) -> ApiClient:
     return ApiClient(server.base_url, TOKEN, retry=policy, **kwargs)
 
 

@@ -156,7 +156,7 @@ def test_a_missing_or_unreadable_file(tmp_path: Path) -> None:
         pytest.param(
             {"fetch": {"concurrency": 4, "retries": 3}},
             "s.toml: unknown key 'retries' in [fetch] "
-            "(known: concurrency, max_attempts, page_size, timeout)",
+            "(known: adaptive, concurrency, max_attempts, page_size, timeout)",
             id="unknown-fetch-key",
         ),
         pytest.param(

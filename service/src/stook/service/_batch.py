@@ -98,6 +98,7 @@ async def run_batch(
         concurrency=settings.concurrency,
         retry=policy,
         page_size=settings.page_size,
+        adaptive=settings.adaptive,
     ) as api:
         shown = progress or NoProgress()
 

@@ -8,7 +8,6 @@ a presigned URL (or a redirect from it) names.
 
 from __future__ import annotations
 
-import asyncio
 import json
 import re
 import uuid
@@ -29,6 +28,7 @@ from stook.service._errors import (
     StorageError,
 )
 from stook.service._http import HttpTransport, Response
+from stook.service._limiter import AimdLimiter, ConcurrencyLimit, FixedLimit
 from stook.service._logging import get_logger
 from stook.service._models import (
     Batch,
@@ -80,7 +80,7 @@ class StorageClient:
         *,
         concurrency: int = DEFAULT_CONCURRENCY,
         retry: RetryPolicy | None = None,
-        slots: asyncio.Semaphore | None = None,
+        limiter: ConcurrencyLimit | None = None,
     ) -> None:
         self._policy = retry or RetryPolicy()
         self.stats = TransferStats()
@@ -92,7 +92,7 @@ class StorageClient:
             headers={hdrs.USER_AGENT: _USER_AGENT},
             follow_redirects=False,
             credentials_allowed=False,
-            slots=slots,
+            limiter=limiter,
         )
 
     async def __aenter__(self) -> Self:
@@ -154,7 +154,9 @@ class ApiClient:
     ``concurrency`` bounds the requests in flight, API and storage together; with
     ``storage_concurrency`` storage fetches get a bound of their own instead. Callers may
     start as many tasks as they like: they queue for a slot, without that queueing
-    counting against the request timeout.
+    counting against the request timeout. With ``adaptive=True`` the shared bound is an
+    :class:`~stook.service._limiter.AimdLimiter` that finds the server's pace below
+    ``concurrency`` (backing off on 429s and on growing latency); ``self.limiter`` shows it.
     """
 
     def __init__(
@@ -166,6 +168,7 @@ class ApiClient:
         storage_concurrency: int | None = None,
         retry: RetryPolicy | None = None,
         page_size: int = DEFAULT_PAGE_SIZE,
+        adaptive: bool = False,
     ) -> None:
         base = URL(base_url)
         if base.scheme not in ("http", "https") or not base.host:
@@ -180,11 +183,15 @@ class ApiClient:
         self._policy = retry or RetryPolicy()
         self._page_size = page_size
         self.stats = TransferStats()
-        shared = asyncio.Semaphore(concurrency)
+        if concurrency < 1:
+            raise ValueError(f"concurrency must be at least 1, got {concurrency}")
+        self.limiter: ConcurrencyLimit = (
+            AimdLimiter(maximum=concurrency) if adaptive else FixedLimit(concurrency)
+        )
         self._transport = HttpTransport(
             name="api",
             concurrency=concurrency,
-            slots=shared,
+            limiter=self.limiter,
             proxy_for=self._base,
             request_timeout=self._policy.request_timeout,
             stats=self.stats,
@@ -197,7 +204,7 @@ class ApiClient:
         self.storage = StorageClient(
             concurrency=storage_concurrency or concurrency,
             retry=self._policy,
-            slots=None if storage_concurrency else shared,
+            limiter=None if storage_concurrency else self.limiter,
         )
 
     def __repr__(self) -> str:

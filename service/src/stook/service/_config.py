@@ -5,6 +5,7 @@ concurrency = 64       # requests in flight, API and storage together
 timeout = 30.0         # seconds per request attempt
 max_attempts = 6       # per request, first try included
 page_size = 100        # items asked for per list page
+adaptive = false       # find the server's pace below `concurrency` (AIMD on 429s and latency)
 
 [test]
 metrics = "my_metrics.test:compute"   # called as compute(experience_dir, logs_dir, writer)
@@ -44,6 +45,7 @@ class FetchSettings:
     timeout: float = 30.0
     max_attempts: int = 6
     page_size: int = 100
+    adaptive: bool = False
 
 
 @dataclass(frozen=True, slots=True)
@@ -191,8 +193,16 @@ def _report(
 
 
 def _fetch(table: Mapping[str, Any], source: str) -> FetchSettings:
-    _only(table, {"concurrency", "timeout", "max_attempts", "page_size"}, "[fetch]", source)
+    _only(
+        table,
+        {"concurrency", "timeout", "max_attempts", "page_size", "adaptive"},
+        "[fetch]",
+        source,
+    )
     defaults = FetchSettings()
+    adaptive = table.get("adaptive", defaults.adaptive)
+    if not isinstance(adaptive, bool):
+        raise ConfigError(f"{source}: [fetch] adaptive must be true or false")
 
     def positive(key: str, kind: type[int] | type[float], default: float) -> Any:
         value = table.get(key, default)
@@ -207,4 +217,5 @@ def _fetch(table: Mapping[str, Any], source: str) -> FetchSettings:
         timeout=positive("timeout", float, defaults.timeout),
         max_attempts=positive("max_attempts", int, defaults.max_attempts),
         page_size=positive("page_size", int, defaults.page_size),
+        adaptive=adaptive,
     )

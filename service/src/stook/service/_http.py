@@ -3,9 +3,9 @@
 It knows nothing of JSON, paging, retries or what a status code means; the clients in
 :mod:`stook.service._client` build those on top. What it does guarantee:
 
-* at most ``concurrency`` requests in flight, and the per-attempt timeout starts only once a
-  request holds one of those slots, so thousands of queued fetches do not time out while
-  waiting for a pooled connection;
+* at most ``concurrency`` requests in flight (or what a shared limiter allows), and the
+  per-attempt timeout starts only once a request holds one of those slots, so thousands of
+  queued fetches do not time out while waiting for a pooled connection;
 * a body shorter than its ``Content-Length`` is an error, not silently short data;
 * every failure leaves as a :class:`TransportError` with a redacted message, never as an
   aiohttp exception whose text could hold a presigned URL;
@@ -29,6 +29,7 @@ from multidict import CIMultiDictProxy
 from yarl import URL
 
 from stook.service._errors import IncompleteBodyError, TransportError
+from stook.service._limiter import ConcurrencyLimit, FixedLimit
 from stook.service._logging import get_logger
 from stook.service._redact import redact_text, redact_url
 from stook.service._retry import TransferStats, is_transient_transport_failure
@@ -72,7 +73,7 @@ class HttpTransport:
         headers: Mapping[str, str] | None = None,
         follow_redirects: bool = True,
         credentials_allowed: bool = True,
-        slots: asyncio.Semaphore | None = None,
+        limiter: ConcurrencyLimit | None = None,
         proxy_for: URL | None = None,
     ) -> None:
         if concurrency < 1:
@@ -88,8 +89,8 @@ class HttpTransport:
         self._timeout = request_timeout
         self._follow_redirects = follow_redirects
         self._credentials_allowed = credentials_allowed
-        # A semaphore shared with another transport makes one bound for both.
-        self._slots = slots or asyncio.Semaphore(concurrency)
+        # A limiter shared with another transport makes one bound for both.
+        self._limiter: ConcurrencyLimit = limiter or FixedLimit(concurrency)
         self._session: aiohttp.ClientSession | None = None
         self._proxy = _env_proxy(proxy_for) if proxy_for is not None else None
 
@@ -146,24 +147,30 @@ class HttpTransport:
         if not self._credentials_allowed:
             url = self._without_credentials(session, url, headers)
         started = time.perf_counter()
-        async with self._slots:
+        await self._limiter.acquire()
+        held_from = time.perf_counter()
+        status: int | None = None
+        try:
             self.stats.requests += 1
-            try:
-                async with asyncio.timeout(self._timeout):
-                    response = await self._send(session, url, params, headers)
-            except TimeoutError:
-                raise TransportError(
-                    method="GET", url=url, reason=f"timed out after {self._timeout:g} s"
-                ) from None
-            except aiohttp.ClientError as exc:
-                raise TransportError(
-                    method="GET",
-                    url=url,
-                    reason=_describe(exc),
-                    retryable=is_transient_transport_failure(exc),
-                ) from None
-            except OSError as exc:
-                raise TransportError(method="GET", url=url, reason=_describe(exc)) from None
+            async with asyncio.timeout(self._timeout):
+                response = await self._send(session, url, params, headers)
+            status = response.status
+        except TimeoutError:
+            raise TransportError(
+                method="GET", url=url, reason=f"timed out after {self._timeout:g} s"
+            ) from None
+        except aiohttp.ClientError as exc:
+            raise TransportError(
+                method="GET",
+                url=url,
+                reason=_describe(exc),
+                retryable=is_transient_transport_failure(exc),
+            ) from None
+        except OSError as exc:
+            raise TransportError(method="GET", url=url, reason=_describe(exc)) from None
+        finally:
+            # The outcome goes back with the slot: an adaptive limit learns from it.
+            self._limiter.release(status, time.perf_counter() - held_from)
         self.stats.statuses[response.status] += 1
         self.stats.bytes_received += len(response.body)
         # The check spares redact_url on every request when debug is off (the hot path).

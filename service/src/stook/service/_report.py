@@ -96,6 +96,7 @@ async def run_report(
         concurrency=settings.concurrency,
         retry=policy,
         page_size=settings.page_size,
+        adaptive=settings.adaptive,
     ) as api:
         shown = progress or NoProgress()
 

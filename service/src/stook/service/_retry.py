@@ -227,11 +227,26 @@ async def call_with_retries(
     A non-transient error propagates unchanged after its first occurrence; running out of
     attempts raises :class:`RetriesExhaustedError` naming the last transient failure.
     """
+    # The first attempt runs outside tenacity: almost every request succeeds at once, and
+    # building and driving an AsyncRetrying cost a fifth of the client's CPU per request
+    # (measured at 0 ms latency). A failure is handed to tenacity as its own first attempt
+    # (replayed below), so counting, waits, logging and the stop rule are unchanged.
+    try:
+        return await attempt()
+    except Exception as exc:
+        if not is_retryable(exc):
+            raise
+        first_failure: Exception | None = exc
+
     retrying = new_retrying(policy, stats=stats, method=method, url=url)
 
     # tenacity awaits only what it recognises as a coroutine function, not any callable
     # returning an awaitable (a lambda, a bound partial).
     async def run_attempt() -> _T:
+        nonlocal first_failure
+        if first_failure is not None:
+            failure, first_failure = first_failure, None
+            raise failure
         return await attempt()
 
     try:

@@ -7,6 +7,7 @@ never shares an event loop or a core's time slice with the server's Python code.
 from __future__ import annotations
 
 import asyncio
+import os
 import resource
 import sys
 import tempfile
@@ -35,6 +36,8 @@ class Measurement:
     retries: int
     bytes_received: int
     peak_rss_mb: float
+    # The client process's own CPU time (user + system) over the measured run.
+    cpu_seconds: float = 0.0
 
     @property
     def requests_per_second(self) -> float:
@@ -42,9 +45,33 @@ class Measurement:
 
 
 def peak_rss_mb() -> float:
-    # ru_maxrss is in KiB on Linux and bytes on macOS.
-    scale = 1 if sys.platform == "darwin" else 1024
-    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * scale / 2**20
+    # On Linux ru_maxrss survives exec: a spawned child would report the RSS of the parent
+    # it was forked from, if that was larger. VmHWM belongs to the current image only.
+    try:
+        status = Path("/proc/self/status").read_text()
+    except OSError:
+        # ru_maxrss is in KiB on Linux and bytes on macOS.
+        scale = 1 if sys.platform == "darwin" else 1024
+        return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * scale / 2**20
+    for line in status.splitlines():
+        if line.startswith("VmHWM:"):
+            return int(line.split()[1]) / 1024  # kB
+    return 0.0
+
+
+def cpu_seconds() -> float:
+    usage = resource.getrusage(resource.RUSAGE_SELF)
+    return usage.ru_utime + usage.ru_stime
+
+
+def process_cpu_seconds(pid: int) -> float | None:
+    """User + system CPU of another process (the emulator's), or None off Linux."""
+    try:
+        fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    except OSError:
+        return None
+    # utime and stime are the 12th and 13th fields after the command name, in clock ticks.
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
 
 
 def in_fresh_process(fn: Any, *args: Any) -> Any:
@@ -53,7 +80,9 @@ def in_fresh_process(fn: Any, *args: Any) -> Any:
         return pool.submit(fn, *args).result()
 
 
-def measure_stook(info: EmulatorInfo, config_toml: str, concurrency: int) -> Measurement:
+def measure_stook(
+    info: EmulatorInfo, config_toml: str, concurrency: int, adaptive: bool = False
+) -> Measurement:
     """Batch mode as `stook run` does it, minus the process start-up."""
     from stook.service._batch import run_batch
     from stook.service._config import parse
@@ -63,6 +92,8 @@ def measure_stook(info: EmulatorInfo, config_toml: str, concurrency: int) -> Mea
     configure_logging(json=True, level="error")
     doc = tomllib.loads(config_toml)
     doc.setdefault("fetch", {})["concurrency"] = concurrency
+    if adaptive:
+        doc["fetch"]["adaptive"] = True
     config = parse(doc, source="bench")
     with tempfile.TemporaryDirectory() as tmp:
         inputs = Path(tmp) / "inputs"
@@ -70,8 +101,10 @@ def measure_stook(info: EmulatorInfo, config_toml: str, concurrency: int) -> Mea
         batch = detect(inputs)
         assert isinstance(batch, BatchInputs)
         started = time.perf_counter()
+        cpu_before = cpu_seconds()
         result = asyncio.run(run_batch(batch, config, Path(tmp) / "outputs"))
         seconds = time.perf_counter() - started
+        cpu = cpu_seconds() - cpu_before
     return Measurement(
         client="stook",
         jobs=result.outcome.jobs_listed,
@@ -80,6 +113,7 @@ def measure_stook(info: EmulatorInfo, config_toml: str, concurrency: int) -> Mea
         retries=result.retries,
         bytes_received=result.bytes_received,
         peak_rss_mb=peak_rss_mb(),
+        cpu_seconds=cpu,
     )
 
 
@@ -88,6 +122,7 @@ def measure_resim(info: EmulatorInfo) -> Measurement:
     from resim.metrics.fetch_job_metrics import fetch_job_metrics_by_batch
 
     started = time.perf_counter()
+    cpu_before = cpu_seconds()
     fetched = fetch_job_metrics_by_batch(
         token=info.token,
         api_url=info.api_url,
@@ -104,6 +139,7 @@ def measure_resim(info: EmulatorInfo) -> Measurement:
         retries=0,
         bytes_received=0,
         peak_rss_mb=peak_rss_mb(),
+        cpu_seconds=cpu_seconds() - cpu_before,
     )
 
 
