@@ -13,12 +13,12 @@ from stook.sdk._enums import MetricStatus
 from stook.sdk._writer import MetricsWriter
 from stook.sdk.aggregations import BatchAggregation, JobRecord, Needs, default_batch_aggregations
 from stook.service._batch_fetch import BatchFetcher, FetchOutcome, FetchPlan, MissingJob
-from stook.service._client import ApiClient
 from stook.service._config import ConfigError, StookConfig
 from stook.service._errors import ApiError
 from stook.service._inputs import BatchInputs
 from stook.service._progress import NoProgress, Progress
 from stook.service._retry import RetryPolicy
+from stook.service._session import Traffic, open_api
 
 log = structlog.get_logger("stook.batch")
 
@@ -35,9 +35,19 @@ class BatchResult:
     outcome: FetchOutcome
     metrics_written: list[str]
     status: MetricStatus
-    requests: int
-    retries: int
-    bytes_received: int
+    traffic: Traffic
+
+    @property
+    def requests(self) -> int:
+        return self.traffic.requests
+
+    @property
+    def retries(self) -> int:
+        return self.traffic.retries
+
+    @property
+    def bytes_received(self) -> int:
+        return self.traffic.bytes_received
 
 
 def aggregations_for(config: StookConfig) -> list[BatchAggregation]:
@@ -78,9 +88,6 @@ async def run_batch(
     aggregations = aggregations_for(config)
     needs, plan = plan_for(aggregations)
     settings = config.fetch
-    policy = retry or RetryPolicy(
-        max_attempts=settings.max_attempts, request_timeout=settings.timeout
-    )
 
     def fold(record: JobRecord) -> None:
         for aggregation in aggregations:
@@ -92,22 +99,16 @@ async def run_batch(
         concurrency=settings.concurrency,
         data=sorted(plan.data),
     )
-    async with ApiClient(
-        inputs.access.api_url,
-        inputs.access.token,
-        concurrency=settings.concurrency,
-        retry=policy,
-        page_size=settings.page_size,
-        adaptive=settings.adaptive,
-    ) as api:
+    async with open_api(inputs.access, settings, retry) as api:
         shown = progress or NoProgress()
 
         def report(o: FetchOutcome) -> None:
+            traffic = Traffic.of(api)
             shown.update(
                 done=o.jobs_done + len(o.missing),
                 listed=o.jobs_listed,
-                requests=api.stats.requests + api.storage.stats.requests,
-                retries=api.stats.retries + api.storage.stats.retries,
+                requests=traffic.requests,
+                retries=traffic.retries,
             )
 
         fetcher = BatchFetcher(
@@ -122,9 +123,7 @@ async def run_batch(
             outcome = await fetcher.run(fold)
         finally:
             shown.close()
-        requests = api.stats.requests + api.storage.stats.requests
-        retries = api.stats.retries + api.storage.stats.retries
-        received = api.stats.bytes_received + api.storage.stats.bytes_received
+        traffic = Traffic.of(api)
 
     check_names(needs, outcome, config.source)
     writer = MetricsWriter(inputs.batch_id, deterministic=True)
@@ -144,9 +143,7 @@ async def run_batch(
         outcome=outcome,
         metrics_written=[m.name for m in writer.metrics],
         status=writer.status,
-        requests=requests,
-        retries=retries,
-        bytes_received=received,
+        traffic=traffic,
     )
 
 

@@ -18,12 +18,12 @@ from stook.sdk.aggregations import (
     default_report_aggregations,
 )
 from stook.service._batch import OUTPUT_NAME, write_missing_jobs
-from stook.service._client import ApiClient
 from stook.service._config import ConfigError, StookConfig
 from stook.service._inputs import ReportInputs
 from stook.service._progress import NoProgress, Progress
 from stook.service._report_fetch import ReportFetcher, ReportOutcome
 from stook.service._retry import RetryPolicy
+from stook.service._session import Traffic, open_api
 
 log = structlog.get_logger("stook.report")
 
@@ -35,9 +35,19 @@ class ReportResult:
     metrics_written: list[str]
     status: MetricStatus
     regressions: str
-    requests: int
-    retries: int
-    bytes_received: int
+    traffic: Traffic
+
+    @property
+    def requests(self) -> int:
+        return self.traffic.requests
+
+    @property
+    def retries(self) -> int:
+        return self.traffic.retries
+
+    @property
+    def bytes_received(self) -> int:
+        return self.traffic.bytes_received
 
 
 def report_aggregations_for(config: StookConfig, project_id: str) -> list[Aggregation[Any]]:
@@ -82,30 +92,18 @@ async def run_report(
     for aggregation in aggregations:
         needs = needs | aggregation.needs()
     settings = config.fetch
-    policy = retry or RetryPolicy(
-        max_attempts=settings.max_attempts, request_timeout=settings.timeout
-    )
 
     def fold(record: BatchRecord) -> None:
         for aggregation in aggregations:
             aggregation.update(record)
 
-    async with ApiClient(
-        inputs.access.api_url,
-        inputs.access.token,
-        concurrency=settings.concurrency,
-        retry=policy,
-        page_size=settings.page_size,
-        adaptive=settings.adaptive,
-    ) as api:
+    async with open_api(inputs.access, settings, retry) as api:
         shown = progress or NoProgress()
 
         def report(o: ReportOutcome) -> None:
+            traffic = Traffic.of(api)
             shown.update(
-                done=o.jobs,
-                listed=o.jobs,
-                requests=api.stats.requests + api.storage.stats.requests,
-                retries=api.stats.retries + api.storage.stats.retries,
+                done=o.jobs, listed=o.jobs, requests=traffic.requests, retries=traffic.retries
             )
 
         fetcher = ReportFetcher(
@@ -120,9 +118,7 @@ async def run_report(
             outcome = await fetcher.run(fold)
         finally:
             shown.close()
-        requests = api.stats.requests + api.storage.stats.requests
-        retries = api.stats.retries + api.storage.stats.retries
-        received = api.stats.bytes_received + api.storage.stats.bytes_received
+        traffic = Traffic.of(api)
 
     _check_job_metric_names(config, outcome)
     writer = MetricsWriter(inputs.report_id, deterministic=True)
@@ -145,9 +141,7 @@ async def run_report(
         metrics_written=[m.name for m in writer.metrics],
         status=writer.status,
         regressions=regressions,
-        requests=requests,
-        retries=retries,
-        bytes_received=received,
+        traffic=traffic,
     )
 
 

@@ -23,6 +23,7 @@ from pathlib import Path
 
 import structlog
 
+from stook.sdk._enums import MetricStatus
 from stook.sdk._errors import InvalidMetricsError, ReadError, StookError, WriterError
 from stook.service._batch import OUTPUT_NAME, run_batch
 from stook.service._config import ConfigError, StookConfig, load
@@ -30,6 +31,7 @@ from stook.service._errors import ApiError, AuthError
 from stook.service._inputs import BatchInputs, InputsError, ReportInputs, TestInputs, detect
 from stook.service._progress import for_stream
 from stook.service._report import run_report
+from stook.service._session import Traffic
 from stook.service._test_mode import UserFunctionError, run_test_mode
 
 log = structlog.get_logger("stook.run")
@@ -115,18 +117,16 @@ async def run(options: RunOptions) -> Path:
                 allow_missing_jobs=options.allow_missing_jobs,
                 progress=for_stream(label="jobs"),
             )
-            log.info(
+            _log_written(
                 "report metrics written",
-                output=str(report.output),
-                status=report.status.name,
+                report.output,
+                report.status,
+                report.metrics_written,
+                report.traffic,
+                report.outcome.seconds,
                 batches=report.outcome.batches,
                 jobs=report.outcome.jobs,
                 jobs_missing=len(report.outcome.missing),
-                metrics=len(report.metrics_written),
-                requests=report.requests,
-                retries=report.retries,
-                bytes=report.bytes_received,
-                seconds=round(report.outcome.seconds, 3),
             )
             return report.output
         case BatchInputs():
@@ -138,22 +138,43 @@ async def run(options: RunOptions) -> Path:
                 allow_missing_jobs=options.allow_missing_jobs,
                 progress=for_stream(label="jobs"),
             )
-            log.info(
+            _log_written(
                 "batch metrics written",
-                output=str(result.output),
-                status=result.status.name,
+                result.output,
+                result.status,
+                result.metrics_written,
+                result.traffic,
+                result.outcome.seconds,
                 jobs=result.outcome.jobs_listed,
                 jobs_missing=len(result.outcome.missing),
-                metrics=len(result.metrics_written),
-                requests=result.requests,
-                retries=result.retries,
-                bytes=result.bytes_received,
-                seconds=round(result.outcome.seconds, 3),
             )
             return result.output
         case TestInputs():
             log.info("test mode", config=config.source)
             return await run_test_mode(mode, config, output)
+
+
+def _log_written(
+    event: str,
+    output: Path,
+    status: MetricStatus,
+    metrics: list[str],
+    traffic: Traffic,
+    seconds: float,
+    **counts: int,
+) -> None:
+    """The run's final summary event."""
+    log.info(
+        event,
+        output=str(output),
+        status=status.name,
+        **counts,
+        metrics=len(metrics),
+        requests=traffic.requests,
+        retries=traffic.retries,
+        bytes=traffic.bytes_received,
+        seconds=round(seconds, 3),
+    )
 
 
 def explain(error: BaseException) -> str:

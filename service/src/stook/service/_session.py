@@ -1,0 +1,48 @@
+"""What batch and report mode share around a fetch: the configured client, its traffic."""
+
+from __future__ import annotations
+
+import contextlib
+from collections.abc import AsyncIterator
+from dataclasses import dataclass
+
+from stook.service._client import ApiClient
+from stook.service._config import FetchSettings
+from stook.service._inputs import ApiAccess
+from stook.service._retry import RetryPolicy
+
+
+@contextlib.asynccontextmanager
+async def open_api(
+    access: ApiAccess, settings: FetchSettings, retry: RetryPolicy | None = None
+) -> AsyncIterator[ApiClient]:
+    """An ApiClient configured from `[fetch]`; `retry` overrides its retry policy (tests)."""
+    policy = retry or RetryPolicy(
+        max_attempts=settings.max_attempts, request_timeout=settings.timeout
+    )
+    async with ApiClient(
+        access.api_url,
+        access.token,
+        concurrency=settings.concurrency,
+        retry=policy,
+        page_size=settings.page_size,
+        adaptive=settings.adaptive,
+    ) as api:
+        yield api
+
+
+@dataclass(frozen=True, slots=True)
+class Traffic:
+    """Requests, retries and bytes of a client, API and storage together."""
+
+    requests: int = 0
+    retries: int = 0
+    bytes_received: int = 0
+
+    @classmethod
+    def of(cls, api: ApiClient) -> Traffic:
+        return cls(
+            requests=api.stats.requests + api.storage.stats.requests,
+            retries=api.stats.retries + api.storage.stats.retries,
+            bytes_received=api.stats.bytes_received + api.storage.stats.bytes_received,
+        )
