@@ -18,7 +18,7 @@ from stook.service._errors import ApiError
 from stook.service._inputs import BatchInputs
 from stook.service._progress import NoProgress, Progress
 from stook.service._retry import RetryPolicy
-from stook.service._session import Traffic, open_api
+from stook.service._session import HasTraffic, Traffic, open_api
 
 log = structlog.get_logger("stook.batch")
 
@@ -30,24 +30,12 @@ class MissingJobsError(ApiError):
 
 
 @dataclass(frozen=True, slots=True)
-class BatchResult:
+class BatchResult(HasTraffic):
     output: Path
     outcome: FetchOutcome
     metrics_written: list[str]
     status: MetricStatus
     traffic: Traffic
-
-    @property
-    def requests(self) -> int:
-        return self.traffic.requests
-
-    @property
-    def retries(self) -> int:
-        return self.traffic.retries
-
-    @property
-    def bytes_received(self) -> int:
-        return self.traffic.bytes_received
 
 
 def aggregations_for(config: StookConfig) -> list[BatchAggregation]:

@@ -318,6 +318,9 @@ class _MetricFields:
     event_metric: bool
     creation_timestamp: datetime | None
 
+    def as_kwargs(self) -> dict[str, Any]:
+        return {name: getattr(self, name) for name in self.__slots__}
+
     @staticmethod
     def read(f: _Fields) -> _MetricFields:
         return _MetricFields(
@@ -359,20 +362,10 @@ class JobMetric:
     @classmethod
     def from_json(cls, data: Mapping[str, Any]) -> Self:
         f = _Fields("JobMetric", data, "metricID")
-        common = _MetricFields.read(f)
         return cls(
-            metric_id=common.metric_id,
-            name=common.name,
-            type=common.type,
-            status=common.status,
-            value=common.value,
-            unit=common.unit,
-            metric_url=common.metric_url,
-            data_ids=common.data_ids,
-            event_metric=common.event_metric,
+            **_MetricFields.read(f).as_kwargs(),
             job_id=f.opt_id("jobID"),
             batch_id=f.opt_id("batchID"),
-            creation_timestamp=common.creation_timestamp,
         )
 
 
@@ -395,19 +388,9 @@ class BatchMetric:
     @classmethod
     def from_json(cls, data: Mapping[str, Any]) -> Self:
         f = _Fields("BatchMetric", data, "metricID")
-        common = _MetricFields.read(f)
         return cls(
-            metric_id=common.metric_id,
-            name=common.name,
-            type=common.type,
-            status=common.status,
-            value=common.value,
-            unit=common.unit,
-            metric_url=common.metric_url,
-            data_ids=common.data_ids,
-            event_metric=common.event_metric,
+            **_MetricFields.read(f).as_kwargs(),
             batch_id=f.opt_id("batchID"),
-            creation_timestamp=common.creation_timestamp,
         )
 
 

@@ -23,31 +23,19 @@ from stook.service._inputs import ReportInputs
 from stook.service._progress import NoProgress, Progress
 from stook.service._report_fetch import ReportFetcher, ReportOutcome
 from stook.service._retry import RetryPolicy
-from stook.service._session import Traffic, open_api
+from stook.service._session import HasTraffic, Traffic, open_api
 
 log = structlog.get_logger("stook.report")
 
 
 @dataclass(frozen=True, slots=True)
-class ReportResult:
+class ReportResult(HasTraffic):
     output: Path
     outcome: ReportOutcome
     metrics_written: list[str]
     status: MetricStatus
     regressions: str
     traffic: Traffic
-
-    @property
-    def requests(self) -> int:
-        return self.traffic.requests
-
-    @property
-    def retries(self) -> int:
-        return self.traffic.retries
-
-    @property
-    def bytes_received(self) -> int:
-        return self.traffic.bytes_received
 
 
 def report_aggregations_for(config: StookConfig, project_id: str) -> list[Aggregation[Any]]:

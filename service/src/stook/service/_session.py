@@ -46,3 +46,22 @@ class Traffic:
             retries=api.stats.retries + api.storage.stats.retries,
             bytes_received=api.stats.bytes_received + api.storage.stats.bytes_received,
         )
+
+
+class HasTraffic:
+    """Mixin for run results: the traffic's counters as plain attributes."""
+
+    __slots__ = ()
+    traffic: Traffic
+
+    @property
+    def requests(self) -> int:
+        return self.traffic.requests
+
+    @property
+    def retries(self) -> int:
+        return self.traffic.retries
+
+    @property
+    def bytes_received(self) -> int:
+        return self.traffic.bytes_received
