@@ -395,7 +395,41 @@ class BatchMetric:
 
 
 @dataclass(frozen=True, slots=True)
-class JobMetricsData:
+class _DataFields:
+    data_id: uuid.UUID
+    name: str
+    metrics_data_type: MetricsDataStorageType
+    metrics_data_url: str | None = field(repr=False)
+    filename: str | None
+    creation_timestamp: datetime | None
+
+    def as_kwargs(self) -> dict[str, Any]:
+        return {name: getattr(self, name) for name in self.__slots__}
+
+    @staticmethod
+    def read(f: _Fields) -> _DataFields:
+        return _DataFields(
+            data_id=f.id("dataID"),
+            name=f.string("name"),
+            metrics_data_type=f.choice("metricsDataType", MetricsDataStorageType),
+            metrics_data_url=f.opt_string("metricsDataURL"),
+            filename=f.opt_string("filename"),
+            creation_timestamp=f.opt_timestamp("creationTimestamp"),
+        )
+
+
+class _StorageTyped:
+    __slots__ = ()
+    metrics_data_type: MetricsDataStorageType
+
+    @property
+    def is_standard(self) -> bool:
+        """Whether the URL holds a ``MetricsData`` message (not a video or external file)."""
+        return self.metrics_data_type is MetricsDataStorageType.STANDARD
+
+
+@dataclass(frozen=True, slots=True)
+class JobMetricsData(_StorageTyped):
     """A metrics-data file of a job; ``metrics_data_url`` is presigned and expires."""
 
     data_id: uuid.UUID
@@ -406,27 +440,14 @@ class JobMetricsData:
     job_id: uuid.UUID | None = None
     creation_timestamp: datetime | None = None
 
-    @property
-    def is_standard(self) -> bool:
-        """Whether the URL holds a ``MetricsData`` message (not a video or external file)."""
-        return self.metrics_data_type is MetricsDataStorageType.STANDARD
-
     @classmethod
     def from_json(cls, data: Mapping[str, Any]) -> Self:
         f = _Fields("JobMetricsData", data, "dataID")
-        return cls(
-            data_id=f.id("dataID"),
-            name=f.string("name"),
-            metrics_data_type=f.choice("metricsDataType", MetricsDataStorageType),
-            metrics_data_url=f.opt_string("metricsDataURL"),
-            filename=f.opt_string("filename"),
-            job_id=f.opt_id("jobID"),
-            creation_timestamp=f.opt_timestamp("creationTimestamp"),
-        )
+        return cls(**_DataFields.read(f).as_kwargs(), job_id=f.opt_id("jobID"))
 
 
 @dataclass(frozen=True, slots=True)
-class BatchMetricsData:
+class BatchMetricsData(_StorageTyped):
     """A metrics-data file of a batch; same shape as :class:`JobMetricsData`."""
 
     data_id: uuid.UUID
@@ -437,23 +458,10 @@ class BatchMetricsData:
     batch_id: uuid.UUID | None = None
     creation_timestamp: datetime | None = None
 
-    @property
-    def is_standard(self) -> bool:
-        """Whether the URL holds a ``MetricsData`` message (not a video or external file)."""
-        return self.metrics_data_type is MetricsDataStorageType.STANDARD
-
     @classmethod
     def from_json(cls, data: Mapping[str, Any]) -> Self:
         f = _Fields("BatchMetricsData", data, "dataID")
-        return cls(
-            data_id=f.id("dataID"),
-            name=f.string("name"),
-            metrics_data_type=f.choice("metricsDataType", MetricsDataStorageType),
-            metrics_data_url=f.opt_string("metricsDataURL"),
-            filename=f.opt_string("filename"),
-            batch_id=f.opt_id("batchID"),
-            creation_timestamp=f.opt_timestamp("creationTimestamp"),
-        )
+        return cls(**_DataFields.read(f).as_kwargs(), batch_id=f.opt_id("batchID"))
 
 
 @dataclass(frozen=True, slots=True)

@@ -16,6 +16,7 @@ from typing import Any
 
 from stook.service.bench._adaptive import run_rate_limited
 from stook.service.bench._measure import (
+    BENCH_CONFIG,
     Measurement,
     in_fresh_process,
     measure_resim,
@@ -24,22 +25,6 @@ from stook.service.bench._measure import (
 )
 from stook.service.bench._plots import plots_available, write_plots
 from stook.service.bench._sweep import FULL, QUICK, Grid, emulator_for, run_sweep
-
-# The exact-mode histogram keeps every value up to its cap (2 million by default), so its
-# memory grows with the batch by design; measured apart from the streaming sweep.
-BENCH_CONFIG = """\
-[[batch.weighted_mean]]
-name = "Distance-weighted localization error"
-metric = "Localization error"
-weight = "Distance driven"
-
-[[batch.histogram]]
-name = "Speed distribution"
-data = "speeds"
-lower = 0.0
-upper = 40.0
-buckets = 20
-"""
 
 
 def _warm(emulator: Any) -> None:

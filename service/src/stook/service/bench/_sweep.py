@@ -23,6 +23,7 @@ from typing import Any, Final
 
 from stook.service.bench._bare import Target, collect_targets, measure_bare
 from stook.service.bench._measure import (
+    BENCH_CONFIG,
     Measurement,
     in_fresh_process,
     measure_resim,
@@ -35,20 +36,8 @@ from stook.service.emulator import EmulatorConfig, EmulatorProcess
 # One series downloaded per job (the histogram), the rest from the listing. A small
 # max_values keeps the histogram in its streaming (exact counts per bucket) mode, so that
 # memory does not grow with the batch.
-SWEEP_CONFIG: Final = """\
-[[batch.weighted_mean]]
-name = "Distance-weighted localization error"
-metric = "Localization error"
-weight = "Distance driven"
-
-[[batch.histogram]]
-name = "Speed distribution"
-data = "speeds"
-lower = 0.0
-upper = 40.0
-buckets = 20
-max_values = 10000
-"""
+# The histogram table comes last in BENCH_CONFIG, so this line lands in it.
+SWEEP_CONFIG: Final = BENCH_CONFIG + "max_values = 10000\n"
 SWEEP_DATA: Final = ("speeds",)
 
 SIDE_BY_SIDE_RPS: Final = 100.0
