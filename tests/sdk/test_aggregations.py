@@ -704,3 +704,20 @@ def test_fresh_keeps_configuration_and_drops_state() -> None:
     fresh_stats = stats.fresh()
     assert isinstance(fresh_stats, ScalarStats)
     assert (fresh_stats.name, list(fresh_stats.stats), len(fresh_stats.values)) == ("X", ["max"], 0)
+
+
+@pytest.mark.parametrize(
+    "values",
+    [[0.0, 5e-324], [-1e308, 1e308], [1.7e308, 1.7e308], [0.0, 1e-300, 2e-300]],
+    ids=["subnormal-range", "huge-range", "huge-equal", "tiny-range"],
+)
+def test_scalar_defaults_distribution_survives_extreme_ranges(values: list[float]) -> None:
+    # Found by hypothesis: equal-width buckets over [0, 5e-324] are not distinct floats.
+    agg = ScalarDefaults()
+    for v in values:
+        agg.update(JobRecord(uuid.uuid4(), "PASSED", scalars={"x": Scalar(v)}))
+    writer = MetricsWriter(uuid.UUID(int=3), deterministic=True)
+    agg.finish(writer)
+    validate_job_metrics(writer.to_proto())
+    resim_validate(rp.JobMetrics.FromString(writer.serialize()))
+    assert writer.has_metric("x (distribution)")

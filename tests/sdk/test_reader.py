@@ -408,7 +408,7 @@ def test_unknown_fields_inside_a_series_do_not_break_doubles() -> None:
     d.series.doubles.MergeFromString(b"\x10\x07")  # field 2, varint 7: not in DoubleSeries
     view = read_metrics_data(d.SerializeToString())
     assert view.series().to_list() == [1.0, 2.0]
-    assert view.raw.SerializeToString() == d.SerializeToString()
+    assert view.raw.SerializeToString(deterministic=True) == d.SerializeToString(deterministic=True)
 
 
 def test_status_zero_is_null() -> None:
@@ -471,15 +471,17 @@ def _top_level_boundaries(msg: pb.JobMetrics) -> set[int]:
                 getattr(partial, fd.name).CopyFrom(item)
             else:
                 setattr(partial, fd.name, item)
-            boundaries.add(len(partial.SerializeToString()))
+            boundaries.add(len(partial.SerializeToString(deterministic=True)))
     return boundaries
 
 
 def test_truncated_bytes_are_refused_at_every_cut(resim_msg: resim_pb.JobMetrics) -> None:
-    wire = resim_msg.SerializeToString()
+    # Deterministic on both sides: map entries (per-category series) may otherwise come out
+    # in a different order, which made this comparison flaky.
+    wire = resim_msg.SerializeToString(deterministic=True)
     ours = pb.JobMetrics.FromString(wire)
     boundaries = _top_level_boundaries(ours)
-    assert wire == ours.SerializeToString()
+    assert wire == ours.SerializeToString(deterministic=True)
     refused = 0
     for cut in range(len(wire)):
         if cut in boundaries and cut:

@@ -812,7 +812,8 @@ def histogram_buckets(
                 f"metric {name!r}: {buckets} buckets need lower < upper and a count of at least 1"
             )
         width = (upper - lower) / buckets
-        edges = [lower + i * width for i in range(buckets)] + [upper]
+        # The first and last edges are the bounds themselves (0 * inf would be NaN).
+        edges = [lower, *(lower + i * width for i in range(1, buckets)), upper]
         if not all(math.isfinite(e) for e in edges) or any(
             a >= b for a, b in itertools.pairwise(edges)
         ):

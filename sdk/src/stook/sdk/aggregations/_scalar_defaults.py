@@ -9,18 +9,31 @@ from dataclasses import dataclass, field
 from typing import Self
 
 from stook.sdk import _data
-from stook.sdk._writer import MetricsWriter
+from stook.sdk._errors import WriterError
+from stook.sdk._writer import MetricsWriter, histogram_buckets
 from stook.sdk.aggregations._base import Aggregation
 from stook.sdk.aggregations._record import JobRecord
+from stook.sdk.aggregations._sums import exact_mean
 from stook.sdk.aggregations._units import pick_unit
 
 
 def auto_buckets(low: float, high: float, count: int) -> tuple[float, float, int]:
-    """Bounds and a bucket count that cover [low, high]: about sqrt(count) buckets, 1..20."""
+    """Bounds and a bucket count that cover [low, high]: about sqrt(count) buckets, 1..20,
+    fewer where the range is too narrow (or too wide) for distinct floating-point edges."""
     if low == high:
         half = max(abs(low) * 0.05, 0.5)
-        return low - half, high + half, 1
-    return low, high, max(1, min(20, math.ceil(math.sqrt(count))))
+        lo, hi = low - half, high + half
+        if not (math.isfinite(lo) and math.isfinite(hi)):
+            lo, hi = math.nextafter(low, -math.inf), math.nextafter(high, math.inf)
+        return lo, hi, 1
+    buckets = max(1, min(20, math.ceil(math.sqrt(count))))
+    while buckets > 1:
+        try:
+            histogram_buckets("auto", buckets, low, high)
+            break
+        except WriterError:
+            buckets //= 2
+    return low, high, buckets
 
 
 @dataclass
@@ -63,7 +76,7 @@ class ScalarDefaults(Aggregation[JobRecord]):
                 continue
             writer.scalar(
                 f"{metric} (mean)",
-                math.fsum(finite) / len(finite),
+                exact_mean(finite),
                 unit=unit,
                 description=f"Mean of {metric!r} over the {len(finite)} jobs that reported it.",
             )

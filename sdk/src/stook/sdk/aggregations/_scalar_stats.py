@@ -16,6 +16,7 @@ from stook.sdk._errors import WriterError
 from stook.sdk._writer import MetricsWriter
 from stook.sdk.aggregations._base import Aggregation, Needs
 from stook.sdk.aggregations._record import JobRecord
+from stook.sdk.aggregations._sums import exact_mean
 from stook.sdk.aggregations._units import pick_unit
 
 _QUANTILE = re.compile(r"^p(\d{1,2}(?:\.\d+)?)$")
@@ -84,7 +85,7 @@ class ScalarStats(Aggregation[JobRecord]):
             elif stat == "std":
                 q = float(s.std()) if s.len() > 1 else 0.0  # type: ignore[arg-type]
             elif stat == "mean":
-                q = math.fsum(self.values) / len(self.values)
+                q = exact_mean(self.values)
             else:
                 q = float(getattr(s, stat)())
             out[stat] = float(q or 0.0)

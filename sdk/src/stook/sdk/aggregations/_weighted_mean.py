@@ -12,6 +12,7 @@ from stook.sdk._enums import MetricStatus
 from stook.sdk._writer import MetricsWriter
 from stook.sdk.aggregations._base import Aggregation, Needs
 from stook.sdk.aggregations._record import JobRecord
+from stook.sdk.aggregations._sums import exact_sum
 from stook.sdk.aggregations._units import pick_unit
 
 
@@ -70,10 +71,10 @@ class WeightedMean(Aggregation[JobRecord]):
 
     @property
     def value(self) -> float | None:
-        weight_sum = math.fsum(self.weights)
+        weight_sum = exact_sum(self.weights)
         if weight_sum == 0:
             return None
-        return math.fsum(self.products) / weight_sum
+        return exact_sum(self.products) / weight_sum
 
     def finish(self, writer: MetricsWriter) -> None:
         value = self.value
