@@ -1,9 +1,9 @@
 """Decode and reduce throughput: doubles per second from MetricsData bytes to a reduction.
 
 The path batch mode takes for every downloaded series: protobuf bytes -> polars
-(`read_metrics_data(...).series()`) -> the aggregation. Two shapes: job-sized series (100
-payloads of 300 doubles, as the emulator's jobs have) and one large series (300,000
-doubles), where per-call costs vanish. Timed only with `--benchmark-enable` (`make bench`);
+(`read_metrics_data(...).series()`) -> the aggregation. Three shapes: job-sized series (100
+payloads of 300 doubles, as the emulator's jobs have), long-job series (100 x 3,000) and
+one large series (300,000 doubles), where per-call costs vanish. Timed only with `--benchmark-enable` (`make bench`);
 the normal test run executes each once, as a smoke test, and asserts no speed.
 
 Doubles per second = `doubles` (in extra_info) x the benchmark's operations per second.
@@ -23,7 +23,8 @@ from stook.sdk import MetricsWriter, data
 from stook.sdk._reader import read_metrics_data
 from stook.sdk.aggregations import JobRecord, MergedHistogram, Scalar, WeightedMean
 
-SHAPES = {"job-sized": (100, 300), "large": (1, 300_000)}
+# job-sized: the emulator's jobs; long-job: five minutes of a 10 Hz signal per job.
+SHAPES = {"job-sized": (100, 300), "long-job": (100, 3_000), "large": (1, 300_000)}
 
 
 def payloads(count: int, length: int) -> list[bytes]:

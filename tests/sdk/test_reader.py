@@ -386,12 +386,32 @@ def test_unset_optional_fields_read_as_none() -> None:
     assert parse_metric(scalar).value is None
 
 
-def test_special_doubles_keep_their_bits() -> None:
-    values = [0.0, -0.0, math.inf, -math.inf, 5e-324, 1.7976931348623157e308, math.nan]
+@pytest.mark.parametrize("copies", [1, 100])  # below and above the packed-bytes path
+def test_special_doubles_keep_their_bits_on_both_paths(copies: int) -> None:
+    values = [0.0, -0.0, math.inf, -math.inf, 5e-324, 1.7976931348623157e308, math.nan] * copies
     d = _data(pb.DOUBLE_SERIES_DATA_TYPE)
     d.series.doubles.series.extend(values)
-    got = read_metrics_data(d.SerializeToString()).series().to_list()
+    got = read_metrics_data(d.SerializeToString()).series()
+    assert got.dtype == pl.Float64
+    assert got.name == d.name
     assert [struct.pack("<d", v) for v in got] == [struct.pack("<d", v) for v in values]
+
+
+@pytest.mark.parametrize("length", [1, 399, 400, 401, 4096, 70_000])
+def test_double_series_of_any_length_match_the_proto(length: int) -> None:
+    d = _data(pb.DOUBLE_SERIES_DATA_TYPE)
+    d.series.doubles.series.extend(float(i) * 0.1 - 7.0 for i in range(length))
+    got = read_metrics_data(d.SerializeToString()).series()
+    assert got.equals(pl.Series(d.name, list(d.series.doubles.series), dtype=pl.Float64))
+
+
+def test_unknown_fields_in_a_long_series_fall_back_to_copying() -> None:
+    d = _data(pb.DOUBLE_SERIES_DATA_TYPE)
+    d.series.doubles.series.extend(float(i) for i in range(1000))
+    d.series.doubles.MergeFromString(b"\x10\x07")
+    assert read_metrics_data(d.SerializeToString()).series().to_list() == [
+        float(i) for i in range(1000)
+    ]
 
 
 def test_large_double_series_matches_the_proto() -> None:

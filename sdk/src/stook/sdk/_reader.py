@@ -28,6 +28,7 @@ from dataclasses import dataclass, field
 from types import MappingProxyType
 from typing import Literal, TypeVar
 
+import numpy as np
 import polars as pl
 from google.protobuf.message import Error as ProtobufError
 from google.protobuf.message import Message
@@ -572,27 +573,22 @@ def _to_polars(series: pb.Series, kind: SeriesKind, name: str) -> pl.Series:
     return statuses.replace_strict(_STATUS_NAMES, default=None, return_dtype=STATUS_DTYPE)
 
 
-_PACKED_PATH_MIN = 4096
+_PACKED_PATH_MIN = 400
 
 
 def _doubles(doubles: pb.DoubleSeries, name: str) -> pl.Series:
-    # Handing polars the repeated field element by element costs ~55 ms per
-    # million doubles. The packed wire form already is the little-endian array
-    # polars wants, so re-serialize (a memcpy in upb) and reinterpret: ~8 ms.
+    # Handing polars the repeated field element by element costs ~50 ns per double
+    # (40 µs for 1,000). The packed wire form already is the little-endian array polars
+    # wants: re-serialize it (a memcpy in upb) and view it through numpy, ~20 µs whatever
+    # the length. Below a few hundred values the element path is as fast.
     n = len(doubles.series)
     if n < _PACKED_PATH_MIN:
-        # Below a few thousand values the fixed cost of the byte path outweighs it.
         return pl.Series(name, doubles.series, dtype=pl.Float64)
     wire = doubles.SerializeToString()
     start = _packed_payload_start(wire, n * 8)
     if start is None:
         return pl.Series(name, doubles.series, dtype=pl.Float64)
-    return (
-        pl.Series(name, [wire[start:]], dtype=pl.Binary)
-        .bin.reinterpret(dtype=pl.Array(pl.Float64, n), endianness="little")
-        .arr.explode()
-        .rename(name)
-    )
+    return pl.Series(name, np.frombuffer(wire, dtype="<f8", count=n, offset=start))
 
 
 def _packed_payload_start(wire: bytes, payload_len: int) -> int | None:

@@ -6,6 +6,7 @@ import math
 from dataclasses import dataclass, field
 from typing import Self
 
+import numpy as np
 import polars as pl
 
 from stook.sdk import _data
@@ -52,7 +53,7 @@ class MergedHistogram(Aggregation[JobRecord]):
     def __post_init__(self) -> None:
         # Raises WriterError on bad bounds now, at configuration time, not at the end.
         self._edges = histogram_buckets(self.name, self.buckets, self.lower, self.upper)
-        self._lowers = pl.Series([lo for lo, _ in self._edges], dtype=pl.Float64)
+        self._lowers = np.array([lo for lo, _ in self._edges], dtype=np.float64)
         if self.max_values < 1:
             raise ValueError(f"{self.name!r}: max_values must be at least 1")
 
@@ -82,14 +83,18 @@ class MergedHistogram(Aggregation[JobRecord]):
 
     def _bin(self, s: pl.Series) -> None:
         assert self.bucket_counts is not None  # only called once binned
-        self.outside_counted += int(((s < self.lower) | (s > self.upper)).sum())
+        values = s.to_numpy()
+        outside = (values < self.lower) | (values > self.upper)
+        self.outside_counted += int(np.count_nonzero(outside))
         # Search the bucket edges rather than divide by the width: division rounds a value
         # on an inner edge into the bucket below, against the "[lower, upper)" buckets.
-        index = (self._lowers.search_sorted(s, side="right").cast(pl.Int64) - 1).clip(
-            0, self.buckets - 1
-        )
-        for bucket, count in index.value_counts().iter_rows():
-            self.bucket_counts[bucket] += count
+        # (numpy rather than polars: a polars value_counts per batch cost 4x the search.)
+        index = np.searchsorted(self._lowers, values, side="right") - 1
+        np.clip(index, 0, self.buckets - 1, out=index)
+        counts = np.bincount(index, minlength=self.buckets)
+        self.bucket_counts = [
+            mine + int(new) for mine, new in zip(self.bucket_counts, counts, strict=True)
+        ]
 
     def _switch_to_counts(self) -> None:
         self.bucket_counts = [0] * self.buckets
