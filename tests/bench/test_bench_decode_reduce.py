@@ -3,8 +3,9 @@
 The path batch mode takes for every downloaded series: protobuf bytes -> polars
 (`read_metrics_data(...).series()`) -> the aggregation. Three shapes: job-sized series (100
 payloads of 300 doubles, as the emulator's jobs have), long-job series (100 x 3,000) and
-one large series (300,000 doubles), where per-call costs vanish. Timed only with `--benchmark-enable` (`make bench`);
-the normal test run executes each once, as a smoke test, and asserts no speed.
+one large series (300,000 doubles), where per-call costs vanish. Timed only with
+`--benchmark-enable` (`make bench`); the normal test run executes each once, as a smoke
+test, and asserts no speed.
 
 Doubles per second = `doubles` (in extra_info) x the benchmark's operations per second.
 """

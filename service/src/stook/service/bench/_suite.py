@@ -12,7 +12,7 @@ import json
 import time
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import Any, Final
 
 from stook.service.bench._adaptive import run_rate_limited
 from stook.service.bench._measure import (
@@ -25,6 +25,9 @@ from stook.service.bench._measure import (
 )
 from stook.service.bench._plots import plots_available, write_plots
 from stook.service.bench._sweep import FULL, QUICK, Grid, emulator_for, run_sweep
+from stook.service.bench._tables import sweep_tables
+
+_DATA_FILES: Final = ("sweep.csv", "bench.json", "tables.md")
 
 
 def _warm(emulator: Any) -> None:
@@ -203,11 +206,13 @@ def run_bench(
     (out_dir / f"{prefix}bench.json").write_text(
         json.dumps(results, indent=2) + "\n", encoding="utf-8"
     )
+    (out_dir / f"{prefix}tables.md").write_text(sweep_tables(rows), encoding="utf-8")
     if plots_available():
         for path in write_plots(rows, out_dir, prefix):
             say(f"wrote {path}")
     else:
         say("matplotlib is not installed (pip install 'stook[bench]'): no plots")
-    say(f"wrote {out_dir / (prefix + 'sweep.csv')} and {out_dir / (prefix + 'bench.json')}")
+    written = ", ".join(str(out_dir / f"{prefix}{name}") for name in _DATA_FILES)
+    say(f"wrote {written}")
     say(f"done in {results['seconds']:.0f} s")
     return results
