@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import asyncio
 import heapq
+import itertools
 from collections.abc import Callable
 
 import pytest
@@ -30,7 +31,7 @@ def simulate(
     """A closed loop on the fake clock: `demand` requests always want a slot.
 
     `serve(now, in_flight)` gives each request's status and round trip. Returns every
-    answer as (time, status).
+    answer as (time, status), including those to requests still in flight at `until`.
     """
     running: list[tuple[float, int, int, float]] = []
     answers: list[tuple[float, int]] = []
@@ -47,6 +48,12 @@ def simulate(
         limiter.release(status, rtt)
         answers.append((finished, status))
         waiting += 1
+    # Answer what is still in flight, so that the next call starts from a clean slate.
+    while running:
+        finished, _, status, rtt = heapq.heappop(running)
+        clock.now = finished
+        limiter.release(status, rtt)
+        answers.append((finished, status))
     return answers
 
 
@@ -84,12 +91,12 @@ async def test_fixed_limit_bounds_requests_in_flight() -> None:
 def test_an_unthrottled_limit_climbs_to_the_maximum() -> None:
     clock = Clock()
     limiter = aimd(clock)
-    answers = simulate(limiter, clock, lambda now, n: (200, 0.02), until=3.0)
+    # Slow start doubles per window (two round trips) to 32, then grows by a quarter:
+    # 4 to 64 in well under a second at 20 ms, where one more per window took seconds.
+    simulate(limiter, clock, lambda now, n: (200, 0.02), until=0.6)
     assert limiter.limit == 64
     assert limiter.stats.throttle_decreases == limiter.stats.latency_decreases == 0
-    # Slow start: doubling per window gets from 4 to 32 within a few round trips.
-    assert limiter.stats.peak_limit >= 32
-    assert min(t for t, _ in answers[len(answers) // 2 :]) < 3.0
+    assert limiter.stats.trips == limiter.stats.throttled == 0
 
 
 def test_an_unused_limit_does_not_grow() -> None:
@@ -123,11 +130,82 @@ def test_a_429_cuts_the_limit_to_what_got_through_and_ends_slow_start() -> None:
     assert reached >= 32
     # Now only a quarter of the answers get through.
     simulate(
-        limiter, clock, lambda now, n: (200 if int(now * 1000) % 4 == 0 else 429, 0.02), until=0.2
+        limiter, clock, lambda now, n: (200 if int(now * 1000) % 4 == 0 else 429, 0.02), until=0.5
     )
     assert limiter.stats.throttle_decreases >= 1
-    assert limiter.limit <= reached // 2
+    assert limiter.limit <= reached * 0.7
     assert not limiter._slow_start
+
+
+def test_a_gateway_bucket_is_tripped_a_few_times_and_its_rate_kept_busy() -> None:
+    clock = Clock()
+    limiter = aimd(clock)
+    # 300 requests/s with a burst of a tenth of a second, as gateways run them: 6 in
+    # flight at 20 ms is the server's pace, and the burst hides an overshoot only briefly.
+    answers = simulate(limiter, clock, token_bucket(300, 30, 0.02), until=20.0)
+    served = [t for t, status in answers if status == 200 and t > 2.0]
+    refused = [t for t, status in answers if status == 429]
+    assert len(served) >= 0.93 * 300 * 18
+    assert limiter.stats.trips <= 8
+    assert limiter.stats.throttled == len(refused) <= 0.03 * len(answers)
+    # A trip is an episode: it may take more than one cut to end it.
+    assert limiter.stats.throttle_decreases >= limiter.stats.trips
+
+
+def test_a_trip_cuts_once_and_ignores_stray_refusals_while_the_bucket_refills() -> None:
+    clock = Clock()
+    limiter = aimd(clock, initial=8)
+    simulate(limiter, clock, lambda now, n: (200, 0.02), until=0.2)
+    # One window with a refusal among many successes: a trip, one cut.
+    first = itertools.chain([429], itertools.repeat(200))
+    simulate(limiter, clock, lambda now, n: (next(first), 0.02), until=0.25)
+    assert (limiter.stats.trips, limiter.stats.throttle_decreases) == (1, 1)
+    cut = limiter.limit
+    # Now and then a refusal within `hold` (1 s) of the trip: no further cut, no new trip.
+    stray = itertools.chain([429], [200] * 30, [429], itertools.repeat(200))
+    simulate(limiter, clock, lambda now, n: (next(stray), 0.02), until=0.9)
+    assert (limiter.stats.trips, limiter.stats.throttle_decreases) == (1, 1)
+    assert limiter.limit == cut
+    # A refusal after `hold` is a trip of its own.
+    simulate(limiter, clock, lambda now, n: (429 if now > 2.0 else 200, 0.02), until=2.1)
+    assert limiter.stats.trips == 2
+
+
+def test_after_a_trip_the_limit_regains_its_ceiling_quickly_and_probes_beyond_slowly() -> None:
+    clock = Clock()
+    limiter = aimd(clock, initial=32, maximum=1000)
+    simulate(limiter, clock, lambda now, n: (200, 0.02), until=0.1)
+    # Half of the answers refused for a while: the limit drops to what got through.
+    simulate(limiter, clock, lambda now, n: (200 if int(now * 1000) % 2 else 429, 0.02), until=0.3)
+    low = limiter._limit
+    ceiling = limiter._ceiling
+    assert low < ceiling / 2
+    simulate(limiter, clock, lambda now, n: (200, 0.02), until=5.0)
+    # Within a few seconds, most of the way back: a quarter of the gap closes per second.
+    assert limiter._limit >= low + 0.5 * (ceiling - low)
+    simulate(limiter, clock, lambda now, n: (200, 0.02), until=25.0)
+    probed = limiter._limit
+    assert probed > ceiling
+    # Beyond the ceiling it grows by `probe` (5%) a second: a bucket's burst lasts.
+    simulate(limiter, clock, lambda now, n: (200, 0.02), until=26.0)
+    assert probed < limiter._limit <= probed * 1.06
+
+
+def test_a_fractional_limit_grants_its_last_slot_part_of_the_time() -> None:
+    clock = Clock()
+    limiter = aimd(clock, initial=6)
+    limiter._limit = 6.4  # as a cut or a probe leaves it
+    limiter._best_rtt = 1.0  # on this frozen clock no window closes: the limit stays put
+    assert limiter.limit == 6
+    granted = []
+    for _ in range(1000):
+        while limiter.try_acquire():
+            pass
+        granted.append(limiter.in_flight)
+        while limiter.in_flight:
+            limiter.release(200, 0.01)
+    assert set(granted) == {6, 7}
+    assert 0.35 <= granted.count(7) / len(granted) <= 0.45
 
 
 def test_throttles_from_requests_sent_before_a_decrease_count_once() -> None:

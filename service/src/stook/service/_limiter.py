@@ -5,26 +5,39 @@ requests together. A request holds a slot from `acquire()` until `release()`, wh
 reports what happened (the status, or None for a transport failure, and the seconds the
 slot was held), so that the adaptive limiter can learn from it.
 
-The adaptive limiter probes like TCP congestion control, with the server's own signals:
+The adaptive limiter probes like TCP congestion control, with the server's own signals.
+It is built for the rate limiters real gateways run: a token bucket whose burst is a small
+part of a second's rate, answering 429 with a `Retry-After` in whole seconds. Against
+such a limiter a client that overshoots loses more than the refused requests: every
+refused request sleeps a whole second while the bucket can save up only its burst, so
+the server's rate goes unused. Staying just below the rate is what finishes first.
 
-* while nothing pushes back and the limit is actually in use, the limit doubles each
-  window (slow start) up to `slow_start_until` or the first sign of trouble, then grows by
-  one per window up to the last level found sustainable, and by one per `hold` seconds
-  beyond it. Slow start stops early because a server's burst allowance hides its rate: a
-  limit still doubling when the allowance runs out has that many requests refused at once;
-* throttling answers (429, 503) cut the limit, by at least `backoff`, to what the server
-  let through: the window's successful requests per second times the best round trip
-  (Little's law). A rate limiter with a burst allowance lets a climbing limit through for
-  a while and then refuses everything at once; this estimate lands on its rate in one
-  step, where halving again and again would keep tripping it. No growth follows for
-  `hold` seconds, the scale on which such a limiter refills;
-* latency growing past `latency_tolerance` times the best seen, while throughput did not
+* Until the first sign of trouble the limit grows each window while it is in use:
+  doubling up to `slow_start_until`, then by a quarter, up to `maximum`.
+* A throttling answer (429, 503) to a request sent after the last decrease took hold
+  (once the requests in flight fell to it) is a trip. It cuts the limit to `backoff`
+  times the smaller of the limit and what the server let through over the last second:
+  the requests in flight times the share of answers that succeeded (Little's law), but
+  by at most three quarters at once. The limit it tripped at becomes the ceiling. For
+  `hold` seconds, the scale on which refused requests return, the limit does not grow,
+  and only a quarter of a window's answers refused cuts it again: a refusal now and then
+  is the emptied bucket filling up, not a new overload. Cuts within `hold` of each other
+  are one trip (`stats.trips`).
+* After a trip the limit closes a quarter of its gap to the ceiling per second, and
+  grows by at least `probe` (a fraction) per second, so that it finds a higher rate.
+  Far below the ceiling it recovers in a few seconds; near it, it probes so slowly that
+  a bucket's burst is used up only every few seconds: a trip is a handful of refusals.
+* Latency growing past `latency_tolerance` times the best seen, while throughput did not
   grow with it, cuts the limit by a fifth: requests are queueing, not being served faster.
+
+The limit is fractional: at 6.4 the seventh slot is granted to about 40% of the
+admissions that would need it. A server whose rate sits between two whole numbers of
+requests in flight (a few requests at tens of milliseconds each) is then neither left
+idle nor tripped every second.
 
 A window lasts two of the best round trips seen (before the first, until as many requests
 finished as were in flight at its start): long enough to hold a fair sample of answers,
-short enough to react within a few round trips. Only requests sent after the last
-decrease count as evidence against the new limit.
+short enough to react within a few round trips.
 """
 
 from __future__ import annotations
@@ -74,6 +87,17 @@ class LimiterStats:
     throttle_decreases: int = 0
     latency_decreases: int = 0
     peak_limit: int = 0
+    throttled: int = 0  # throttling answers (429, 503) seen
+    # Throttle episodes: decreases more than `hold` seconds after the previous one.
+    trips: int = 0
+
+
+# How far back the rate the server let through is measured, in seconds.
+_RATE_SPAN: Final = 1.0
+# Growth per window after slow start and before the first trip.
+_RAMP: Final = 1.25
+# Dithering a fractional limit: the golden ratio spreads the extra slot evenly.
+_GOLDEN: Final = 0.6180339887498949
 
 
 class AimdLimiter:
@@ -85,11 +109,12 @@ class AimdLimiter:
         maximum: int,
         initial: int = 4,
         minimum: int = 1,
-        backoff: float = 0.7,
+        backoff: float = 0.9,
         latency_backoff: float = 0.8,
         latency_tolerance: float = 2.0,
         hold: float = 1.0,
         slow_start_until: int = 32,
+        probe: float = 0.05,
         clock: Callable[[], float] = time.monotonic,
     ) -> None:
         if not 1 <= minimum <= maximum:
@@ -100,6 +125,8 @@ class AimdLimiter:
             raise ValueError("hold cannot be negative")
         if latency_tolerance <= 1:
             raise ValueError("latency_tolerance must be above 1")
+        if probe <= 0:
+            raise ValueError("probe must be positive")
         self.minimum = minimum
         self.maximum = maximum
         self._limit = float(min(max(initial, minimum), maximum))
@@ -109,10 +136,12 @@ class AimdLimiter:
         self._clock = clock
         self._hold = hold
         self._slow_start_until = slow_start_until
+        self._probe = probe
         self.in_flight = 0
         self.stats = LimiterStats(peak_limit=self.limit)
         self._waiters: deque[asyncio.Future[None]] = deque()
         self._slow_start = True
+        self._phase = 0.0
         # The current window: when it began, what finished in it, and what it saw.
         self._window_start = clock()
         self._window_size = self.limit
@@ -124,18 +153,36 @@ class AimdLimiter:
         self._limited = False  # whether a request had to wait for a slot in this window
         self._echoed = False  # a throttle from before the last decrease: hold, do not grow
         self._last_decrease = -math.inf
+        # Answers to requests sent before this count for nothing against the limit: until
+        # in-flight requests fall to a new limit, the old overload is still being answered.
+        self._evidence_from = -math.inf
+        self._last_trip = -math.inf
         self._best_rtt = math.inf
         self._last_rate = 0.0
-        self._sustainable = float(maximum)  # the level the last decrease settled on
-        self._last_slow_growth = -math.inf
+        self._ceiling = float(maximum)  # the limit of the last decrease
+        self._load = 0  # the requests in flight at each answer of this window, summed
+        # Closed windows of the last second or so: (end, seconds, answers, successes, load).
+        self._recent: deque[tuple[float, float, int, int, int]] = deque()
 
     @property
     def limit(self) -> int:
+        """Whole slots; a fractional part of the limit is granted part of the time."""
         return max(self.minimum, int(self._limit))
+
+    def _has_room(self) -> bool:
+        """Whether one more request fits; the slot a fractional limit adds, part-time."""
+        whole = max(self.minimum, int(self._limit))
+        if self.in_flight != whole:
+            return self.in_flight < whole
+        fraction = self._limit - whole
+        if fraction <= 0:
+            return False
+        self._phase = (self._phase + _GOLDEN) % 1.0
+        return self._phase < fraction
 
     def try_acquire(self) -> bool:
         """Take a slot if one is free now; a refusal marks the limit as the bottleneck."""
-        if self.in_flight < self.limit and not self._waiters:
+        if not self._waiters and self._has_room():
             self.in_flight += 1
             return True
         self._limited = True
@@ -158,13 +205,17 @@ class AimdLimiter:
             raise
 
     def release(self, status: int | None, seconds: float) -> None:
+        self._load += self.in_flight
         self.in_flight -= 1
         now = self._clock()
         self._done += 1
+        if self._evidence_from == math.inf and self.in_flight <= self.limit:
+            self._evidence_from = now
         if status is not None and status in THROTTLE_STATUSES:
-            # Only a request sent after the last decrease tells us the new limit is still
-            # too high; the others were already in flight when we backed off.
-            if now - seconds >= self._last_decrease:
+            self.stats.throttled += 1
+            # Only a request sent after the last decrease took hold tells us the new limit
+            # is still too high; the others were part of the overload we backed off from.
+            if now - seconds >= self._evidence_from:
                 self._throttled += 1
             else:
                 self._echoed = True
@@ -190,30 +241,31 @@ class AimdLimiter:
         elapsed = max(now - self._window_start, 1e-9)
         rate = self._done / elapsed
         mean_rtt = self._rtt_sum / self._rtt_count if self._rtt_count else None
+        self._recent.append((now, elapsed, self._done, self._ok, self._load))
+        while len(self._recent) > 1 and self._recent[0][0] - self._recent[0][1] < now - _RATE_SPAN:
+            self._recent.popleft()
         if self._throttled:
-            target = self._limit * self._backoff
-            if math.isfinite(self._best_rtt):
-                # At most a quarter per window: a short window that happened to hold only
-                # refusals would otherwise drop any limit straight to the minimum.
-                through = self._ok / elapsed * self._best_rtt
-                target = min(target, max(through, self._limit / 4))
-            self._decrease(target, now)
-            self.stats.throttle_decreases += 1
+            # Within `hold` of a trip, a refusal now and then is the emptied bucket filling
+            # up again, not a new overload; a quarter of the answers refused is.
+            if now > self._last_trip + self._hold or 4 * self._throttled >= max(
+                self._done, self.limit
+            ):
+                self._throttle(now)
         elif (
             mean_rtt is not None
             and mean_rtt > self._tolerance * self._best_rtt
             and rate <= self._last_rate * 1.05
         ):
-            self._decrease(self._limit * self._latency_backoff, now)
+            self._decrease(self._limit * self._latency_backoff, now, self._limit)
             self.stats.latency_decreases += 1
         elif (
             # Grow only a limit that was the bottleneck; an idle one proves nothing.
             self._limited
             and not self._echoed
             and now >= self._last_decrease + self._hold
-            and self.limit < self.maximum
+            and self._limit < self.maximum
         ):
-            self._grow(now)
+            self._grow(elapsed)
         if mean_rtt is not None:
             self._best_rtt = min(self._best_rtt, mean_rtt)
         self._last_rate = rate
@@ -223,34 +275,53 @@ class AimdLimiter:
         self._rtt_sum = 0.0
         self._rtt_count = 0
         self._ok = 0
+        self._load = 0
         self._throttled = 0
         self._echoed = False
         self._limited = bool(self._waiters)
 
-    def _grow(self, now: float) -> None:
-        if self._slow_start and self._limit < self._slow_start_until:
-            grown = min(self._limit * 2, float(self._slow_start_until))
-        elif self._limit + 1 <= self._sustainable:
-            grown = self._limit + 1
-        elif now >= self._last_slow_growth + self._hold:
-            # Past the last sustainable level: probe gently, a burst allowance hides the edge.
-            grown = self._limit + 1
-            self._last_slow_growth = now
+    def _throttle(self, now: float) -> None:
+        # What the server let through, over the last second: the requests in flight times
+        # the share of answers that were successes (Little's law). At most three quarters
+        # off at once, as a short window may have held only refusals.
+        answers = sum(r[2] for r in self._recent)
+        in_flight = sum(r[4] for r in self._recent) / answers
+        through = in_flight * sum(r[3] for r in self._recent) / answers
+        target = self._backoff * min(self._limit, max(through, self._limit / 4))
+        # Further cuts within `hold` belong to the same trip and keep its ceiling.
+        ceiling = self._limit
+        if now > self._last_trip + self._hold:
+            self.stats.trips += 1
         else:
-            return
+            ceiling = max(ceiling, self._ceiling)
+        self._last_trip = now
+        self._decrease(target, now, ceiling)
+        self.stats.throttle_decreases += 1
+
+    def _grow(self, elapsed: float) -> None:
+        if self._slow_start:
+            factor = 2.0 if self._limit < self._slow_start_until else _RAMP
+            grown = self._limit * factor
+            if self._limit < self._slow_start_until:
+                grown = min(grown, max(float(self._slow_start_until), self._limit + 1))
+        else:
+            # Back towards the ceiling quickly, beyond it slowly; time-based, so that the
+            # pace does not depend on the round trip.
+            step = max(0.25 * (self._ceiling - self._limit), self._probe * self._limit)
+            grown = self._limit + step * min(elapsed, 1.0)
         self._limit = min(float(self.maximum), grown)
         self.stats.increases += 1
         self.stats.peak_limit = max(self.stats.peak_limit, self.limit)
 
-    def _decrease(self, target: float, now: float) -> None:
+    def _decrease(self, target: float, now: float, ceiling: float) -> None:
         self._slow_start = False
+        self._ceiling = ceiling
         self._limit = max(float(self.minimum), target)
-        self._sustainable = self._limit
         self._last_decrease = now
-        self._last_slow_growth = now
+        self._evidence_from = now if self.in_flight <= self.limit else math.inf
 
     def _wake(self) -> None:
-        while self._waiters and self.in_flight < self.limit:
+        while self._waiters and self._has_room():
             waiter = self._waiters.popleft()
             if not waiter.done():
                 self.in_flight += 1

@@ -175,7 +175,8 @@ def run_bench(
         jobs=300 if quick else 1000,
         latency_ms=20.0,
         rps=200.0,
-        fixed=(4, 64) if quick else (4, 16, 64, 256),
+        fixed=(4, 16) if quick else (1, 4, 8, 16, 64, 256),
+        repeats=1 if quick else 2,
         say=say,
     )
     if quick and compare is None:
