@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Awaitable, Callable
 from datetime import UTC, datetime
 from email.utils import format_datetime
 
@@ -135,3 +136,55 @@ async def test_call_with_retries_returns_the_value(sleep: RecordingSleep) -> Non
         "done"
     )
     assert sleep.waits == [0.0]
+
+
+def _scripted(
+    failures: list[BaseException],
+) -> tuple[list[int], Callable[[], Awaitable[str]]]:
+    """An attempt that raises `failures` in order, then returns "done"; counts its calls."""
+    calls = [0]
+    remaining = iter(failures)
+
+    async def attempt() -> str:
+        calls[0] += 1
+        failure = next(remaining, None)
+        if failure is not None:
+            raise failure
+        return "done"
+
+    return calls, attempt
+
+
+async def test_throttling_answers_spend_their_own_larger_allowance(sleep: RecordingSleep) -> None:
+    # Ten 429s are more than max_attempts, but a server pacing us is not failing.
+    calls, attempt = _scripted([status_error(429)] * 10)
+    policy = RetryPolicy(backoff=wait_none(), sleep=sleep, max_attempts=3)
+    got = await call_with_retries(attempt, policy, stats=TransferStats(), method="GET", url=URL)
+    assert got == "done"
+    assert calls[0] == 11
+
+
+async def test_throttling_allowance_runs_out_too(sleep: RecordingSleep) -> None:
+    calls, attempt = _scripted([status_error(429)] * 100)
+    policy = RetryPolicy(backoff=wait_none(), sleep=sleep, max_throttled_attempts=7)
+    with pytest.raises(RetriesExhaustedError) as caught:
+        await call_with_retries(attempt, policy, stats=TransferStats(), method="GET", url=URL)
+    assert calls[0] == 7
+    assert caught.value.last_status == 429
+
+
+async def test_throttles_do_not_buy_extra_failures(sleep: RecordingSleep) -> None:
+    # 429s between them do not reset the count of real failures.
+    failures: list[BaseException] = [status_error(503), status_error(429)] * 3
+    calls, attempt = _scripted(failures)
+    policy = RetryPolicy(backoff=wait_none(), sleep=sleep, max_attempts=3)
+    with pytest.raises(RetriesExhaustedError) as caught:
+        await call_with_retries(attempt, policy, stats=TransferStats(), method="GET", url=URL)
+    assert calls[0] == 5  # 503, 429, 503, 429, 503: the third failure stops it
+    assert caught.value.last_status == 503
+
+
+def test_throttled_allowance_is_validated() -> None:
+    assert RetryPolicy().max_throttled_attempts == 30
+    with pytest.raises(ValueError, match="max_throttled_attempts"):
+        RetryPolicy(max_throttled_attempts=0)

@@ -4,6 +4,7 @@
 concurrency = 64       # requests in flight, API and storage together
 timeout = 30.0         # seconds per request attempt
 max_attempts = 6       # per request, first try included
+max_throttled_attempts = 30  # per request, for 429 answers (the server pacing us)
 page_size = 100        # items asked for per list page
 adaptive = false       # find the server's pace below `concurrency` (AIMD on 429s and latency)
 
@@ -44,6 +45,7 @@ class FetchSettings:
     concurrency: int = 64
     timeout: float = 30.0
     max_attempts: int = 6
+    max_throttled_attempts: int = 30
     page_size: int = 100
     adaptive: bool = False
 
@@ -195,7 +197,14 @@ def _report(
 def _fetch(table: Mapping[str, Any], source: str) -> FetchSettings:
     _only(
         table,
-        {"concurrency", "timeout", "max_attempts", "page_size", "adaptive"},
+        {
+            "concurrency",
+            "timeout",
+            "max_attempts",
+            "max_throttled_attempts",
+            "page_size",
+            "adaptive",
+        },
         "[fetch]",
         source,
     )
@@ -216,6 +225,9 @@ def _fetch(table: Mapping[str, Any], source: str) -> FetchSettings:
         concurrency=positive("concurrency", int, defaults.concurrency),
         timeout=positive("timeout", float, defaults.timeout),
         max_attempts=positive("max_attempts", int, defaults.max_attempts),
+        max_throttled_attempts=positive(
+            "max_throttled_attempts", int, defaults.max_throttled_attempts
+        ),
         page_size=positive("page_size", int, defaults.page_size),
         adaptive=adaptive,
     )

@@ -21,9 +21,9 @@ from tenacity import (
     RetryCallState,
     RetryError,
     retry_if_exception,
-    stop_after_attempt,
     wait_random_exponential,
 )
+from tenacity.stop import stop_base
 from tenacity.wait import wait_base
 
 from stook.service._errors import (
@@ -50,7 +50,8 @@ _log = get_logger("stook.service.retry")
 
 _T = TypeVar("_T")
 
-RETRYABLE_STATUSES: Final = frozenset({429}) | frozenset(range(500, 600))
+THROTTLED_STATUS: Final = 429
+RETRYABLE_STATUSES: Final = frozenset({THROTTLED_STATUS}) | frozenset(range(500, 600))
 
 
 @dataclass(frozen=True, slots=True)
@@ -63,6 +64,9 @@ class RetryPolicy:
     """
 
     max_attempts: int = 6
+    # A 429 is the server pacing us, not failing: it spends this larger allowance instead,
+    # so that a client over a strict rate limit slows down rather than gives up.
+    max_throttled_attempts: int = 30
     initial_backoff: float = 0.05
     max_backoff: float = 5.0
     # A server may ask for a long pause; beyond this we would rather spend an attempt.
@@ -74,6 +78,10 @@ class RetryPolicy:
     def __post_init__(self) -> None:
         if self.max_attempts < 1:
             raise ValueError(f"max_attempts must be at least 1, got {self.max_attempts}")
+        if self.max_throttled_attempts < 1:
+            raise ValueError(
+                f"max_throttled_attempts must be at least 1, got {self.max_throttled_attempts}"
+            )
         if self.request_timeout <= 0:
             raise ValueError(f"request_timeout must be positive, got {self.request_timeout}")
 
@@ -173,6 +181,28 @@ class _WaitRetryAfterOrBackoff(wait_base):
         return self.backoff(retry_state)
 
 
+class _StopAfterAttempts(stop_base):
+    """Stop after `attempts` failed attempts, where a 429 answer counts against `throttled`.
+
+    Stateful, which is safe because every request gets its own AsyncRetrying.
+    """
+
+    def __init__(self, attempts: int, throttled: int) -> None:
+        self._attempts = attempts
+        self._throttled = throttled
+        self._failures = 0
+        self._throttles = 0
+
+    def __call__(self, retry_state: RetryCallState) -> bool:
+        outcome = retry_state.outcome
+        failure = outcome.exception() if outcome is not None else None
+        if getattr(failure, "status", None) == THROTTLED_STATUS:
+            self._throttles += 1
+        else:
+            self._failures += 1
+        return self._failures >= self._attempts or self._throttles >= self._throttled
+
+
 def new_retrying(
     policy: RetryPolicy,
     *,
@@ -201,11 +231,12 @@ def new_retrying(
             reason=reason,
             attempt=retry_state.attempt_number,
             max_attempts=policy.max_attempts,
+            max_throttled_attempts=policy.max_throttled_attempts,
             wait_s=round(wait, 3),
         )
 
     return AsyncRetrying(
-        stop=stop_after_attempt(policy.max_attempts),
+        stop=_StopAfterAttempts(policy.max_attempts, policy.max_throttled_attempts),
         wait=_WaitRetryAfterOrBackoff(policy.backoff_wait(), policy.max_retry_after),
         retry=retry_if_exception(is_retryable),
         before_sleep=before_sleep,

@@ -18,7 +18,9 @@ async def open_api(
 ) -> AsyncIterator[ApiClient]:
     """An ApiClient configured from `[fetch]`; `retry` overrides its retry policy (tests)."""
     policy = retry or RetryPolicy(
-        max_attempts=settings.max_attempts, request_timeout=settings.timeout
+        max_attempts=settings.max_attempts,
+        max_throttled_attempts=settings.max_throttled_attempts,
+        request_timeout=settings.timeout,
     )
     async with ApiClient(
         access.api_url,
