@@ -24,10 +24,12 @@ from stook.service.bench._measure import (
     resim_available,
 )
 from stook.service.bench._plots import plots_available, write_plots
+from stook.service.bench._repeat import repeat_target_points
 from stook.service.bench._sweep import FULL, QUICK, Grid, emulator_for, run_sweep
 from stook.service.bench._tables import sweep_tables
 
 _DATA_FILES: Final = ("sweep.csv", "bench.json", "tables.md")
+TARGET_REPEATS: Final = 5
 
 
 def _warm(emulator: Any) -> None:
@@ -81,9 +83,16 @@ def _find(rows: list[dict[str, Any]], client: str, **point: Any) -> dict[str, An
 
 
 def evaluate_targets(
-    rows: list[dict[str, Any]], grid: Grid, compare: dict[str, Any] | None
+    rows: list[dict[str, Any]],
+    grid: Grid,
+    compare: dict[str, Any] | None,
+    repeated: list[dict[str, Any]] | None = None,
 ) -> dict[str, Any]:
-    """Each target with its measured value; None where the run did not cover it."""
+    """Each target with its measured value; None where the run did not cover it.
+
+    Where the target point was measured again (`repeated`), its medians decide; the sweep's
+    single run is kept alongside.
+    """
     mid = grid.sizes[len(grid.sizes) // 2] if len(grid.sizes) > 2 else grid.sizes[-1]
     targets: dict[str, Any] = {}
     if compare is not None and "speedup" in compare:
@@ -119,6 +128,27 @@ def evaluate_targets(
             "target": ">= 0.70",
             "met": shares[64] >= 0.70,
         }
+    for point in repeated or []:
+        if (point["jobs"], point["concurrency"]) != (mid, 64):
+            continue
+        runs = f"median of {point['repeats']} runs each"
+        if point["latency_ms"] == 0.0 and "share_of_bare_loop" in targets:
+            share = targets["share_of_bare_loop"]
+            share.update(
+                measured=point["stook_share_of_bare"],
+                how=runs,
+                sweep_single_run=share["measured"],
+                met=point["stook_share_of_bare"] >= 0.70,
+            )
+        if point["latency_ms"] == 10.0 and "latency_bound" in targets:
+            bound = targets["latency_bound"]
+            bound.update(
+                measured=point["stook_over_bound"],
+                bare_loop=point["bare_over_bound"],
+                how=runs,
+                sweep_single_run=bound["measured"],
+                met=point["stook_over_bound"] <= 1.25,
+            )
     small, large = grid.sizes[-2], grid.sizes[-1]
     growth = {}
     for latency in grid.latencies_ms:
@@ -179,6 +209,10 @@ def run_bench(
         repeats=1 if quick else 2,
         say=say,
     )
+    repeated: list[dict[str, Any]] = []
+    if not quick:
+        say(f"the target points again, {TARGET_REPEATS} runs each ...")
+        repeated = repeat_target_points(TARGET_REPEATS, say=say)
     if quick and compare is None:
         resim = _find(rows, "resim fetch_job_metrics_by_batch", latency_ms=10.0, jobs=100)
         stook = _find(rows, "stook", concurrency=64, latency_ms=10.0, jobs=100)
@@ -188,7 +222,7 @@ def run_bench(
                 "latency_ms": 10.0,
                 "speedup": resim["seconds"] / stook["seconds"],
             }
-    targets = evaluate_targets(rows, grid, compare)
+    targets = evaluate_targets(rows, grid, compare, repeated)
     for name, target in targets.items():
         verdict = "met" if target["met"] else "MISSED"
         say(f"target {name}: {target['measured']} ({target['target']}) {verdict}")
@@ -199,6 +233,7 @@ def run_bench(
         "targets": targets,
         "sweep": rows,
         "compare": compare,
+        "target_points_repeated": repeated,
         "memory_exact_histogram": memory,
         "adaptive": adaptive,
     }
