@@ -37,7 +37,7 @@ def test_the_sweep_alone_decides_without_repeats() -> None:
 
 
 def test_repeated_medians_decide_and_the_single_run_is_kept() -> None:
-    repeated = [
+    repeated: list[dict[str, Any]] = [
         {
             "latency_ms": 0.0,
             "jobs": 1000,
