@@ -11,7 +11,7 @@ import pytest
 
 from stook.service._client import ApiClient
 from stook.service._config import ConfigError, parse
-from stook.service._limiter import AimdLimiter, FixedLimit
+from stook.service._limiter import AimdLimiter, FixedLimit, NestedLimit
 
 
 class Clock:
@@ -298,12 +298,48 @@ def test_bad_settings_are_refused() -> None:
         AimdLimiter(maximum=4, latency_tolerance=1.0)
 
 
-def test_api_client_uses_the_adaptive_limiter_only_when_asked() -> None:
+def test_api_client_uses_adaptive_paces_only_when_asked() -> None:
     fixed = ApiClient("http://127.0.0.1:9/v1", "t", concurrency=8)
     adaptive = ApiClient("http://127.0.0.1:9/v1", "t", concurrency=8, adaptive=True)
-    assert isinstance(fixed.limiter, FixedLimit)
-    assert isinstance(adaptive.limiter, AimdLimiter)
-    assert adaptive.limiter.maximum == 8
+    assert fixed.paces == {}
+    # The shared bound stays fixed; each origin gets a pace of its own inside it.
+    assert isinstance(adaptive.limiter, FixedLimit)
+    assert adaptive.limiter.limit == 8
+    assert sorted(adaptive.paces) == ["api", "storage"]
+    assert all(pace.maximum == 8 for pace in adaptive.paces.values())
+    assert adaptive.paces["api"] is not adaptive.paces["storage"]
+
+
+async def test_nested_limit_needs_both_slots_and_releases_both() -> None:
+    api, storage, shared = AimdLimiter(maximum=4, initial=2), FixedLimit(3), FixedLimit(3)
+    api_limit, storage_limit = NestedLimit(api, shared), NestedLimit(storage, shared)
+    for _ in range(2):
+        await api_limit.acquire()
+    # The API's own pace (2) is full: a third API request waits, holding no shared slot,
+    third = asyncio.ensure_future(api_limit.acquire())
+    await asyncio.sleep(0)
+    assert not third.done()
+    # so the shared bound's last slot is still there for storage.
+    await asyncio.wait_for(storage_limit.acquire(), 1)
+    storage_limit.release(200, 0.01)
+    await asyncio.sleep(0)
+    assert not third.done()  # storage's slot does not lift the API's pace
+    api_limit.release(200, 0.01)
+    await asyncio.wait_for(third, 1)
+    assert api.in_flight == 2
+    assert storage.limit == 3
+
+
+async def test_nested_limit_gives_back_the_inner_slot_when_cancelled() -> None:
+    inner, outer = FixedLimit(1), FixedLimit(1)
+    nested = NestedLimit(inner, outer)
+    await outer.acquire()  # the shared bound is full
+    waiting = asyncio.ensure_future(nested.acquire())
+    await asyncio.sleep(0)
+    waiting.cancel()
+    with pytest.raises(asyncio.CancelledError):
+        await waiting
+    await asyncio.wait_for(inner.acquire(), 1)  # its inner slot was given back
 
 
 def test_fetch_adaptive_is_read_from_the_config() -> None:

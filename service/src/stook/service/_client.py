@@ -28,7 +28,7 @@ from stook.service._errors import (
     StorageError,
 )
 from stook.service._http import HttpTransport, Response
-from stook.service._limiter import AimdLimiter, ConcurrencyLimit, FixedLimit
+from stook.service._limiter import AimdLimiter, ConcurrencyLimit, FixedLimit, NestedLimit
 from stook.service._logging import get_logger
 from stook.service._models import (
     Batch,
@@ -154,9 +154,10 @@ class ApiClient:
     ``concurrency`` bounds the requests in flight, API and storage together; with
     ``storage_concurrency`` storage fetches get a bound of their own instead. Callers may
     start as many tasks as they like: they queue for a slot, without that queueing
-    counting against the request timeout. With ``adaptive=True`` the shared bound is an
-    :class:`~stook.service._limiter.AimdLimiter` that finds the server's pace below
-    ``concurrency`` (backing off on 429s and on growing latency); ``self.limiter`` shows it.
+    counting against the request timeout. With ``adaptive=True`` each origin (API, storage)
+    also gets an :class:`~stook.service._limiter.AimdLimiter` that finds that server's pace
+    below ``concurrency`` (backing off on 429s and on growing latency); ``self.paces``
+    shows them, ``self.limiter`` the shared bound.
     """
 
     def __init__(
@@ -185,13 +186,26 @@ class ApiClient:
         self.stats = TransferStats()
         if concurrency < 1:
             raise ValueError(f"concurrency must be at least 1, got {concurrency}")
-        self.limiter: ConcurrencyLimit = (
-            AimdLimiter(maximum=concurrency) if adaptive else FixedLimit(concurrency)
-        )
+        self.limiter = FixedLimit(concurrency)
+        # Adaptive: each origin finds its own pace, inside the shared bound. A rate limit
+        # on the API says nothing about storage, and one shared pace cut by the API's 429s
+        # would hold storage back too.
+        self.paces: dict[str, AimdLimiter] = {}
+        api_limit: ConcurrencyLimit = self.limiter
+        storage_limit: ConcurrencyLimit | None = None if storage_concurrency else self.limiter
+        if adaptive:
+            self.paces["api"] = AimdLimiter(maximum=concurrency)
+            self.paces["storage"] = AimdLimiter(maximum=storage_concurrency or concurrency)
+            api_limit = NestedLimit(self.paces["api"], self.limiter)
+            storage_limit = (
+                self.paces["storage"]
+                if storage_concurrency
+                else NestedLimit(self.paces["storage"], self.limiter)
+            )
         self._transport = HttpTransport(
             name="api",
             concurrency=concurrency,
-            limiter=self.limiter,
+            limiter=api_limit,
             proxy_for=self._base,
             request_timeout=self._policy.request_timeout,
             stats=self.stats,
@@ -204,7 +218,7 @@ class ApiClient:
         self.storage = StorageClient(
             concurrency=storage_concurrency or concurrency,
             retry=self._policy,
-            limiter=None if storage_concurrency else self.limiter,
+            limiter=storage_limit,
         )
 
     def __repr__(self) -> str:

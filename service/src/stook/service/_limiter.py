@@ -1,9 +1,11 @@
 """How many requests may be in flight: a fixed bound, or one that adapts (AIMD).
 
-Both transports of a client share one limiter, so the bound covers API and storage
-requests together. A request holds a slot from `acquire()` until `release()`, which also
-reports what happened (the status, or None for a transport failure, and the seconds the
-slot was held), so that the adaptive limiter can learn from it.
+Both transports of a client share one fixed bound, so it covers API and storage requests
+together; in adaptive mode each transport also has an adaptive limiter of its own inside it
+(`NestedLimit`), since two servers have two paces. A request holds a slot from `acquire()`
+until `release()`, which also reports what happened (the status, or None for a transport
+failure, and the seconds the slot was held), so that the adaptive limiter can learn from
+it.
 
 The adaptive limiter probes like TCP congestion control, with the server's own signals.
 It is built for the rate limiters real gateways run: a token bucket whose burst is a small
@@ -50,7 +52,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Final, Protocol
 
-__all__ = ["AimdLimiter", "ConcurrencyLimit", "FixedLimit", "LimiterStats"]
+__all__ = ["AimdLimiter", "ConcurrencyLimit", "FixedLimit", "LimiterStats", "NestedLimit"]
 
 THROTTLE_STATUSES: Final = frozenset({429, 503})
 
@@ -77,6 +79,31 @@ class FixedLimit:
 
     def release(self, status: int | None, seconds: float) -> None:
         self._slots.release()
+
+
+class NestedLimit:
+    """A slot from `inner` (one origin's own pace), then one from `outer` (a bound shared
+    with other origins); both learn from the outcome.
+
+    The inner slot comes first so that a request held back by its own origin's pace does
+    not sit on a shared slot that a request to the other origin could use.
+    """
+
+    def __init__(self, inner: ConcurrencyLimit, outer: ConcurrencyLimit) -> None:
+        self.inner = inner
+        self.outer = outer
+
+    async def acquire(self) -> None:
+        await self.inner.acquire()
+        try:
+            await self.outer.acquire()
+        except BaseException:
+            self.inner.release(None, 0.0)
+            raise
+
+    def release(self, status: int | None, seconds: float) -> None:
+        self.outer.release(status, seconds)
+        self.inner.release(status, seconds)
 
 
 @dataclass(slots=True)

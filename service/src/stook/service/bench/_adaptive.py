@@ -43,26 +43,28 @@ def measure_run(info: EmulatorInfo, concurrency: int, adaptive: bool) -> dict[st
     """One batch-mode run (in a fresh process): its measurement, trips and limiter stats.
 
     The limiters are wrapped in this process only, to note when a 429 came back and to
-    keep the adaptive limiter's counters. A run that gives up is a result, not a crash.
+    keep the adaptive limiters' counters (API first, then storage). A run that gives up is
+    a result, not a crash.
     """
     from stook.service import _limiter
 
     refusals: list[float] = []
-    limiters: list[_limiter.AimdLimiter] = []
-    classes: tuple[Any, ...] = (_limiter.FixedLimit, _limiter.AimdLimiter)
-    for cls in classes:
-        original = cls.release
+    paces: list[_limiter.AimdLimiter] = []
+    # Every request passes the shared fixed bound, adaptive or not: note refusals there.
+    shared_release = _limiter.FixedLimit.release
+    pace_init = _limiter.AimdLimiter.__init__
 
-        def release(
-            self: Any, status: int | None, seconds: float, _original: Any = original
-        ) -> None:
-            if status == 429:
-                refusals.append(time.monotonic())
-            if isinstance(self, _limiter.AimdLimiter) and self not in limiters:
-                limiters.append(self)
-            _original(self, status, seconds)
+    def release(self: Any, status: int | None, seconds: float) -> None:
+        if status == 429:
+            refusals.append(time.monotonic())
+        shared_release(self, status, seconds)
 
-        cls.release = release
+    def init(self: Any, *args: Any, **kwargs: Any) -> None:
+        pace_init(self, *args, **kwargs)
+        paces.append(self)
+
+    _limiter.FixedLimit.release = release  # type: ignore[method-assign]
+    _limiter.AimdLimiter.__init__ = init  # type: ignore[method-assign]
     try:
         m = measure_stook(info, SWEEP_CONFIG, concurrency, adaptive)
     except Exception as exc:
@@ -75,16 +77,18 @@ def measure_run(info: EmulatorInfo, concurrency: int, adaptive: bool) -> dict[st
             "peak_rss_mb": round(m.peak_rss_mb, 1),
         }
     outcome["trips"] = _count_trips(refusals)
-    if limiters:
-        stats = limiters[0].stats
-        outcome["limiter"] = {
-            "trips": stats.trips,
-            "throttle_decreases": stats.throttle_decreases,
-            "latency_decreases": stats.latency_decreases,
-            "increases": stats.increases,
-            "peak_limit": stats.peak_limit,
-            "final_limit": limiters[0].limit,
-        }
+    if paces:
+        outcome["limiters"] = [
+            {
+                "trips": pace.stats.trips,
+                "throttle_decreases": pace.stats.throttle_decreases,
+                "latency_decreases": pace.stats.latency_decreases,
+                "increases": pace.stats.increases,
+                "peak_limit": pace.stats.peak_limit,
+                "final_limit": pace.limit,
+            }
+            for pace in paces
+        ]
     return outcome
 
 
