@@ -198,7 +198,7 @@ class AimdLimiter:
 
     def _has_room(self) -> bool:
         """Whether one more request fits; the slot a fractional limit adds, part-time."""
-        whole = max(self.minimum, int(self._limit))
+        whole = self.limit
         if self.in_flight != whole:
             return self.in_flight < whole
         fraction = self._limit - whole

@@ -18,7 +18,7 @@ import aiohttp
 from yarl import URL
 
 from stook.service._models import JobMetricsData
-from stook.service.bench._measure import Measurement, cpu_seconds, peak_rss_mb
+from stook.service.bench._measure import BARE_LOOP, Measurement, cpu_seconds, peak_rss_mb
 from stook.service.emulator import EmulatorInfo
 
 
@@ -120,7 +120,7 @@ def measure_bare(targets: list[Target], concurrency: int, token: str) -> Measure
     requests, failed, received = asyncio.run(_get_all(targets, concurrency, token))
     seconds = time.perf_counter() - started
     return Measurement(
-        client="bare aiohttp loop",
+        client=BARE_LOOP,
         jobs=0,
         seconds=seconds,
         requests=requests,

@@ -17,12 +17,19 @@ from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 from multiprocessing import get_context
 from pathlib import Path
-from typing import Any, ParamSpec, TypeVar
+from typing import Any, Final, ParamSpec, TypeVar
 
 from stook.service.emulator import EmulatorInfo
 
 _P = ParamSpec("_P")
 _T = TypeVar("_T")
+
+
+# The clients as rows, CSV and tables name them.
+STOOK: Final = "stook"
+BARE_LOOP: Final = "bare aiohttp loop"
+LATENCY_BOUND: Final = "latency bound"
+RESIM: Final = "resim fetch_job_metrics_by_batch"
 
 
 # The exact-mode histogram keeps every value up to its cap (2 million by default), so its
@@ -123,7 +130,7 @@ def measure_stook(
         seconds = time.perf_counter() - started
         cpu = cpu_seconds() - cpu_before
     return Measurement(
-        client="stook",
+        client=STOOK,
         jobs=result.outcome.jobs_listed,
         seconds=seconds,
         requests=result.requests,
@@ -149,7 +156,7 @@ def measure_resim(info: EmulatorInfo) -> Measurement:
     seconds = time.perf_counter() - started
     # ReSim's fetcher keeps no counters; the emulator's stats give its requests.
     return Measurement(
-        client="resim fetch_job_metrics_by_batch",
+        client=RESIM,
         jobs=len(fetched),
         seconds=seconds,
         requests=0,

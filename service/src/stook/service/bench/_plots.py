@@ -10,12 +10,13 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+from stook.service.bench._measure import BARE_LOOP, LATENCY_BOUND, RESIM, STOOK
+
 _STYLE: dict[str, dict[str, Any]] = {
-    "stook": {"linestyle": "-", "marker": "o"},
-    "bare aiohttp loop": {"linestyle": "--", "marker": "s"},
-    "latency bound": {"linestyle": ":", "marker": None},
+    STOOK: {"linestyle": "-", "marker": "o"},
+    BARE_LOOP: {"linestyle": "--", "marker": "s"},
+    LATENCY_BOUND: {"linestyle": ":", "marker": None},
 }
-_RESIM = "resim fetch_job_metrics_by_batch"
 
 
 def plots_available() -> bool:
@@ -54,7 +55,7 @@ def write_plots(rows: Sequence[dict[str, Any]], out_dir: Path, prefix: str) -> l
                     xs, ys = zip(*points, strict=True)
                     ax.plot(xs, ys, color=colours[jobs], label=f"{client}, {jobs} jobs", **style)
         for r in rows:
-            if r["client"] == _RESIM and r["latency_ms"] == latency:
+            if r["client"] == RESIM and r["latency_ms"] == latency:
                 ax.plot(64, r["requests_per_second"], "k*", markersize=11)
         ax.set_xscale("log", base=2)
         ax.set_yscale("log")
@@ -78,7 +79,7 @@ def write_plots(rows: Sequence[dict[str, Any]], out_dir: Path, prefix: str) -> l
     written.append(path)
 
     fig, ax = plt.subplots(figsize=(6.5, 4.2))
-    stook = [r for r in rows if r["client"] == "stook"]
+    stook = [r for r in rows if r["client"] == STOOK]
     for latency in latencies:
         for c in sorted({r["concurrency"] for r in stook}):
             points = sorted(

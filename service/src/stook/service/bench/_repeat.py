@@ -13,7 +13,7 @@ from collections.abc import Callable
 from typing import Any, Final
 
 from stook.service.bench._bare import collect_targets, measure_bare
-from stook.service.bench._measure import in_fresh_process, measure_stook
+from stook.service.bench._measure import BARE_LOOP, STOOK, in_fresh_process, measure_stook
 from stook.service.bench._sweep import SWEEP_CONFIG, SWEEP_DATA, emulator_for
 
 __all__ = ["TARGET_POINTS", "repeat_target_points"]
@@ -33,11 +33,11 @@ def repeat_target_points(
     for latency, jobs, concurrency in points:
         with emulator_for(jobs, latency) as emulator:
             urls = asyncio.run(collect_targets(emulator.info, SWEEP_DATA))
-            runs: dict[str, list[dict[str, float]]] = {"stook": [], "bare aiohttp loop": []}
+            runs: dict[str, list[dict[str, float]]] = {STOOK: [], BARE_LOOP: []}
             for _ in range(repeats):
                 for client, fn, args in (
-                    ("stook", measure_stook, (emulator.info, SWEEP_CONFIG, concurrency)),
-                    ("bare aiohttp loop", measure_bare, (urls, concurrency, emulator.info.token)),
+                    (STOOK, measure_stook, (emulator.info, SWEEP_CONFIG, concurrency)),
+                    (BARE_LOOP, measure_bare, (urls, concurrency, emulator.info.token)),
                 ):
                     m = in_fresh_process(fn, *args)
                     runs[client].append(
@@ -54,7 +54,7 @@ def repeat_target_points(
             }
             for client, client_runs in runs.items()
         }
-        stook, bare = medians["stook"], medians["bare aiohttp loop"]
+        stook, bare = medians[STOOK], medians[BARE_LOOP]
         result = {
             "latency_ms": latency,
             "jobs": jobs,

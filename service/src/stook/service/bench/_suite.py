@@ -16,7 +16,11 @@ from typing import Any, Final
 
 from stook.service.bench._adaptive import run_rate_limited
 from stook.service.bench._measure import (
+    BARE_LOOP,
     BENCH_CONFIG,
+    LATENCY_BOUND,
+    RESIM,
+    STOOK,
     Measurement,
     in_fresh_process,
     measure_resim,
@@ -102,9 +106,9 @@ def evaluate_targets(
             "target": ">= 10",
             "met": compare["speedup"] >= 10,
         }
-    stook = _find(rows, "stook", concurrency=64, latency_ms=10.0, jobs=mid)
-    bound = _find(rows, "latency bound", concurrency=64, latency_ms=10.0, jobs=mid)
-    bare = _find(rows, "bare aiohttp loop", concurrency=64, latency_ms=10.0, jobs=mid)
+    stook = _find(rows, STOOK, concurrency=64, latency_ms=10.0, jobs=mid)
+    bound = _find(rows, LATENCY_BOUND, concurrency=64, latency_ms=10.0, jobs=mid)
+    bare = _find(rows, BARE_LOOP, concurrency=64, latency_ms=10.0, jobs=mid)
     if stook and bound and bare:
         ratio = stook["seconds"] / bound["seconds"]
         targets["latency_bound"] = {
@@ -116,8 +120,8 @@ def evaluate_targets(
         }
     shares = {}
     for c in grid.concurrencies:
-        s = _find(rows, "stook", concurrency=c, latency_ms=0.0, jobs=mid)
-        b = _find(rows, "bare aiohttp loop", concurrency=c, latency_ms=0.0, jobs=mid)
+        s = _find(rows, STOOK, concurrency=c, latency_ms=0.0, jobs=mid)
+        b = _find(rows, BARE_LOOP, concurrency=c, latency_ms=0.0, jobs=mid)
         if s and b:
             shares[c] = round(s["requests_per_second"] / b["requests_per_second"], 2)
     if 64 in shares:
@@ -152,8 +156,8 @@ def evaluate_targets(
     small, large = grid.sizes[-2], grid.sizes[-1]
     growth = {}
     for latency in grid.latencies_ms:
-        a = _find(rows, "stook", concurrency=64, latency_ms=latency, jobs=small)
-        b = _find(rows, "stook", concurrency=64, latency_ms=latency, jobs=large)
+        a = _find(rows, STOOK, concurrency=64, latency_ms=latency, jobs=small)
+        b = _find(rows, STOOK, concurrency=64, latency_ms=latency, jobs=large)
         if a and b:
             growth[f"{latency:g} ms"] = round(b["peak_rss_mb"] / a["peak_rss_mb"] - 1, 3)
     if growth:
@@ -214,8 +218,8 @@ def run_bench(
         say(f"the target points again, {TARGET_REPEATS} runs each ...")
         repeated = repeat_target_points(TARGET_REPEATS, say=say)
     if quick and compare is None:
-        resim = _find(rows, "resim fetch_job_metrics_by_batch", latency_ms=10.0, jobs=100)
-        stook = _find(rows, "stook", concurrency=64, latency_ms=10.0, jobs=100)
+        resim = _find(rows, RESIM, latency_ms=10.0, jobs=100)
+        stook = _find(rows, STOOK, concurrency=64, latency_ms=10.0, jobs=100)
         if resim and stook:
             compare = {
                 "jobs": 100,

@@ -24,6 +24,8 @@ from typing import Any, Final
 from stook.service.bench._bare import Target, collect_targets, measure_bare
 from stook.service.bench._measure import (
     BENCH_CONFIG,
+    LATENCY_BOUND,
+    STOOK,
     Measurement,
     in_fresh_process,
     measure_resim,
@@ -106,7 +108,7 @@ def _row(
 def bound_row(requests: int, concurrency: int, latency_ms: float, jobs: int) -> dict[str, Any]:
     seconds = requests * latency_ms / 1000 / concurrency
     return {
-        "client": "latency bound",
+        "client": LATENCY_BOUND,
         "concurrency": concurrency,
         "latency_ms": latency_ms,
         "jobs": jobs,
@@ -236,7 +238,7 @@ def _run_side_by_side(
                 m: Measurement = future.result()
                 row = _row(m, concurrency=c, latency_ms=latency, jobs=jobs, side=True)
                 rows.append(row)
-                if m.client == "stook":
+                if m.client == STOOK:
                     done += 1
                 say(
                     f"  [{done}/{grid.points}] {row['client']:>17} c={c:>3} {latency:>4g} ms "

@@ -9,12 +9,10 @@ from __future__ import annotations
 from collections.abc import Iterable
 from typing import Any, Final
 
+from stook.service.bench._measure import BARE_LOOP, LATENCY_BOUND, RESIM, STOOK
+
 __all__ = ["sweep_tables"]
 
-STOOK: Final = "stook"
-BARE: Final = "bare aiohttp loop"
-BOUND: Final = "latency bound"
-RESIM: Final = "resim fetch_job_metrics_by_batch"
 
 _SWEEP_HEADER: Final = (
     "latency",
@@ -53,8 +51,8 @@ def sweep_tables(rows: list[dict[str, Any]]) -> str:
     sweep = []
     for latency, jobs, concurrency in points:
         stook = index[(STOOK, latency, jobs, concurrency)]
-        bare = index.get((BARE, latency, jobs, concurrency))
-        bound = index.get((BOUND, latency, jobs, concurrency))
+        bare = index.get((BARE_LOOP, latency, jobs, concurrency))
+        bound = index.get((LATENCY_BOUND, latency, jobs, concurrency))
         shared = " ‡" if stook.get("side_by_side") else ""
         sweep.append(
             (
