@@ -2,22 +2,18 @@
 
 from __future__ import annotations
 
-from hypothesis import HealthCheck, event, given, settings
+from hypothesis import event, given, settings
 from resim.metrics.proto import metrics_pb2 as resim_pb
 from resim.metrics.proto.validate_metrics_proto import validate_job_metrics as resim_validate
 
 from stook.proto import metrics_pb2 as pb
 from stook.sdk._validate import find_problems, validate_job_metrics
+from tests.hypothesis_profiles import examples
 from tests.strategies import job_metrics_cases, mutated_job_metrics, valid_job_metrics
 
 
 def _settings(max_examples: int, *, derandomize: bool = False) -> settings:
-    return settings(
-        max_examples=max_examples,
-        deadline=None,
-        derandomize=derandomize,
-        suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large],
-    )
+    return settings(examples(max_examples), derandomize=derandomize)
 
 
 def resim_accepts(msg: pb.JobMetrics) -> bool:

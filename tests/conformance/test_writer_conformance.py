@@ -18,7 +18,7 @@ from pathlib import Path
 from typing import Any
 
 import resim.metrics.proto.metrics_pb2 as rp
-from hypothesis import HealthCheck, given, settings
+from hypothesis import given
 from hypothesis import strategies as st
 from resim.metrics.proto.validate_metrics_proto import validate_job_metrics as resim_validate
 
@@ -35,6 +35,7 @@ from stook.sdk import (
     read_job_metrics,
 )
 from stook.sdk.example import every_metric_type
+from tests.hypothesis_profiles import examples
 
 Shape = int | dict[str, int]
 
@@ -478,11 +479,7 @@ def assert_conforms(payload: bytes) -> rp.JobMetrics:
     return resim_msg
 
 
-@settings(
-    max_examples=100,
-    deadline=None,
-    suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large],
-)
+@examples(100)
 @given(st.data(), st.uuids(), st.booleans())
 def test_any_legal_writer_program_gives_an_output_resim_accepts(
     drawn: st.DataObject, job_id: uuid.UUID, deterministic: bool

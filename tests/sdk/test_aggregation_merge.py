@@ -9,7 +9,7 @@ from collections.abc import Callable
 
 import polars as pl
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import given
 from hypothesis import strategies as st
 
 from stook.sdk._writer import MetricsWriter
@@ -26,6 +26,8 @@ from stook.sdk.aggregations import (
     WeightedMean,
 )
 from stook.sdk.aggregations._status_counts import JOB_STATUSES, METRIC_STATUSES
+from tests import merge_laws
+from tests.hypothesis_profiles import examples
 
 BATCH_ID = uuid.UUID("0c0c0c0c-1111-4222-8333-444444444444")
 
@@ -85,43 +87,23 @@ def written(aggregation: BatchAggregation) -> bytes:
 
 
 def fold_all(factory: Callable[[], BatchAggregation], records: list[JobRecord]) -> bytes:
-    whole = factory()
-    for record in records:
-        whole.update(record)
-    return written(whole)
+    return merge_laws.fold_all(factory, records, written)
 
 
-FAST = settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
-
-
-@FAST
+@examples(60)
 @given(records=st.lists(job_records(), max_size=12), data=st.data())
 def test_merging_partials_equals_folding_everything(
     records: list[JobRecord], data: st.DataObject
 ) -> None:
-    k = data.draw(st.integers(1, 5), label="partials")
-    cuts = sorted(data.draw(st.lists(st.integers(0, len(records)), min_size=k - 1, max_size=k - 1)))
-    bounds = [0, *cuts, len(records)]
-    for kind, factory in FACTORIES.items():
-        template = factory()
-        partials = [template.fresh() for _ in range(k)]
-        for partial, lo, hi in zip(partials, bounds, bounds[1:], strict=False):
-            for record in records[lo:hi]:
-                partial.update(record)
-        first, *rest = partials
-        for other in rest:
-            first.merge(other)
-        assert written(first) == fold_all(factory, records), kind
+    merge_laws.assert_split_merge_equals_whole(FACTORIES, records, data, written, max_partials=5)
 
 
-@FAST
+@examples(60)
 @given(records=st.lists(job_records(), max_size=12), data=st.data())
 def test_job_order_does_not_change_the_output(
     records: list[JobRecord], data: st.DataObject
 ) -> None:
-    shuffled = data.draw(st.permutations(records), label="shuffled")
-    for kind, factory in FACTORIES.items():
-        assert fold_all(factory, shuffled) == fold_all(factory, records), kind
+    merge_laws.assert_arrival_order_free(FACTORIES, records, data, written)
 
 
 def test_the_properties_are_not_vacuous() -> None:

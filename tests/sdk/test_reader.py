@@ -11,7 +11,7 @@ from datetime import UTC, datetime
 import numpy as np
 import polars as pl
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import given
 from hypothesis import strategies as st
 from resim.metrics.proto import metrics_pb2 as resim_pb
 from resim.metrics.proto.validate_metrics_proto import validate_job_metrics as resim_validate
@@ -42,6 +42,7 @@ from stook.sdk._reader import (
     read_metrics_data,
 )
 from stook.sdk._validate import find_problems
+from tests.hypothesis_profiles import examples
 from tests.strategies import valid_job_metrics
 
 JOB_ID = uuid.UUID("11111111-2222-4333-8444-555555555555")
@@ -568,7 +569,7 @@ def test_missing_or_bad_ids_are_refused() -> None:
         read_metric(m.SerializeToString())
 
 
-_FUZZ = settings(max_examples=300, deadline=None, suppress_health_check=list(HealthCheck))
+_FUZZ = examples(300)
 
 
 def _read_everything(data: bytes) -> None:
@@ -613,7 +614,7 @@ def test_corrupted_outputs_raise_only_read_error(msg: pb.JobMetrics, data: st.Da
     _read_everything(bytes(wire))
 
 
-@settings(max_examples=40, deadline=None, suppress_health_check=list(HealthCheck))
+@examples(40)
 @given(valid_job_metrics())
 def test_generated_outputs_read_back_completely(msg: pb.JobMetrics) -> None:
     wire = msg.SerializeToString(deterministic=True)

@@ -7,11 +7,12 @@ import math
 from collections.abc import Sequence
 
 import pytest
-from hypothesis import assume, given, settings
+from hypothesis import assume, given
 from hypothesis import strategies as st
 
 from stook.sdk.aggregations.report import Verdict, check
 from stook.sdk.aggregations.report._regression import MAD_TO_SIGMA, MIN_BASELINE, RELATIVE_FLOOR
+from tests.hypothesis_profiles import examples
 
 
 def reference_median(values: Sequence[float]) -> float:
@@ -248,7 +249,7 @@ def test_the_window_counts_batches_before_leaving_out_non_finite_ones() -> None:
 
 # ---------------------------------------------------------------- properties
 
-FAST = settings(max_examples=40, deadline=None)
+FAST = examples(40)
 
 # Integers (as floats) keep medians, MADs and differences exact, so that a shift or a
 # power-of-two scale leaves the deviations bit for bit the same.

@@ -9,7 +9,7 @@ import uuid
 from collections.abc import Callable
 from datetime import UTC, datetime, timedelta
 
-from hypothesis import HealthCheck, given, settings
+from hypothesis import given
 from hypothesis import strategies as st
 
 from stook.sdk._writer import MetricsWriter
@@ -24,6 +24,8 @@ from stook.sdk.aggregations.report import (
     ScalarLines,
     TestStatusOverTime,
 )
+from tests import merge_laws
+from tests.hypothesis_profiles import examples
 
 REPORT_ID = uuid.UUID("0e0e0e0e-1111-4222-8333-444444444444")
 PROJECT_ID = "5e5e5e5e-1111-4222-8333-444444444444"
@@ -103,59 +105,31 @@ def written(aggregation: ReportAggregation) -> bytes:
 
 
 def fold_all(factory: Callable[[], ReportAggregation], records: list[BatchRecord]) -> bytes:
-    whole = factory()
-    for record in records:
-        whole.update(record)
-    return written(whole)
+    return merge_laws.fold_all(factory, records, written)
 
 
-FAST = settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
-
-
-@FAST
+@examples(40)
 @given(records=reports(), data=st.data())
 def test_merging_partials_equals_folding_everything(
     records: list[BatchRecord], data: st.DataObject
 ) -> None:
-    k = data.draw(st.integers(1, 4), label="partials")
-    cuts = sorted(data.draw(st.lists(st.integers(0, len(records)), min_size=k - 1, max_size=k - 1)))
-    bounds = [0, *cuts, len(records)]
-    for kind, factory in FACTORIES.items():
-        template = factory()
-        partials = [template.fresh() for _ in range(k)]
-        for partial, lo, hi in zip(partials, bounds, bounds[1:], strict=False):
-            for record in records[lo:hi]:
-                partial.update(record)
-        first, *rest = partials
-        for other in rest:
-            first.merge(other)
-        assert written(first) == fold_all(factory, records), kind
+    merge_laws.assert_split_merge_equals_whole(FACTORIES, records, data, written, max_partials=4)
 
 
-@FAST
+@examples(40)
 @given(records=reports(), data=st.data())
 def test_batch_order_does_not_change_the_output(
     records: list[BatchRecord], data: st.DataObject
 ) -> None:
-    shuffled = data.draw(st.permutations(records), label="shuffled")
-    for kind, factory in FACTORIES.items():
-        assert fold_all(factory, shuffled) == fold_all(factory, records), kind
+    merge_laws.assert_arrival_order_free(FACTORIES, records, data, written)
 
 
-@FAST
+@examples(40)
 @given(records=reports(), data=st.data())
 def test_merge_order_does_not_change_the_output(
     records: list[BatchRecord], data: st.DataObject
 ) -> None:
-    # One partial per batch, merged in a random order into a fresh state.
-    order = data.draw(st.permutations(range(len(records))), label="merge order")
-    for kind, factory in FACTORIES.items():
-        merged = factory()
-        for i in order:
-            partial = merged.fresh()
-            partial.update(records[i])
-            merged.merge(partial)
-        assert written(merged) == fold_all(factory, records), kind
+    merge_laws.assert_merge_order_free(FACTORIES, records, data, written)
 
 
 def test_fresh_keeps_the_configuration_and_drops_the_state() -> None:
