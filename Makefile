@@ -28,8 +28,10 @@ lint: setup
 typecheck: setup
 	$(BIN)/mypy
 
+# Coverage is measured here, not in every pytest run, so that running a few tests by hand
+# does not fail the floor.
 pytest: setup
-	$(BIN)/pytest
+	$(BIN)/pytest --cov --cov-report=term
 
 test: lint typecheck pytest
 
@@ -46,4 +48,4 @@ bench: setup
 	$(BIN)/pytest tests/bench --benchmark-enable --benchmark-only
 
 clean:
-	rm -rf $(VENV) demo-output .pytest_cache .mypy_cache .ruff_cache .hypothesis
+	rm -rf $(VENV) demo-output .pytest_cache .mypy_cache .ruff_cache .hypothesis .coverage
