@@ -156,8 +156,8 @@ def test_a_missing_or_unreadable_file(tmp_path: Path) -> None:
         pytest.param(
             {"fetch": {"concurrency": 4, "retries": 3}},
             "s.toml: unknown key 'retries' in [fetch] "
-            "(known: adaptive, concurrency, max_attempts, max_throttled_attempts, page_size, "
-            "timeout)",
+            "(known: adaptive, concurrency, max_api_body_mb, max_attempts, max_body_mb, "
+            "max_throttled_attempts, page_size, timeout)",
             id="unknown-fetch-key",
         ),
         pytest.param(

@@ -7,6 +7,8 @@ max_attempts = 6       # per request, first try included
 max_throttled_attempts = 30  # per request, for 429 answers (the server pacing us)
 page_size = 100        # items asked for per list page
 adaptive = false       # find the server's pace below `concurrency` (AIMD on 429s and latency)
+max_body_mb = 256      # largest metrics data or metric download, decompressed
+max_api_body_mb = 16   # largest API answer (a JSON page), decompressed
 
 [test]
 metrics = "my_metrics.test:compute"   # called as compute(experience_dir, logs_dir, writer)
@@ -48,6 +50,8 @@ class FetchSettings:
     max_throttled_attempts: int = 30
     page_size: int = 100
     adaptive: bool = False
+    max_body_mb: float = 256.0
+    max_api_body_mb: float = 16.0
 
 
 @dataclass(frozen=True, slots=True)
@@ -204,6 +208,8 @@ def _fetch(table: Mapping[str, Any], source: str) -> FetchSettings:
             "max_throttled_attempts",
             "page_size",
             "adaptive",
+            "max_body_mb",
+            "max_api_body_mb",
         },
         "[fetch]",
         source,
@@ -230,4 +236,6 @@ def _fetch(table: Mapping[str, Any], source: str) -> FetchSettings:
         ),
         page_size=positive("page_size", int, defaults.page_size),
         adaptive=adaptive,
+        max_body_mb=positive("max_body_mb", float, defaults.max_body_mb),
+        max_api_body_mb=positive("max_api_body_mb", float, defaults.max_api_body_mb),
     )
