@@ -55,11 +55,14 @@ def gzip_bomb() -> bytes:
     return gzip.compress(b'{"jobs": []' + b" " * INFLATED + b"}", compresslevel=9)
 
 
-def one_mb_caps() -> dict[str, object]:
-    return {
-        "body_cap": body_cap_mb(1, "max_api_body_mb"),
-        "storage_body_cap": body_cap_mb(1, "max_body_mb"),
-    }
+def one_mb_api(server: ScriptedServer, policy: RetryPolicy) -> ApiClient:
+    return ApiClient(
+        server.base_url,
+        TOKEN,
+        retry=policy,
+        body_cap=body_cap_mb(1, "max_api_body_mb"),
+        storage_body_cap=body_cap_mb(1, "max_body_mb"),
+    )
 
 
 # -- bodies are capped --------------------------------------------------------------------
@@ -73,7 +76,7 @@ async def test_a_gzip_bomb_is_stopped_at_the_cap_not_inflated(
     server.script(JOBS_PATH, answer(200, bomb, headers={"Content-Encoding": "gzip"}))
     tracemalloc.start()
     try:
-        async with ApiClient(server.base_url, TOKEN, retry=fast_policy, **one_mb_caps()) as api:
+        async with one_mb_api(server, fast_policy) as api:
             with pytest.raises(BodyTooLargeError) as caught:
                 _ = [j async for j in api.list_jobs(PROJECT, BATCH)]
         _, peak = tracemalloc.get_traced_memory()
