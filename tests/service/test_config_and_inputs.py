@@ -631,5 +631,12 @@ def test_exit_code_for(error: BaseException, code: ExitCode) -> None:
 
 
 def test_exit_code_values_are_the_documented_ones() -> None:
-    assert [int(c) for c in ExitCode] == [0, 1, 2, 3, 4]
-    assert [c.name for c in ExitCode] == ["OK", "UNEXPECTED", "USAGE", "API", "INVALID_DATA"]
+    assert [int(c) for c in ExitCode] == [0, 1, 2, 3, 4, 5]
+    assert [c.name for c in ExitCode] == [
+        "OK",
+        "UNEXPECTED",
+        "USAGE",
+        "API",
+        "INVALID_DATA",
+        "OUTPUT",
+    ]

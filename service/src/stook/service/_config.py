@@ -23,6 +23,7 @@ weight = "Distance driven"
 
 from __future__ import annotations
 
+import dataclasses
 import tomllib
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -36,6 +37,7 @@ from stook.sdk.aggregations import (
     ReportAggregation,
     build_all,
 )
+from stook.service._user_code import add_import_folders
 
 
 class ConfigError(StookError):
@@ -74,6 +76,8 @@ class StookConfig:
     report: ReportSettings = field(default_factory=lambda: ReportSettings())
     # Raw [[report.<kind>]] tables: custom report aggregations.
     report_tables: Mapping[str, list[dict[str, Any]]] = field(default_factory=dict)
+    # The file read, if any: user code is imported from beside it.
+    file: Path | None = None
 
     def batch_aggregations(self) -> list[BatchAggregation]:
         try:
@@ -106,7 +110,10 @@ def load(path: Path | None) -> StookConfig:
         ) from None
     except tomllib.TOMLDecodeError as exc:
         raise ConfigError(f"{name}: not valid TOML ({exc})") from None
-    return parse(doc, source=name)
+    # Before parse builds the custom aggregations: their modules sit beside the file or in
+    # the working directory, as [test] metrics' does.
+    add_import_folders(path)
+    return dataclasses.replace(parse(doc, source=name), file=path)
 
 
 def parse(doc: Mapping[str, Any], *, source: str = "stook.toml") -> StookConfig:

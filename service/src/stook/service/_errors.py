@@ -172,7 +172,7 @@ class BodyTooLargeError(TransportError):
 
 
 def _megabytes(size: int) -> str:
-    return f"{size / 2**20:g} MB"
+    return f"{size / 2**20:g} MB" if size >= 2**20 else f"{size:,} bytes"
 
 
 class RetriesExhaustedError(ApiError):
