@@ -3,12 +3,18 @@ to other origins. Each against a real local server (tests/service/scripted_serve
 
 from __future__ import annotations
 
+import asyncio
 import functools
 import gzip
 import itertools
+import json
+import os
+import sys
+import time
 import tracemalloc
 import uuid
 from collections.abc import AsyncIterator
+from pathlib import Path
 
 import pytest
 from aiohttp import web
@@ -291,3 +297,60 @@ async def test_a_refusal_after_a_same_origin_redirect_is_still_about_the_token(
             await api.get_batch(PROJECT, BATCH)
     assert server.hits("/v1/moved")[0].headers["Authorization"] == f"Bearer {TOKEN}"
     assert "refused the token" in explain(caught.value)
+
+
+# -- the whole run, as a process ----------------------------------------------------------
+
+
+@pytest.mark.parametrize("hostile", ["endless-listing", "gzip-bomb"])
+async def test_stook_run_ends_with_exit_3_naming_the_listing(
+    server: ScriptedServer, tmp_path: Path, hostile: str
+) -> None:
+    """Today's failures, end to end: an endless listing ran for ever, and a gzip bomb took
+    the client to gigabytes and exited 0 as an empty batch."""
+    if hostile == "endless-listing":
+        server.script(JOBS_PATH, endless({}))
+    else:
+        server.script(JOBS_PATH, answer(200, gzip_bomb(), headers={"Content-Encoding": "gzip"}))
+    inputs, outputs = tmp_path / "inputs", tmp_path / "outputs"
+    inputs.mkdir()
+    (inputs / "batch_metrics_config.json").write_text(
+        json.dumps(
+            {
+                "authToken": TOKEN,
+                "apiURL": server.base_url,
+                "batchID": str(BATCH),
+                "projectID": str(PROJECT),
+            }
+        )
+    )
+    env = {k: v for k, v in os.environ.items() if not k.startswith("STOOK_")}
+    started = time.monotonic()
+    process = await asyncio.create_subprocess_exec(
+        str(Path(sys.executable).parent / "stook"),
+        "run",
+        "--inputs",
+        str(inputs),
+        "--outputs",
+        str(outputs),
+        cwd=tmp_path,
+        env=env,
+        stdout=asyncio.subprocess.DEVNULL,
+        stderr=asyncio.subprocess.PIPE,
+    )
+    _, stderr_bytes = await asyncio.wait_for(process.communicate(), timeout=60)
+    stderr = stderr_bytes.decode()
+    assert process.returncode == 3, stderr
+    assert time.monotonic() - started < 60
+    errors = [line for line in stderr.splitlines() if line.startswith("stook: error:")]
+    assert len(errors) == 1, stderr
+    assert f"GET {server.url(JOBS_PATH)}" in errors[0]
+    if hostile == "endless-listing":
+        assert "the listing does not end (50 empty pages in a row" in errors[0]
+        assert len(server.hits(JOBS_PATH)) == 50
+    else:
+        assert "larger than 16 MB (the [fetch] max_api_body_mb cap)" in errors[0]
+        assert len(server.hits(JOBS_PATH)) == 1
+    assert "Traceback" not in stderr
+    assert TOKEN not in stderr
+    assert not outputs.exists() or os.listdir(outputs) == []

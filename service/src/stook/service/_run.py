@@ -4,9 +4,10 @@ Exit codes (also in the README):
   0  metrics.binproto written
   1  an unexpected error, or the user's own test-metrics function raised
   2  bad usage, config or inputs (malformed JSON, missing key, non-UUID ID, bad TOML,
-     a metric or data name in the config that no job has)
+     a metric or data name in the config that no job has, a misspelt config file name),
+     or an outputs folder that cannot be written (checked before the first request)
   3  the API or storage failed after retries, refused the token, or too many jobs
-     stayed unavailable
+     stayed unavailable; an answer over its cap; a listing that does not end
   4  invalid metrics data: a downloaded item could not be decoded, or the output
      would not validate
   5  the output could not be written (disk full, file-size limit, I/O error)
