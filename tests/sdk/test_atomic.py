@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-from stook.sdk import InvalidMetricsError, MetricsWriter, data, write_atomic
+from stook.sdk import InvalidMetricsError, MetricsWriter, OutputWriteError, data, write_atomic
 
 JOB = uuid.UUID("0b7a4c1e-5d2f-4e8a-9c3b-6f1d2e3a4b5c")
 
@@ -81,7 +81,7 @@ def test_a_failure_keeps_the_old_file_and_removes_the_temporary(
     target = tmp_path / "metrics.binproto"
     target.write_bytes(b"previous")
     monkeypatch.setattr(os, step, _raise)
-    with pytest.raises(DiskFireError, match="disk on fire"):
+    with pytest.raises(OutputWriteError, match=f"cannot write {target}: disk on fire"):
         write_atomic(target, b"next")
     monkeypatch.undo()
     assert target.read_bytes() == b"previous"
@@ -93,8 +93,9 @@ def test_a_failure_without_an_old_file_leaves_no_file(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, step: str
 ) -> None:
     monkeypatch.setattr(os, step, _raise)
-    with pytest.raises(DiskFireError):
+    with pytest.raises(OutputWriteError) as caught:
         write_atomic(tmp_path / "metrics.binproto", b"next")
+    assert isinstance(caught.value.__cause__, DiskFireError)
     monkeypatch.undo()
     assert os.listdir(tmp_path) == []
 
@@ -121,7 +122,7 @@ def test_a_failure_while_writing_the_content_keeps_the_old_file(
             raise OSError(28, "No space left on device")
 
     monkeypatch.setattr(os, "fdopen", lambda fd, _mode: FailingFile(fd))
-    with pytest.raises(OSError, match="No space left"):
+    with pytest.raises(OutputWriteError, match=f"cannot write {target}: No space left"):
         write_atomic(target, b"next content")
     monkeypatch.undo()
     assert target.read_bytes() == b"previous"

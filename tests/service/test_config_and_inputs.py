@@ -156,8 +156,8 @@ def test_a_missing_or_unreadable_file(tmp_path: Path) -> None:
         pytest.param(
             {"fetch": {"concurrency": 4, "retries": 3}},
             "s.toml: unknown key 'retries' in [fetch] "
-            "(known: adaptive, concurrency, max_attempts, max_throttled_attempts, page_size, "
-            "timeout)",
+            "(known: adaptive, concurrency, max_api_body_mb, max_attempts, max_body_mb, "
+            "max_throttled_attempts, page_size, timeout)",
             id="unknown-fetch-key",
         ),
         pytest.param(
@@ -631,5 +631,12 @@ def test_exit_code_for(error: BaseException, code: ExitCode) -> None:
 
 
 def test_exit_code_values_are_the_documented_ones() -> None:
-    assert [int(c) for c in ExitCode] == [0, 1, 2, 3, 4]
-    assert [c.name for c in ExitCode] == ["OK", "UNEXPECTED", "USAGE", "API", "INVALID_DATA"]
+    assert [int(c) for c in ExitCode] == [0, 1, 2, 3, 4, 5]
+    assert [c.name for c in ExitCode] == [
+        "OK",
+        "UNEXPECTED",
+        "USAGE",
+        "API",
+        "INVALID_DATA",
+        "OUTPUT",
+    ]

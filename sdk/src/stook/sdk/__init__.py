@@ -17,6 +17,7 @@ from stook.sdk._data import MetricsData
 from stook.sdk._enums import MetricImportance, MetricStatus, MetricType, SeriesKind
 from stook.sdk._errors import (
     InvalidMetricsError,
+    OutputWriteError,
     Problem,
     ReadError,
     StookError,
@@ -54,6 +55,7 @@ __all__ = [
     "MetricsData",
     "MetricsDataView",
     "MetricsWriter",
+    "OutputWriteError",
     "Problem",
     "ReadError",
     "SeriesKind",

@@ -3,11 +3,39 @@
 from __future__ import annotations
 
 import contextlib
+import functools
 import os
 import tempfile
+from collections.abc import Callable
 from pathlib import Path
 
+from stook.sdk._errors import OutputWriteError
 
+
+def _naming_the_path(
+    write: Callable[[str | os.PathLike[str], bytes], Path],
+) -> Callable[[str | os.PathLike[str], bytes], Path]:
+    """Turn an OSError of the write into an OutputWriteError that names the path.
+
+    ENOSPC from a write() or fsync() names no file, so without this a full disk reads
+    ``[Errno 28] No space left on device`` with no hint of where.
+    """
+
+    @functools.wraps(write)
+    def naming(path: str | os.PathLike[str], content: bytes) -> Path:
+        try:
+            return write(path, content)
+        except OutputWriteError:
+            raise
+        except OSError as exc:
+            raise OutputWriteError(
+                exc.errno, exc.strerror or str(exc) or type(exc).__name__, os.fspath(path)
+            ) from exc
+
+    return naming
+
+
+@_naming_the_path
 def write_atomic(path: str | os.PathLike[str], content: bytes) -> Path:
     """Write `content` to `path` via a temporary file in the same folder and a rename.
 

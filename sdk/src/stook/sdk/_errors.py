@@ -13,6 +13,15 @@ class WriterError(StookError, ValueError):
     """A metric or metrics data given to the writer cannot form a valid output."""
 
 
+class OutputWriteError(StookError, OSError):
+    """The output file could not be written: the disk is full, a file-size limit was hit, the
+    folder refused it. Unlike the bare OSError (``[Errno 28] No space left on device``), its
+    message names the path; it is still an OSError for code that catches those."""
+
+    def __str__(self) -> str:
+        return f"cannot write {self.filename}: {self.strerror}"
+
+
 class ReadError(StookError):
     """Bytes could not be read as the message they were said to be.
 

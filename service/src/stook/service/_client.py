@@ -13,7 +13,7 @@ import re
 import uuid
 from collections.abc import AsyncIterator, Callable, Mapping
 from types import TracebackType
-from typing import Any, Final, Self, TypeVar
+from typing import Any, Final, NoReturn, Self, TypeVar
 
 from aiohttp import hdrs
 from yarl import URL
@@ -25,9 +25,10 @@ from stook.service._errors import (
     AuthError,
     NotFoundError,
     PresignedUrlExpiredError,
+    RedirectedRefusalError,
     StorageError,
 )
-from stook.service._http import HttpTransport, Response
+from stook.service._http import BodyCap, HttpTransport, Response
 from stook.service._limiter import AimdLimiter, ConcurrencyLimit, FixedLimit, NestedLimit
 from stook.service._logging import get_logger
 from stook.service._models import (
@@ -59,6 +60,10 @@ _Model = TypeVar("_Model")
 DEFAULT_CONCURRENCY: Final = 64
 # The API caps pages; 100 is the largest size ReSim's own tools ask for.
 DEFAULT_PAGE_SIZE: Final = 100
+# What one answer may hold, decompressed: generous for metrics data, small for JSON. A
+# real answer never comes near; a hostile or broken one is stopped at the cap.
+DEFAULT_MAX_BODY_MB: Final = 256.0
+DEFAULT_MAX_API_BODY_MB: Final = 16.0
 _USER_AGENT: Final = "stook/0.1 (+aiohttp)"
 _REDIRECT_STATUSES: Final = frozenset({301, 302, 303, 307, 308})
 _MAX_STORAGE_REDIRECTS: Final = 5
@@ -81,11 +86,13 @@ class StorageClient:
         concurrency: int = DEFAULT_CONCURRENCY,
         retry: RetryPolicy | None = None,
         limiter: ConcurrencyLimit | None = None,
+        body_cap: BodyCap | None = None,
     ) -> None:
         self._policy = retry or RetryPolicy()
         self.stats = TransferStats()
         self._transport = HttpTransport(
             name="storage",
+            body_cap=body_cap or body_cap_mb(DEFAULT_MAX_BODY_MB, "max_body_mb"),
             concurrency=concurrency,
             request_timeout=self._policy.request_timeout,
             stats=self.stats,
@@ -170,6 +177,8 @@ class ApiClient:
         retry: RetryPolicy | None = None,
         page_size: int = DEFAULT_PAGE_SIZE,
         adaptive: bool = False,
+        body_cap: BodyCap | None = None,
+        storage_body_cap: BodyCap | None = None,
     ) -> None:
         base = URL(base_url)
         if base.scheme not in ("http", "https") or not base.host:
@@ -204,6 +213,7 @@ class ApiClient:
             )
         self._transport = HttpTransport(
             name="api",
+            body_cap=body_cap or body_cap_mb(DEFAULT_MAX_API_BODY_MB, "max_api_body_mb"),
             concurrency=concurrency,
             limiter=api_limit,
             proxy_for=self._base,
@@ -219,6 +229,7 @@ class ApiClient:
             concurrency=storage_concurrency or concurrency,
             retry=self._policy,
             limiter=storage_limit,
+            body_cap=storage_body_cap,
         )
 
     def __repr__(self) -> str:
@@ -277,10 +288,14 @@ class ApiClient:
         params: Mapping[str, str | int] | None = None,
         page_size: int | None = None,
     ) -> AsyncIterator[dict[str, Any]]:
-        """Every item of a list endpoint, page after page, until ``nextPageToken`` is empty."""
+        """Every item of a list endpoint, page after page, until ``nextPageToken`` is empty.
+
+        A listing that cannot end (see :class:`_ListingGuard`) is an ApiResponseError.
+        """
         query: dict[str, str | int] = dict(params or {})
         query["pageSize"] = page_size or self._page_size
-        seen_tokens: set[str] = set()
+        listing = f"GET {redact_url(self._url(path))}"
+        guard = _ListingGuard(listing, items_key, int(query["pageSize"]))
         while True:
             page = await self.get_json(path, query)
             items = page.get(items_key)
@@ -288,29 +303,24 @@ class ApiClient:
                 items = []  # the API omits empty lists
             if not isinstance(items, list):
                 raise ApiResponseError(
-                    f"GET {redact_url(self._url(path))}: '{items_key}' should be a list, "
-                    f"got {type(items).__name__}"
+                    f"{listing}: '{items_key}' should be a list, got {type(items).__name__}"
                 )
             for item in items:
                 if not isinstance(item, dict):
                     raise ApiResponseError(
-                        f"GET {redact_url(self._url(path))}: an item of '{items_key}' "
-                        f"is {type(item).__name__}, not an object"
+                        f"{listing}: an item of '{items_key}' is {type(item).__name__}, "
+                        "not an object"
                     )
-                yield item
             token = page.get("nextPageToken")
+            if token and not isinstance(token, str):
+                raise ApiResponseError(f"{listing}: 'nextPageToken' should be a string")
+            # Checked before the items are handed on: a page that proves the listing
+            # endless must not feed its repeats to the caller.
+            guard.check(items, token or None, page.get("total"))
+            for item in items:
+                yield item
             if not token:
                 return
-            if not isinstance(token, str):
-                raise ApiResponseError(
-                    f"GET {redact_url(self._url(path))}: 'nextPageToken' should be a string"
-                )
-            if token in seen_tokens:
-                # Following it again would loop for ever.
-                raise ApiResponseError(
-                    f"GET {redact_url(self._url(path))}: the API repeated a page token"
-                )
-            seen_tokens.add(token)
             query["pageToken"] = token
 
     # -- typed endpoints -----------------------------------------------------------------
@@ -387,7 +397,12 @@ class ApiClient:
         response = await self._transport.get(url, params=params)
         if response.ok:
             return response
-        raise _api_error(response)
+        raise _api_error(response, self._base.origin())
+
+
+def body_cap_mb(megabytes: float, setting: str) -> BodyCap:
+    """The cap of a ``[fetch]`` setting given in megabytes (MiB)."""
+    return BodyCap(max(1, int(megabytes * 2**20)), f"[fetch] {setting}")
 
 
 def _id(value: IdLike) -> str:
@@ -406,13 +421,17 @@ def _retry_after(response: Response) -> float | None:
     return parse_retry_after(response.headers.get(hdrs.RETRY_AFTER))
 
 
-def _api_error(response: Response) -> ApiError:
+def _api_error(response: Response, api_origin: URL) -> ApiError:
     common: dict[str, Any] = {
         "status": response.status,
         "method": "GET",
         "url": response.url,
         "body": response.body,
     }
+    if response.status in (401, 403) and response.url.origin() != api_origin:
+        # aiohttp drops the token on a redirect to another origin, so this refusal says
+        # nothing about the token; blaming it would send the reader the wrong way.
+        return RedirectedRefusalError(**common, api_origin=str(api_origin))
     if response.status in (401, 403):
         return AuthError(**common)
     if response.status == 404:
@@ -445,3 +464,75 @@ def _storage_error(response: Response) -> StorageError:
         status=status,
         retry_after=_retry_after(response),
     )
+
+
+# The field that identifies an item of each listing, for telling repeats from new items.
+_ITEM_ID_KEYS: Final = {
+    "jobs": "jobID",
+    "batches": "batchID",
+    "metrics": "metricID",
+    "batchMetrics": "metricID",
+    "metricsData": "dataID",
+    "batchMetricsData": "dataID",
+}
+# Empty pages that each hand out a new token: a server may skip ahead over a few, never
+# over this many (156,000 a minute were seen from a server that never stopped).
+_MAX_EMPTY_PAGES: Final = 50
+
+
+class _ListingGuard:
+    """Stops a listing whose pages prove it will not end, instead of following it for ever.
+
+    Only what the answers themselves prove counts: a page token seen before; a page of
+    nothing but items listed already (the same jobs again and again); an empty page with a
+    further token once the listing's own ``total`` has been delivered, or more items than
+    that total by a whole page; and a long run of empty pages that each carry a new token.
+    """
+
+    def __init__(self, listing: str, items_key: str, page_size: int) -> None:
+        self._listing = listing
+        self._id_key = _ITEM_ID_KEYS.get(items_key)
+        self._page_size = page_size
+        self._tokens: set[str] = set()
+        self._seen: set[str] = set()
+        self._pages = 0
+        self._empty_run = 0
+
+    def check(self, items: list[dict[str, Any]], token: str | None, total: object) -> None:
+        self._pages += 1
+        new = 0
+        for item in items:
+            identity = self._identity(item)
+            if identity not in self._seen:
+                self._seen.add(identity)
+                new += 1
+        if token is None:
+            return  # the last page: nothing more will be asked for
+        if token in self._tokens:
+            self._stop("the API repeated a page token")
+        self._tokens.add(token)
+        if items and new == 0:
+            self._stop(f"page {self._pages} holds only items listed on earlier pages")
+        self._empty_run = 0 if items else self._empty_run + 1
+        if isinstance(total, int) and not isinstance(total, bool):
+            if not items and len(self._seen) >= total:
+                self._stop(
+                    f"page {self._pages} is empty and all {total} items of the listing's "
+                    "total have been listed, yet it hands out another page token"
+                )
+            if len(self._seen) > total + self._page_size:
+                self._stop(
+                    f"{len(self._seen)} items listed, more than the listing's total of {total}"
+                )
+        if self._empty_run >= _MAX_EMPTY_PAGES:
+            self._stop(f"{self._empty_run} empty pages in a row, each with a new page token")
+
+    def _identity(self, item: dict[str, Any]) -> str:
+        value = item.get(self._id_key) if self._id_key else None
+        if isinstance(value, str) and value:
+            return value
+        # An item without its ID is told apart by its whole content.
+        return json.dumps(item, sort_keys=True, default=str)
+
+    def _stop(self, why: str) -> NoReturn:
+        raise ApiResponseError(f"{self._listing}: the listing does not end ({why})")

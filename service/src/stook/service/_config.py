@@ -7,6 +7,8 @@ max_attempts = 6       # per request, first try included
 max_throttled_attempts = 30  # per request, for 429 answers (the server pacing us)
 page_size = 100        # items asked for per list page
 adaptive = false       # find the server's pace below `concurrency` (AIMD on 429s and latency)
+max_body_mb = 256      # largest metrics data or metric download, decompressed
+max_api_body_mb = 16   # largest API answer (a JSON page), decompressed
 
 [test]
 metrics = "my_metrics.test:compute"   # called as compute(experience_dir, logs_dir, writer)
@@ -21,6 +23,7 @@ weight = "Distance driven"
 
 from __future__ import annotations
 
+import dataclasses
 import tomllib
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -34,6 +37,7 @@ from stook.sdk.aggregations import (
     ReportAggregation,
     build_all,
 )
+from stook.service._user_code import add_import_folders
 
 
 class ConfigError(StookError):
@@ -48,6 +52,8 @@ class FetchSettings:
     max_throttled_attempts: int = 30
     page_size: int = 100
     adaptive: bool = False
+    max_body_mb: float = 256.0
+    max_api_body_mb: float = 16.0
 
 
 @dataclass(frozen=True, slots=True)
@@ -70,6 +76,8 @@ class StookConfig:
     report: ReportSettings = field(default_factory=lambda: ReportSettings())
     # Raw [[report.<kind>]] tables: custom report aggregations.
     report_tables: Mapping[str, list[dict[str, Any]]] = field(default_factory=dict)
+    # The file read, if any: user code is imported from beside it.
+    file: Path | None = None
 
     def batch_aggregations(self) -> list[BatchAggregation]:
         try:
@@ -102,7 +110,10 @@ def load(path: Path | None) -> StookConfig:
         ) from None
     except tomllib.TOMLDecodeError as exc:
         raise ConfigError(f"{name}: not valid TOML ({exc})") from None
-    return parse(doc, source=name)
+    # Before parse builds the custom aggregations: their modules sit beside the file or in
+    # the working directory, as [test] metrics' does.
+    add_import_folders(path)
+    return dataclasses.replace(parse(doc, source=name), file=path)
 
 
 def parse(doc: Mapping[str, Any], *, source: str = "stook.toml") -> StookConfig:
@@ -204,6 +215,8 @@ def _fetch(table: Mapping[str, Any], source: str) -> FetchSettings:
             "max_throttled_attempts",
             "page_size",
             "adaptive",
+            "max_body_mb",
+            "max_api_body_mb",
         },
         "[fetch]",
         source,
@@ -230,4 +243,6 @@ def _fetch(table: Mapping[str, Any], source: str) -> FetchSettings:
         ),
         page_size=positive("page_size", int, defaults.page_size),
         adaptive=adaptive,
+        max_body_mb=positive("max_body_mb", float, defaults.max_body_mb),
+        max_api_body_mb=positive("max_api_body_mb", float, defaults.max_api_body_mb),
     )

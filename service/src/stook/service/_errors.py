@@ -22,9 +22,11 @@ __all__ = [
     "ApiResponseError",
     "ApiStatusError",
     "AuthError",
+    "BodyTooLargeError",
     "IncompleteBodyError",
     "NotFoundError",
     "PresignedUrlExpiredError",
+    "RedirectedRefusalError",
     "RetriesExhaustedError",
     "StorageError",
     "TransportError",
@@ -72,6 +74,20 @@ class ApiStatusError(ApiError):
 
 class AuthError(ApiStatusError):
     """401 or 403 from the API: the token is missing, wrong, expired or lacks access."""
+
+
+class RedirectedRefusalError(ApiStatusError):
+    """401 or 403 from another origin that the API redirected to, which got no token."""
+
+    def __init__(
+        self, *, status: int, method: str, url: str | URL, body: bytes, api_origin: str
+    ) -> None:
+        super().__init__(status=status, method=method, url=url, body=body)
+        self.api_origin = api_origin  # scheme, host and port only: nothing secret
+        self.args = (
+            f"{self.args[0]} (the API at {self.api_origin} redirected there; the token is "
+            "not sent to another origin, so this refusal is not about the token)",
+        )
 
 
 class NotFoundError(ApiStatusError):
@@ -140,6 +156,23 @@ class IncompleteBodyError(TransportError):
             url=url,
             reason=f"body ended after {received} of {expected} bytes",
         )
+
+
+class BodyTooLargeError(TransportError):
+    """An answer's body (decompressed) grew past its cap; asking again would fetch it again."""
+
+    def __init__(self, *, method: str, url: str | URL, cap: int, setting: str) -> None:
+        self.cap = cap
+        super().__init__(
+            method=method,
+            url=url,
+            reason=f"the answer is larger than {_megabytes(cap)} (the {setting} cap)",
+            retryable=False,
+        )
+
+
+def _megabytes(size: int) -> str:
+    return f"{size / 2**20:g} MB" if size >= 2**20 else f"{size:,} bytes"
 
 
 class RetriesExhaustedError(ApiError):

@@ -7,6 +7,8 @@ It knows nothing of JSON, paging, retries or what a status code means; the clien
   per-attempt timeout starts only once a request holds one of those slots, so thousands of
   queued fetches do not time out while waiting for a pooled connection;
 * a body shorter than its ``Content-Length`` is an error, not silently short data;
+* a body longer than the transport's :class:`BodyCap` (counted after decompression) is an
+  error as soon as the cap is passed, so a hostile or broken server cannot fill memory;
 * every failure leaves as a :class:`TransportError` with a redacted message, never as an
   aiohttp exception whose text could hold a presigned URL;
 * a transport built with ``credentials_allowed=False`` (object storage) refuses to send any
@@ -28,13 +30,13 @@ from aiohttp import hdrs
 from multidict import CIMultiDictProxy
 from yarl import URL
 
-from stook.service._errors import IncompleteBodyError, TransportError
+from stook.service._errors import BodyTooLargeError, IncompleteBodyError, TransportError
 from stook.service._limiter import ConcurrencyLimit, FixedLimit
 from stook.service._logging import get_logger
 from stook.service._redact import redact_text, redact_url
 from stook.service._retry import TransferStats, is_transient_transport_failure
 
-__all__ = ["HttpTransport", "Response"]
+__all__ = ["BodyCap", "HttpTransport", "Response"]
 
 _log = get_logger("stook.service.http")
 
@@ -43,6 +45,18 @@ _DNS_CACHE_S: Final = 300
 _MAX_API_REDIRECTS: Final = 5
 _NO_BODY_STATUSES: Final = frozenset({204, 304})
 _CREDENTIAL_HEADERS: Final = (hdrs.AUTHORIZATION, hdrs.PROXY_AUTHORIZATION)
+
+
+@dataclass(frozen=True, slots=True)
+class BodyCap:
+    """The most bytes one answer's body may hold once decompressed, and the setting for it."""
+
+    max_bytes: int
+    setting: str  # named in the error, so the reader knows what to raise
+
+    def __post_init__(self) -> None:
+        if self.max_bytes < 1:
+            raise ValueError(f"a body cap must be at least 1 byte, got {self.max_bytes}")
 
 
 @dataclass(frozen=True, slots=True)
@@ -75,6 +89,7 @@ class HttpTransport:
         credentials_allowed: bool = True,
         limiter: ConcurrencyLimit | None = None,
         proxy_for: URL | None = None,
+        body_cap: BodyCap | None = None,
     ) -> None:
         if concurrency < 1:
             raise ValueError(f"concurrency must be at least 1, got {concurrency}")
@@ -94,6 +109,7 @@ class HttpTransport:
         self._session: aiohttp.ClientSession | None = None
         self._debug = False
         self._proxy = _env_proxy(proxy_for) if proxy_for is not None else None
+        self._body_cap = body_cap
 
     async def __aenter__(self) -> Self:
         # Asked once per session, not per request: structlog's lazy logger binds a new
@@ -203,7 +219,7 @@ class HttpTransport:
             allow_redirects=self._follow_redirects,
             max_redirects=_MAX_API_REDIRECTS,
         ) as answer:
-            body = await answer.read()
+            body = await self._read_body(answer)
             expected = answer.content_length
             # With Content-Encoding the header counts compressed bytes, not what read() gives.
             if (
@@ -216,6 +232,37 @@ class HttpTransport:
                     method="GET", url=answer.url, received=len(body), expected=expected
                 )
             return Response(status=answer.status, headers=answer.headers, body=body, url=answer.url)
+
+    async def _read_body(self, answer: aiohttp.ClientResponse) -> bytes:
+        """The whole body, or BodyTooLargeError once more than the cap has arrived.
+
+        aiohttp decompresses as it streams, so what is counted here is the decompressed
+        size: a small gzip answer that inflates without end is stopped at the cap too.
+        """
+        cap = self._body_cap
+        if cap is None:
+            return await answer.read()
+        declared = answer.content_length
+        if (
+            declared is not None
+            and declared > cap.max_bytes
+            and hdrs.CONTENT_ENCODING not in answer.headers
+        ):
+            answer.close()  # not worth reading: drop the connection instead
+            raise BodyTooLargeError(
+                method="GET", url=answer.url, cap=cap.max_bytes, setting=cap.setting
+            )
+        chunks: list[bytes] = []
+        size = 0
+        async for chunk in answer.content.iter_any():
+            size += len(chunk)
+            if size > cap.max_bytes:
+                answer.close()
+                raise BodyTooLargeError(
+                    method="GET", url=answer.url, cap=cap.max_bytes, setting=cap.setting
+                )
+            chunks.append(chunk)
+        return chunks[0] if len(chunks) == 1 else b"".join(chunks)
 
     def _without_credentials(
         self,

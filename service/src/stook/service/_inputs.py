@@ -7,6 +7,7 @@ means batch mode; else test mode, with ``experience/`` and ``logs/`` folders.
 
 from __future__ import annotations
 
+import difflib
 import json
 import uuid
 from dataclasses import dataclass, field
@@ -18,6 +19,9 @@ from stook.sdk._errors import StookError
 
 REPORT_CONFIG = "report_config.json"
 BATCH_CONFIG = "batch_metrics_config.json"
+# How alike a file name must be to a config's to count as a misspelling of it: enough for
+# "batch_metric_config.json" or "report-config.json", not for "config.json".
+_MISSPELT_CUTOFF = 0.8
 
 
 class InputsError(StookError):
@@ -72,7 +76,29 @@ def detect(inputs_dir: Path, *, project_id: uuid.UUID | None = None) -> Inputs:
             access=_access(batch, doc, project_id, project_required=False),
             batch_id=_uuid(batch, doc, "batchID"),
         )
-    return TestInputs(experience_dir=inputs_dir / "experience", logs_dir=inputs_dir / "logs")
+    experience, logs = inputs_dir / "experience", inputs_dir / "logs"
+    if not experience.is_dir() and not logs.is_dir():
+        _refuse_misspelt_config(inputs_dir)
+    return TestInputs(experience_dir=experience, logs_dir=logs)
+
+
+def _refuse_misspelt_config(inputs_dir: Path) -> None:
+    """Without a platform config and without test mode's folders, a file named almost like
+    a config is a typo, not a test: running test mode would write an empty output and exit
+    0, hiding that the batch or report was never looked at."""
+    try:
+        names = sorted(entry.name for entry in inputs_dir.iterdir() if entry.is_file())
+    except OSError:
+        return
+    for name in names:
+        close = difflib.get_close_matches(
+            name.lower(), (BATCH_CONFIG, REPORT_CONFIG), n=1, cutoff=_MISSPELT_CUTOFF
+        )
+        if close:
+            raise InputsError(
+                f"inputs folder {str(inputs_dir)!r} has {name!r} but no {BATCH_CONFIG}, "
+                f"{REPORT_CONFIG}, experience/ or logs/: did you mean {close[0]}?"
+            )
 
 
 def _load(path: Path) -> dict[str, Any]:

@@ -19,10 +19,15 @@ MASK: Final = "***"
 # Query parameters that carry no credential and help when reading a log: which page failed.
 _SAFE_QUERY_PARAMS: Final = frozenset({"pageSize", "pageToken"})
 
-# Shorter strings would mask innocent words; real tokens are far longer.
-_MIN_SECRET_LENGTH: Final = 8
+# From this length on a secret is masked wherever it appears, even inside a longer word;
+# real tokens are far longer. A shorter one is masked where it stands alone (see
+# register_secret), so that a two-letter token does not cut "about" into "***out".
+_SUBSTRING_SECRET_LENGTH: Final = 8
+# What may touch a short secret on either side for it still to count as standing alone.
+_WORD_CHAR: Final = "A-Za-z0-9"
 
-_secrets: set[str] = set()
+# Each registered secret with the pattern that finds it.
+_secrets: dict[str, re.Pattern[str]] = {}
 
 _URL_IN_TEXT: Final = re.compile(r"""https?://[^\s'"<>`]+""", re.IGNORECASE)
 # A short lower-case word after "bearer" ("invalid bearer token") is prose, not a secret;
@@ -34,9 +39,19 @@ _BEARER_IN_TEXT: Final = re.compile(
 
 
 def register_secret(secret: str) -> None:
-    """Mask ``secret`` wherever :func:`redact_text` (and so every log line) meets it."""
-    if len(secret) >= _MIN_SECRET_LENGTH:
-        _secrets.add(secret)
+    """Mask ``secret`` wherever :func:`redact_text` (and so every log line) meets it.
+
+    A secret of any length is masked. One of 8 characters or more is masked wherever it
+    appears; a shorter one wherever it is not part of a longer run of letters and digits
+    (``token ab refused``, ``"ab"``, ``/ab/``), since masking every "ab" would garble
+    every message while a server that echoes a token echoes it as a token.
+    """
+    if not secret or secret in _secrets:
+        return
+    escaped = re.escape(secret)
+    if len(secret) < _SUBSTRING_SECRET_LENGTH:
+        escaped = f"(?<![{_WORD_CHAR}]){escaped}(?![{_WORD_CHAR}])"
+    _secrets[secret] = re.compile(escaped)
 
 
 def redact_url(url: str | URL) -> str:
@@ -74,7 +89,7 @@ def redact_text(text: str) -> str:
 
 
 def _mask_secrets(text: str) -> str:
-    for secret in _secrets:
+    for secret, pattern in _secrets.items():
         if secret in text:
-            text = text.replace(secret, MASK)
+            text = pattern.sub(MASK, text)
     return text

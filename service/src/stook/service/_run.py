@@ -4,11 +4,13 @@ Exit codes (also in the README):
   0  metrics.binproto written
   1  an unexpected error, or the user's own test-metrics function raised
   2  bad usage, config or inputs (malformed JSON, missing key, non-UUID ID, bad TOML,
-     a metric or data name in the config that no job has)
+     a metric or data name in the config that no job has, a misspelt config file name),
+     or an outputs folder that cannot be written (checked before the first request)
   3  the API or storage failed after retries, refused the token, or too many jobs
-     stayed unavailable
+     stayed unavailable; an answer over its cap; a listing that does not end
   4  invalid metrics data: a downloaded item could not be decoded, or the output
      would not validate
+  5  the output could not be written (disk full, file-size limit, I/O error)
 
 Whatever the failure, metrics.binproto is written atomically or not at all.
 """
@@ -24,11 +26,18 @@ from pathlib import Path
 import structlog
 
 from stook.sdk._enums import MetricStatus
-from stook.sdk._errors import InvalidMetricsError, ReadError, StookError, WriterError
+from stook.sdk._errors import (
+    InvalidMetricsError,
+    OutputWriteError,
+    ReadError,
+    StookError,
+    WriterError,
+)
 from stook.service._batch import OUTPUT_NAME, run_batch
 from stook.service._config import ConfigError, StookConfig, load
 from stook.service._errors import ApiError, AuthError
 from stook.service._inputs import BatchInputs, InputsError, ReportInputs, TestInputs, detect
+from stook.service._outputs import OutputsError, check_outputs_folder
 from stook.service._progress import for_stream
 from stook.service._report import run_report
 from stook.service._session import Traffic
@@ -47,6 +56,7 @@ class ExitCode(enum.IntEnum):
     USAGE = 2
     API = 3
     INVALID_DATA = 4
+    OUTPUT = 5
 
 
 class UsageError(StookError):
@@ -106,6 +116,7 @@ async def run(options: RunOptions) -> Path:
     """Run the detected mode; raises the typed errors that `exit_code_for` maps."""
     config: StookConfig = load(options.config)
     mode = detect(options.inputs, project_id=options.project_id)
+    check_outputs_folder(options.outputs)  # before the first request, not after the fetch
     output = options.outputs / OUTPUT_NAME
     match mode:
         case ReportInputs():
@@ -186,12 +197,14 @@ def explain(error: BaseException) -> str:
 
 def exit_code_for(error: BaseException) -> ExitCode:
     """The documented exit code of an expected failure; UNEXPECTED for anything else."""
-    if isinstance(error, UsageError | ConfigError | InputsError):
+    if isinstance(error, UsageError | ConfigError | InputsError | OutputsError):
         return ExitCode.USAGE
     if isinstance(error, ApiError):
         return ExitCode.API
     if isinstance(error, ReadError | InvalidMetricsError):
         return ExitCode.INVALID_DATA
+    if isinstance(error, OutputWriteError):
+        return ExitCode.OUTPUT
     if isinstance(error, WriterError):
         # A config that asks for two metrics of one name, or impossible bounds.
         return ExitCode.USAGE

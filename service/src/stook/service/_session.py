@@ -6,7 +6,7 @@ import contextlib
 from collections.abc import AsyncIterator
 from dataclasses import dataclass
 
-from stook.service._client import ApiClient
+from stook.service._client import ApiClient, body_cap_mb
 from stook.service._config import FetchSettings
 from stook.service._inputs import ApiAccess
 from stook.service._retry import RetryPolicy
@@ -29,6 +29,8 @@ async def open_api(
         retry=policy,
         page_size=settings.page_size,
         adaptive=settings.adaptive,
+        body_cap=body_cap_mb(settings.max_api_body_mb, "max_api_body_mb"),
+        storage_body_cap=body_cap_mb(settings.max_body_mb, "max_body_mb"),
     ) as api:
         yield api
 

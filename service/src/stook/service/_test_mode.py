@@ -14,6 +14,7 @@ import structlog
 from stook.sdk._writer import MetricsWriter
 from stook.service._config import ConfigError, StookConfig
 from stook.service._inputs import TestInputs
+from stook.service._user_code import add_import_folders, describe_search
 
 log = structlog.get_logger("stook.test")
 
@@ -24,13 +25,25 @@ class UserFunctionError(Exception):
     """The user's own metrics function raised; its traceback is theirs to read (exit 1)."""
 
 
-def load_function(reference: str, *, source: str) -> TestMetricsFunction:
+def load_function(
+    reference: str, *, source: str, config_file: Path | None = None
+) -> TestMetricsFunction:
+    """Import ``module:function``, from `config_file`'s folder and the working directory first."""
     module_name, _, attr = reference.partition(":")
+    add_import_folders(config_file)
     try:
-        function = getattr(importlib.import_module(module_name), attr)
-    except (ImportError, AttributeError) as exc:
+        module = importlib.import_module(module_name)
+    except ImportError as exc:
         raise ConfigError(
-            f"{source}: [test] metrics {reference!r} cannot be imported ({exc})"
+            f"{source}: [test] metrics {reference!r} cannot be imported ({exc}); "
+            f"{describe_search(config_file)}"
+        ) from None
+    try:
+        function = getattr(module, attr)
+    except AttributeError as exc:
+        raise ConfigError(
+            f"{source}: [test] metrics {reference!r} cannot be imported ({exc}; "
+            f"module {module_name!r} is {module.__file__})"
         ) from None
     if not callable(function):
         raise ConfigError(f"{source}: [test] metrics {reference!r} is not callable")
@@ -48,7 +61,7 @@ async def run_test_mode(inputs: TestInputs, config: StookConfig, output: Path) -
         for folder in (inputs.experience_dir, inputs.logs_dir):
             if not folder.is_dir():
                 log.warning("test-mode input folder is missing", folder=str(folder))
-        function = load_function(config.test_metrics, source=config.source)
+        function = load_function(config.test_metrics, source=config.source, config_file=config.file)
         try:
             result = function(inputs.experience_dir, inputs.logs_dir, writer)
             if inspect.isawaitable(result):

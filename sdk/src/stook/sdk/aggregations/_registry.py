@@ -7,6 +7,7 @@ from __future__ import annotations
 import collections.abc
 import dataclasses
 import importlib
+import inspect
 import sys
 import types
 import typing
@@ -126,6 +127,7 @@ def build(
             )
         found = known[kind]
         cls = found if isinstance(found, type) else load_class(found, where=where)
+    _check_option_names(cls, options, where, extra=("class",) if kind == "custom" else ())
     _check_option_types(cls, options, where)
     try:
         return cls(**options)
@@ -161,6 +163,37 @@ def _accepts(hint: Any, value: Any) -> bool | None:
         inner = [_accepts(args[0], item) for item in value]
         return None if any(v is None for v in inner) else all(inner)
     return None
+
+
+def _check_option_names(
+    cls: type[Aggregation[Any]], options: Mapping[str, Any], where: str, *, extra: Sequence[str]
+) -> None:
+    """An unknown key lists the known ones and a missing one is named, as in ``[fetch]``,
+    rather than surfacing as ``__init__() got an unexpected keyword argument``."""
+    try:
+        parameters = inspect.signature(cls).parameters.values()
+    except (TypeError, ValueError):
+        return  # no signature to read: leave the check to the class
+    if any(p.kind is inspect.Parameter.VAR_KEYWORD for p in parameters):
+        return  # takes any key
+    by_keyword = [
+        p
+        for p in parameters
+        if p.kind in (inspect.Parameter.POSITIONAL_OR_KEYWORD, inspect.Parameter.KEYWORD_ONLY)
+    ]
+    known = {p.name for p in by_keyword}
+    unknown = sorted(set(options) - known)
+    if unknown:
+        listed = ", ".join(sorted(known | set(extra))) or "none"
+        raise AggregationConfigError(f"{where}: unknown key {unknown[0]!r} (known: {listed})")
+    missing = [
+        p.name for p in by_keyword if p.default is inspect.Parameter.empty and p.name not in options
+    ]
+    if missing:
+        names = ", ".join(repr(name) for name in missing)
+        raise AggregationConfigError(
+            f"{where}: missing key{'s' if len(missing) > 1 else ''} {names}"
+        )
 
 
 def _check_option_types(
