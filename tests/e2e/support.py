@@ -21,7 +21,7 @@ import pytest
 import resim.metrics.proto.metrics_pb2 as rp
 from resim.metrics.proto.validate_metrics_proto import validate_job_metrics
 
-from stook.sdk import JobMetricsView, MetricView, read_job_metrics
+from stook.sdk import JobMetricsView, MetricStatus, MetricView, read_job_metrics
 from stook.service.emulator import Emulator, EmulatorConfig
 from stook.service.testing import TEST_DEFAULTS
 
@@ -301,7 +301,7 @@ def assert_matches_truth(view: JobMetricsView, expected: Expected) -> None:
     assert counts == wanted_counts
     assert sum(counts.values()) == expected.jobs
     job_status = metrics["Job statuses"].status
-    assert job_status is not None
+    assert isinstance(job_status, MetricStatus)
     if expected.job_statuses["BLOCKER"]:
         assert job_status.name == "FAIL_BLOCK"
     elif expected.job_statuses["WARNING"] or expected.job_statuses["ERROR"]:
@@ -321,6 +321,6 @@ def assert_matches_truth(view: JobMetricsView, expected: Expected) -> None:
     assert metrics["Pass rate"].unit == "%"
 
     # The overall status follows the metrics' statuses.
-    assert view.status is not None
-    statuses = [m.status.name for m in view.metrics if m.status is not None]
+    assert isinstance(view.status, MetricStatus)
+    statuses = [m.status.name for m in view.metrics if isinstance(m.status, MetricStatus)]
     assert view.status.name == worst(statuses)

@@ -7,6 +7,7 @@ from pathlib import Path
 
 import pytest
 
+from stook.sdk import MetricStatus, MetricType
 from stook.service.cli import run_cli
 from tests.e2e.support import (
     BATCH_TOML,
@@ -49,15 +50,12 @@ def test_a_batch_without_jobs(
     assert outputs_left(outputs) == [OUTPUT_NAME]
     view = read_output(outputs / OUTPUT_NAME)
     assert view.job_id == emu.batch_id
-    assert view.status is not None
-    assert view.status.name == "NOT_APPLICABLE"
+    assert view.status is MetricStatus.NOT_APPLICABLE
     metrics = by_name(view)
     summary = metrics["Batch summary"]
-    assert summary.type is not None
-    assert summary.type.name == "TEXT"
+    assert summary.type is MetricType.TEXT
     assert "no jobs" in text_of(summary)
-    assert summary.status is not None
-    assert summary.status.name == "NOT_APPLICABLE"
+    assert summary.status is MetricStatus.NOT_APPLICABLE
     # No per-job numbers are made up for an empty batch.
     assert "Pass rate" not in metrics
     assert not any(name.endswith("(mean)") for name in metrics)

@@ -18,6 +18,7 @@ from pathlib import Path
 
 import pytest
 
+from stook.sdk import MetricStatus, MetricType
 from stook.service.cli import run_cli
 from stook.service.emulator import Emulator, MetricsOutput
 from tests.e2e.support import (
@@ -278,15 +279,12 @@ def test_broken_job_within_the_allowance(
     assert outputs_left(outputs) == [OUTPUT_NAME]
     view = read_output(outputs / OUTPUT_NAME)
     missing = by_name(view)["Missing jobs"]
-    assert missing.type is not None
-    assert missing.type.name == "TEXT"
+    assert missing.type is MetricType.TEXT
     assert str(job.id) in text_of(missing)
     assert job.experience.name in text_of(missing)
     assert "1 of 40 jobs" in text_of(missing)
-    assert missing.status is not None
-    assert missing.status.name == "FAIL_WARN"
-    assert view.status is not None
-    assert view.status.name in ("FAIL_WARN", "FAIL_BLOCK")
+    assert missing.status is MetricStatus.FAIL_WARN
+    assert view.status in (MetricStatus.FAIL_WARN, MetricStatus.FAIL_BLOCK)
     # Everything else is computed from the 39 other jobs.
     assert_matches_truth(view, expected_from_truth(broken_emu, skip_jobs=(BROKEN,)))
 

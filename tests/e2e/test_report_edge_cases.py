@@ -12,6 +12,7 @@ from typing import Any
 import pytest
 import tenacity
 
+from stook.sdk import MetricStatus
 from stook.service._config import parse
 from stook.service._inputs import ReportInputs, detect
 from stook.service._report import ReportResult, run_report
@@ -81,8 +82,7 @@ def test_a_window_without_batches_is_not_applicable(tmp_path: Path) -> None:
     assert text_of(summary).startswith("No batches of test suite ")
     assert text_of(summary).endswith(": nothing to report.")
     assert status_name(summary) == "NOT_APPLICABLE"
-    assert view.status is not None
-    assert view.status.name == "NOT_APPLICABLE"
+    assert view.status is MetricStatus.NOT_APPLICABLE
 
 
 def test_batches_without_metrics_and_gaps_leave_gaps(tmp_path: Path) -> None:

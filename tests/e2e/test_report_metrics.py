@@ -22,7 +22,7 @@ from pathlib import Path
 
 import pytest
 
-from stook.sdk import JobMetricsView, MetricView
+from stook.sdk import JobMetricsView, MetricStatus, MetricView
 from stook.service.cli import run_cli
 from stook.service.emulator import BatchSpec, Emulator
 from tests.e2e.support import (
@@ -164,7 +164,7 @@ def batchwise(view: JobMetricsView, metric: MetricView) -> Batchwise:
 
 
 def status_name(metric: MetricView) -> str:
-    assert metric.status is not None
+    assert isinstance(metric.status, MetricStatus)
     return metric.status.name
 
 
@@ -426,7 +426,7 @@ def assert_report_matches(view: JobMetricsView, expected: ExpectedReport) -> Non
     assert f"the last {last:%Y-%m-%d %H:%M} UTC" in summary
 
     # The overall status follows the metrics' statuses.
-    assert view.status is not None
+    assert isinstance(view.status, MetricStatus)
     assert view.status.name == worst(status_name(m) for m in view.metrics)
 
 

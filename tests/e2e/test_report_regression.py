@@ -8,6 +8,7 @@ from pathlib import Path
 
 import pytest
 
+from stook.sdk import MetricStatus
 from tests.e2e.support import EmulatorThread, by_name, config, text_of
 from tests.e2e.test_report_metrics import (
     assert_report_matches,
@@ -58,7 +59,7 @@ def test_the_seeded_regression_is_detected(tmp_path: Path) -> None:
     assert f"({(loc[-1] - median) / median:+.1%})" in text
     assert f"since batch {previous.friendly_name}" in text
     assert f"{DIST!r} moved" not in text
-    assert view.status is not None
+    assert isinstance(view.status, MetricStatus)
     assert STATUS_RANK[view.status.name] >= STATUS_RANK["FAIL_WARN"]
 
 

@@ -9,6 +9,7 @@ from pathlib import Path
 import pytest
 import resim.metrics.proto.metrics_pb2 as rp
 
+from stook.sdk import MetricType
 from stook.service.cli import run_cli
 from tests.e2e.support import OUTPUT_NAME, by_name, outputs_left, read_output
 from tests.e2e.user_metrics import ASYNC_VALUE
@@ -69,7 +70,7 @@ def test_the_example_writes_every_metric_type(
     )
     assert code == 0, err
     view = read_output(outputs / OUTPUT_NAME)  # ReSim's validator accepts it
-    written = {m.type.name for m in view.metrics if m.type is not None}
+    written = {m.type.name for m in view.metrics if isinstance(m.type, MetricType)}
     every = {
         name.removesuffix("_METRIC_TYPE")
         for name, _ in rp.MetricType.items()

@@ -42,6 +42,7 @@ from stook.sdk._reader import (
     read_metrics_data,
 )
 from stook.sdk._validate import find_problems
+from stook.sdk._writer import MetricsWriter
 from tests.hypothesis_profiles import examples
 from tests.strategies import valid_job_metrics
 
@@ -539,18 +540,51 @@ def test_another_message_type_is_refused(resim_msg: resim_pb.JobMetrics) -> None
         read_job_metrics(metric)
 
 
-def test_nonsense_enums_are_refused() -> None:
-    m = pb.Metric(name="odd", type=99)  # type: ignore[arg-type]
+def test_unknown_enum_values_are_read_and_kept() -> None:
+    """A newer schema's enum values (ReSim's validator accepts them) are read, not refused."""
+    m = pb.Metric(name="odd", type=99, status=42, importance=9)  # type: ignore[arg-type]
     m.metric_id.id.data = str(uuid.uuid4())
-    with pytest.raises(ReadError, match=r"metric 'odd': type has unknown value 99"):
-        read_metric(m.SerializeToString(), source="odd.bin")
+    metric = read_metric(m.SerializeToString(), source="odd.bin")
+    assert (metric.type, metric.status, metric.importance) == (99, 42, 9)
+    assert not isinstance(metric.status, StookStatus)  # the number, not a member
+
     d = _data(77)
-    with pytest.raises(ReadError, match="data type has unknown value 77"):
-        read_metrics_data(d.SerializeToString())
+    d.series.doubles.series.append(1.0)
+    unknown = read_metrics_data(d.SerializeToString())
+    assert unknown.kind is None
+    assert unknown.raw.data_type == 77
+    with pytest.raises(ValueError, match="data type 77, which this schema does not know"):
+        unknown.frame()
+
     s = _data(pb.METRIC_STATUS_SERIES_DATA_TYPE)
     s.series.statuses.series.extend(pb.MetricStatus.ValueType(v) for v in (1, 40))
-    with pytest.raises(ReadError, match=r"unknown status value\(s\) \[40\]"):
-        read_metrics_data(s.SerializeToString())
+    statuses = read_metrics_data(s.SerializeToString())
+    assert statuses.series().to_list() == ["PASSED", None]  # frames hold known names only
+    assert list(statuses.raw.series.statuses.series) == [1, 40]
+
+    e = pb.Event(name="e", status=43, timestamp_type=7)  # type: ignore[arg-type]
+    e.event_id.id.data = str(uuid.uuid4())
+    job = pb.JobMetrics(metrics_status=44)  # type: ignore[arg-type]
+    job.job_id.id.data = str(uuid.uuid4())
+    job.job_level_metrics.metrics.append(m)
+    job.metrics_data.extend([d, s])
+    job.events.append(e)
+    view = read_job_metrics(job.SerializeToString())
+    assert view.status == 44
+    assert (view.events[0].status, view.events[0].timestamp_type) == (43, 7)
+    assert view.scalars_frame().height == 0  # type 99 is not SCALAR
+    # The unknown data type has no series to put in the frame; the statuses have.
+    assert view.series_frame()["data_name"].to_list() == ["d", "d"]
+
+
+def test_unknown_status_of_a_scalar_reads_as_null_in_the_frame() -> None:
+    w = MetricsWriter(uuid.uuid4(), deterministic=True)
+    w.scalar("x", 1.5)
+    msg = w.to_proto()
+    msg.job_level_metrics.metrics[0].status = 42  # type: ignore[assignment]
+    view = read_job_metrics(msg.SerializeToString())
+    assert view.metrics[0].status == 42
+    assert view.scalars_frame()["status"].to_list() == [None]
 
 
 def test_series_of_the_wrong_kind_is_refused() -> None:
@@ -590,7 +624,7 @@ def _read_everything(data: bytes) -> None:
         else:
             datas = []
         for d in datas:
-            if d.is_external:
+            if d.is_external or d.kind is None:
                 continue
             with contextlib.suppress(ReadError):  # e.g. a bad UUID inside a series
                 d.frame()

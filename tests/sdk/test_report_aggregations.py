@@ -20,7 +20,13 @@ import pytest
 import resim.metrics.proto.metrics_pb2 as rp
 from resim.metrics.proto.validate_metrics_proto import validate_job_metrics as resim_validate
 
-from stook.sdk import MetricStatus, MetricType, read_job_metrics, validate_job_metrics
+from stook.sdk import (
+    MetricStatus,
+    MetricType,
+    SeriesKind,
+    read_job_metrics,
+    validate_job_metrics,
+)
 from stook.sdk._reader import JobMetricsView, MetricView
 from stook.sdk._writer import MetricsWriter
 from stook.sdk.aggregations import (
@@ -125,7 +131,7 @@ class Output:
         assert m.type is kind
         return m
 
-    def text(self, name: str) -> tuple[str, MetricStatus | None]:
+    def text(self, name: str) -> tuple[str, MetricStatus | int | None]:
         m = self.metric(name, MetricType.TEXT)
         return m.raw.metric_values.text_metric_values.text, m.status
 
@@ -143,7 +149,7 @@ class Output:
             assert x.index_id is not None
             assert x.index_id == y.index_id == s.index_id
             times = self.view.data_by_id[x.index_id]
-            assert times.kind.value == "timestamp"
+            assert times.kind is SeriesKind.TIMESTAMP
             out.append(
                 Line(
                     x=x.series().to_list(),

@@ -16,6 +16,8 @@ from datetime import UTC, datetime, timedelta
 from pathlib import Path
 
 import pytest
+import resim.metrics.proto.metrics_pb2 as resim_pb
+from resim.metrics.proto.validate_metrics_proto import validate_job_metrics as validate_resim
 
 from stook.sdk import MetricStatus, MetricsWriter, MetricType, data, read_job_metrics
 from stook.sdk.example import every_metric_type
@@ -99,8 +101,8 @@ def test_show_covers_every_metric_type_of_the_example(
     view = read_job_metrics(example_file.read_bytes())
     assert len(body) == len(view.metrics) == 14
     for line, metric in zip(body, view.metrics, strict=True):
-        assert metric.type is not None
-        assert metric.status is not None
+        assert isinstance(metric.type, MetricType)
+        assert isinstance(metric.status, MetricStatus)
         assert line.startswith(metric.name[:56])
         assert f"  {metric.type.name}  " in line
         assert f"  {metric.status.name}" in line
@@ -118,6 +120,30 @@ def test_show_reads_an_invalid_but_readable_file(
     assert run_cli(["show", str(path)]) == 0
     out, _ = capsys.readouterr()
     assert _row(out, "unset")[1:] == ["SCALAR", "?", "2.5"]
+
+
+def test_show_and_validate_read_unknown_enum_values(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A newer schema's enum values: shown by number, and valid as ReSim's validator says."""
+    w = _known_writer()
+    msg = w.to_proto()
+    count = next(m for m in msg.job_level_metrics.metrics if m.name == "Count")
+    count.status = 42  # type: ignore[assignment]
+    count.importance = 9  # type: ignore[assignment]
+    path = tmp_path / "newer.binproto"
+    path.write_bytes(msg.SerializeToString())
+    resim_msg = resim_pb.JobMetrics.FromString(path.read_bytes())
+    validate_resim(resim_msg)  # ReSim's validator accepts it: so must ours
+
+    assert run_cli(["show", str(path)]) == 0
+    out, err = capsys.readouterr()
+    assert _row(out, "Count")[1:] == ["SCALAR", "unknown", "(42)", "7"]
+    assert _row(out, "Max speed")[2:4] == ["SCALAR", "FAIL_WARN"]
+    assert run_cli(["validate", str(path)]) == 0
+    out, err = capsys.readouterr()
+    assert out.startswith(f"{path}: valid")
+    assert "error" not in err
 
 
 def test_show_survives_a_text_metric_with_empty_text(

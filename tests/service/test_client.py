@@ -138,13 +138,13 @@ async def test_malformed_json_names_the_url_without_secrets(
 async def test_invalid_field_is_reported_with_object_and_field(
     server: ScriptedServer, fast_policy: RetryPolicy
 ) -> None:
-    bad = job_json(7) | {"conflatedStatus": "FOO"}
+    bad = job_json(7) | {"conflatedStatus": 3}
     server.script(JOBS_PATH, answer_json({"jobs": [bad]}))
     async with client(server, fast_policy) as api:
         with pytest.raises(ApiResponseError) as caught:
             _ = [job async for job in api.list_jobs(PROJECT, BATCH)]
     assert str(caught.value) == (
-        f"Job {uuid.UUID(int=7)}: field 'conflatedStatus' has unknown value 'FOO'"
+        f"Job {uuid.UUID(int=7)}: field 'conflatedStatus' should be a string, got a number"
     )
 
 

@@ -10,9 +10,15 @@ What counts as readable:
   lacks, or a wire type that does not fit), so they are refused. Unknown fields
   deeper down are kept (``raw`` re-serializes them) because a newer ReSim schema
   may add fields to nested messages.
-* Every enum value must be one the schema knows, and every ID the views expose
-  as a ``uuid.UUID`` must parse (as ``uuid.UUID(hex=...)``, the platform's rule).
+* Every ID the views expose as a ``uuid.UUID`` must parse (as ``uuid.UUID(hex=...)``,
+  the platform's rule).
 * A series must hold the element type its data type declares.
+
+Enum values this schema does not know (ones a newer ReSim schema adds) are read, not
+refused, as ReSim's validator accepts them: a view keeps such a status, type or
+importance as its number (an ``int`` where the enum member would be), metrics data of
+an unknown data type has ``kind`` None and no series, and an unknown status in a
+status series reads as null in frames. ``raw`` keeps every value as it was.
 
 Anything else is left to the validator (`stook.sdk._validate`): the reader reads
 what is there, including outputs the platform would refuse.
@@ -54,7 +60,8 @@ __all__ = [
 ]
 
 STATUS_DTYPE = pl.Enum([s.name for s in MetricStatus])
-"""dtype of status values in frames; ``NO_METRIC_STATUS`` (unset) reads as null."""
+"""dtype of status values in frames; ``NO_METRIC_STATUS`` (unset) and a status this
+schema does not know read as null."""
 
 _SERIES_KINDS = tuple(k for k in SeriesKind if k is not SeriesKind.EXTERNAL_FILE)
 KIND_DTYPE = pl.Enum([k.value for k in _SERIES_KINDS])
@@ -69,7 +76,6 @@ _VALUE_DTYPES: dict[SeriesKind, pl.DataType] = {
 }
 
 _STATUS_NAMES: dict[int, str] = {s.value: s.name for s in MetricStatus}
-_KNOWN_STATUSES = frozenset(_STATUS_NAMES) | {pb.NO_METRIC_STATUS}
 _NANOS_PER_SECOND = 1_000_000_000
 
 _Msg = TypeVar("_Msg", bound=Message)
@@ -160,12 +166,17 @@ def _view(cls: type[_Msg], msg: _Msg, source: str, build: Callable[[_Msg, str], 
 
 @dataclass(frozen=True, slots=True)
 class MetricsDataView:
-    """One metrics data item: a typed series, per category or not, or an external file."""
+    """One metrics data item: a typed series, per category or not, or an external file.
+
+    ``kind`` is None for a data type this schema does not know (``raw.data_type`` has
+    it): such data has no series. ``index_kind`` is None without an index, or for an
+    index of a data type this schema does not know.
+    """
 
     id: uuid.UUID
     name: str
     unit: str
-    kind: SeriesKind
+    kind: SeriesKind | None
     indexed: bool
     index_id: uuid.UUID | None
     index_kind: SeriesKind | None
@@ -187,8 +198,7 @@ class MetricsDataView:
         text, strings String, statuses `STATUS_DTYPE`. ValueError for external files
         and per-category data (use `frame` or `category_series`).
         """
-        if self.is_external:
-            raise ValueError(f"metrics data {self.name!r} is an external file; it has no series")
+        self._check_has_series()
         if self.per_category:
             raise ValueError(
                 f"metrics data {self.name!r} is per category; use frame() or category_series()"
@@ -197,6 +207,7 @@ class MetricsDataView:
 
     def category_series(self, category: str) -> pl.Series:
         """The values of one category of per-category data; KeyError if it has none."""
+        self._check_has_series()
         if not self.per_category:
             raise ValueError(f"metrics data {self.name!r} is not per category")
         by_category = self.raw.series_per_category.category_to_series
@@ -211,8 +222,7 @@ class MetricsDataView:
         Categories come in declared order, then any undeclared ones, sorted.
         ValueError for external files.
         """
-        if self.is_external:
-            raise ValueError(f"metrics data {self.name!r} is an external file; it has no frame")
+        kind = self._check_has_series()
         if not self.per_category:
             return _long_frame(None, self.series())
         by_category = self.raw.series_per_category.category_to_series
@@ -223,28 +233,39 @@ class MetricsDataView:
             if category in by_category
         ]
         if not parts:
-            return _long_frame(None, pl.Series("value", [], dtype=_VALUE_DTYPES[self.kind]))
+            return _long_frame(None, pl.Series("value", [], dtype=_VALUE_DTYPES[kind]))
         return pl.concat(parts, how="vertical")
+
+    def _check_has_series(self) -> SeriesKind:
+        if self.is_external:
+            raise ValueError(f"metrics data {self.name!r} is an external file; it has no series")
+        if self.kind is None:
+            raise ValueError(
+                f"metrics data {self.name!r} has data type {self.raw.data_type}, which this "
+                "schema does not know; it has no series"
+            )
+        return self.kind
 
     def _convert(self, series: pb.Series, name: str) -> pl.Series:
         try:
-            return _to_polars(series, self.kind, name)
+            return _to_polars(series, self._check_has_series(), name)
         except _MalformedError as exc:
             raise _fail(pb.MetricsData, self.source, f"data {self.name!r}: {exc}") from None
 
 
 @dataclass(frozen=True, slots=True)
 class MetricView:
-    """One metric. ``None`` marks an unset enum or optional field."""
+    """One metric. ``None`` marks an unset enum or optional field; an ``int`` an enum value
+    this schema does not know."""
 
     id: uuid.UUID
     name: str
-    type: MetricType | None
-    status: MetricStatus | None
+    type: MetricType | int | None
+    status: MetricStatus | int | None
     description: str
     blocking: bool | None
     should_display: bool | None
-    importance: MetricImportance | None
+    importance: MetricImportance | int | None
     order: float | None
     tags: tuple[tuple[str, str], ...]
     """(key, value) pairs in the order written; keys may repeat."""
@@ -266,11 +287,11 @@ class EventView:
     description: str
     tags: tuple[str, ...]
     metric_ids: tuple[uuid.UUID, ...]
-    status: MetricStatus | None
-    importance: MetricImportance | None
+    status: MetricStatus | int | None
+    importance: MetricImportance | int | None
     timestamp_ns: int | None
     """Nanoseconds since the epoch (absolute) or since the start (relative)."""
-    timestamp_type: Literal["absolute", "relative"] | None
+    timestamp_type: Literal["absolute", "relative"] | int | None
     raw: pb.Event = field(repr=False)
 
 
@@ -279,7 +300,7 @@ class JobMetricsView:
     """A whole output: metrics, metrics data and events of one job."""
 
     job_id: uuid.UUID | None
-    status: MetricStatus | None
+    status: MetricStatus | int | None
     metrics: tuple[MetricView, ...]
     data: tuple[MetricsDataView, ...]
     events: tuple[EventView, ...]
@@ -298,7 +319,9 @@ class JobMetricsView:
                 "name": [m.name for m in scalars],
                 "value": [m.value for m in scalars],
                 "unit": [m.unit for m in scalars],
-                "status": [m.status.name if m.status else None for m in scalars],
+                "status": [
+                    m.status.name if isinstance(m.status, MetricStatus) else None for m in scalars
+                ],
             },
             schema={
                 "metric_id": pl.String,
@@ -319,7 +342,7 @@ class JobMetricsView:
         """
         parts = [_SERIES_FRAME_SCHEMA.clear()]
         for data in self.data:
-            if data.is_external:
+            if data.is_external or data.kind is None:
                 continue
             parts.append(
                 data.frame()
@@ -361,22 +384,24 @@ def _optional_uuid(text: str, what: str) -> uuid.UUID | None:
     return _uuid(text, what) if text else None
 
 
-def _enum(cls: type[_E], value: int, what: str) -> _E | None:
+def _enum(cls: type[_E], value: int) -> _E | int | None:
+    """The member for `value`; None when unset, the number itself when unknown."""
     if value == 0:
         return None
     try:
         return cls(value)
     except ValueError:
-        raise _MalformedError(f"{what} has unknown value {value}") from None
+        return value
 
 
-def _kind(data_type: int, what: str) -> SeriesKind:
+def _kind(data_type: int, what: str) -> SeriesKind | None:
+    """The series kind of a data type; None for one this schema does not know."""
     try:
         return kind_of(data_type)[0]
     except ValueError:
         if data_type == pb.NO_DATA_TYPE:
             raise _MalformedError(f"{what} is unset") from None
-        raise _MalformedError(f"{what} has unknown value {data_type}") from None
+        return None
 
 
 def _label(kind: str, name: str) -> str:
@@ -390,7 +415,7 @@ def _data_view(msg: pb.MetricsData, source: str) -> MetricsDataView:
     if kind is SeriesKind.EXTERNAL_FILE:
         if holds not in (None, "external_file"):
             raise _MalformedError(f"{label} is declared an external file but holds a {holds}")
-    else:
+    elif kind is not None:  # of an unknown data type, nothing says what its series hold
         expected = "series_per_category" if msg.is_per_category else "series"
         if holds not in (None, expected):
             raise _MalformedError(
@@ -437,10 +462,6 @@ def _check_series(series: pb.Series, kind: SeriesKind, label: str) -> None:
     holds = series.WhichOneof("series")
     if holds is not None and holds != _ELEMENT_FIELDS[kind]:
         raise _MalformedError(f"{label} is declared {kind.value} but its series holds {holds}")
-    if kind is SeriesKind.STATUS:
-        unknown = set(series.statuses.series) - _KNOWN_STATUSES
-        if unknown:
-            raise _MalformedError(f"{label}: unknown status value(s) {sorted(unknown)}")
 
 
 def _referenced_ids(values: pb.MetricValues) -> list[pb.MetricsDataId]:
@@ -474,12 +495,12 @@ def _metric_view(msg: pb.Metric, source: str) -> MetricView:
     return MetricView(
         id=_uuid(msg.metric_id.id.data, f"{label}: id"),
         name=msg.name,
-        type=_enum(MetricType, msg.type, f"{label}: type"),
-        status=_enum(MetricStatus, msg.status, f"{label}: status"),
+        type=_enum(MetricType, msg.type),
+        status=_enum(MetricStatus, msg.status),
         description=msg.description,
         blocking=msg.blocking if msg.HasField("blocking") else None,
         should_display=msg.should_display if msg.HasField("should_display") else None,
-        importance=_enum(MetricImportance, msg.importance, f"{label}: importance"),
+        importance=_enum(MetricImportance, msg.importance),
         order=msg.order if msg.HasField("order") else None,
         tags=tuple((t.key, t.value) for t in msg.tags),
         job_id=_optional_uuid(msg.job_id.id.data, f"{label}: job id"),
@@ -499,8 +520,6 @@ _TIMESTAMP_TYPES: dict[int, Literal["absolute", "relative"]] = {
 
 def _event_view(msg: pb.Event) -> EventView:
     label = _label("event", msg.name)
-    if msg.timestamp_type not in _TIMESTAMP_TYPES and msg.timestamp_type != pb.NO_TYPE:
-        raise _MalformedError(f"{label}: timestamp type has unknown value {msg.timestamp_type}")
     ts = msg.timestamp
     return EventView(
         id=_uuid(msg.event_id.id.data, f"{label}: id"),
@@ -508,12 +527,16 @@ def _event_view(msg: pb.Event) -> EventView:
         description=msg.description,
         tags=tuple(msg.tags),
         metric_ids=tuple(_uuid(m.id.data, f"{label}: metric id") for m in msg.metrics),
-        status=_enum(MetricStatus, msg.status, f"{label}: status"),
-        importance=_enum(MetricImportance, msg.importance, f"{label}: importance"),
+        status=_enum(MetricStatus, msg.status),
+        importance=_enum(MetricImportance, msg.importance),
         timestamp_ns=(
             ts.seconds * _NANOS_PER_SECOND + ts.nanos if msg.HasField("timestamp") else None
         ),
-        timestamp_type=_TIMESTAMP_TYPES.get(msg.timestamp_type),
+        timestamp_type=(
+            None
+            if msg.timestamp_type == pb.NO_TYPE
+            else _TIMESTAMP_TYPES.get(msg.timestamp_type, msg.timestamp_type)
+        ),
         raw=msg,
     )
 
@@ -523,7 +546,7 @@ def _job_view(msg: pb.JobMetrics, source: str) -> JobMetricsView:
     data = tuple(_data_view(d, source) for d in msg.metrics_data)
     return JobMetricsView(
         job_id=_optional_uuid(msg.job_id.id.data, "job id"),
-        status=_enum(MetricStatus, msg.metrics_status, "overall status"),
+        status=_enum(MetricStatus, msg.metrics_status),
         metrics=metrics,
         data=data,
         events=tuple(_event_view(e) for e in msg.events),

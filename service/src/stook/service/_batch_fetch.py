@@ -20,14 +20,15 @@ import structlog
 
 from stook.sdk._errors import ReadError
 from stook.sdk._reader import read_metrics_data
-from stook.sdk.aggregations import JobRecord, Scalar
+from stook.sdk.aggregations import UNKNOWN_STATUS, JobRecord, Needs
 from stook.service._client import ApiClient
 from stook.service._errors import (
     ApiError,
     AuthError,
     PresignedUrlExpiredError,
 )
-from stook.service._models import ApiMetricType, Job, JobMetric, JobMetricsData
+from stook.service._models import Job, JobMetric, JobMetricsData
+from stook.service._scalars import is_scalar, read_scalars
 
 log = structlog.get_logger("stook.fetch")
 
@@ -41,9 +42,11 @@ class InvalidDataError(ReadError):
 
 @dataclass(frozen=True, slots=True)
 class FetchPlan:
-    """What to fetch per job beyond its metric listing: the metrics data named here."""
+    """What to fetch per job beyond its metric listing: the metrics data named here, and
+    the scalars read (downloaded only when the API lists them without a value)."""
 
     data: frozenset[str] = frozenset()
+    scalars: Needs = field(default_factory=lambda: Needs(every_scalar=True))
 
 
 @dataclass(frozen=True, slots=True)
@@ -63,6 +66,7 @@ class FetchOutcome:
     missing: list[MissingJob] = field(default_factory=list)
     scalar_names: set[str] = field(default_factory=set)
     data_names: set[str] = field(default_factory=set)
+    unnamed_data: int = 0  # metrics data listed without a name: no plan can ask for it
     started: float = field(default_factory=time.monotonic)
     seconds: float = 0.0
 
@@ -146,13 +150,20 @@ class BatchFetcher:
             metrics = await self._list_metrics(job)
         if metrics:
             self.outcome.jobs_with_metrics += 1
-        scalars = {
-            m.name: Scalar(m.value, m.unit or "", m.status.value)
-            for m in metrics
-            if m.type is ApiMetricType.SCALAR and m.value is not None and not m.event_metric
-        }
-        self.outcome.scalar_names.update(scalars)
-        self.outcome.data_names.update(d.name for d in data_items)
+        scalars = await read_scalars(
+            self._api.storage,
+            metrics,
+            self._plan.scalars,
+            source=f"job {job.job_id}",
+            relist=lambda: self._list_metrics(job),
+        )
+        # Listed is enough: a name the job has is no typo, even when its value is absent.
+        self.outcome.scalar_names.update(m.name for m in metrics if is_scalar(m))
+        unnamed = sum(not d.name for d in data_items)
+        if unnamed:
+            self.outcome.unnamed_data += unnamed
+            log.debug("unnamed metrics data skipped", job_id=str(job.job_id), count=unnamed)
+        self.outcome.data_names.update(d.name for d in data_items if d.name)
         wanted = [d for d in data_items if d.name in self._plan.data and d.is_standard]
         if len(wanted) == 1:
             # The common plan (one series per job) needs no task to gather.
@@ -163,12 +174,12 @@ class BatchFetcher:
             series = dict(zip((d.name for d in wanted), values, strict=True))
         return JobRecord(
             job_id=job.job_id,
-            conflated_status=job.conflated_status.value,
+            conflated_status=str(job.conflated_status or UNKNOWN_STATUS),
             experience_name=job.experience_name or "",
             experience_id=job.experience_id,
             scalars=scalars,
             series=series,
-            metric_statuses=[m.status.value for m in metrics],
+            metric_statuses=[str(m.status) for m in metrics],
         )
 
     async def _list_metrics(self, job: Job) -> list[JobMetric]:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import enum
 import sys
 from pathlib import Path
 from typing import TextIO
@@ -47,21 +48,23 @@ def _value(metric: MetricView, view: JobMetricsView) -> str:
     sizes = []
     for data_id in metric.data_ids:
         data = view.data_by_id.get(data_id)
-        if data is not None and not data.is_external and data.kind is not SeriesKind.STATUS:
-            sizes.append(data.frame().height)
+        if data is None or data.is_external or data.kind in (None, SeriesKind.STATUS):
+            continue  # no values to count
+        sizes.append(data.frame().height)
     return f"{sum(sizes)} values" if sizes else ""
+
+
+def _enum_name(value: enum.IntEnum | int | None) -> str:
+    """A member's name; ``?`` when unset; the number of a value this schema does not know."""
+    if value is None:
+        return "?"
+    return value.name if isinstance(value, enum.IntEnum) else f"unknown ({value})"
 
 
 def summary_lines(view: JobMetricsView) -> list[str]:
     """A readable table: one line per metric with its type, status and value."""
     rows = [
-        (
-            m.name,
-            m.type.name if m.type else "?",
-            m.status.name if m.status else "?",
-            _value(m, view),
-        )
-        for m in view.metrics
+        (m.name, _enum_name(m.type), _enum_name(m.status), _value(m, view)) for m in view.metrics
     ]
     widths = [max([len(h), *(len(r[i]) for r in rows)]) for i, h in enumerate(_HEADER)]
     widths[0] = min(widths[0], 56)
@@ -69,7 +72,7 @@ def summary_lines(view: JobMetricsView) -> list[str]:
     def line(cells: tuple[str, ...]) -> str:
         return "  ".join(c[: widths[i]].ljust(widths[i]) for i, c in enumerate(cells)).rstrip()
 
-    status = view.status.name if view.status else "unset"
+    status = "unset" if view.status is None else _enum_name(view.status)
     return [
         f"{len(view.metrics)} metrics, {len(view.data)} metrics data, overall status {status}",
         line(_HEADER),

@@ -1,10 +1,18 @@
 """Typed, immutable views of the API objects that batch and report modes read.
 
 Each ``from_json`` checks only what stook relies on and ignores every other key, so a newer
-API that adds fields keeps working. Required fields are the ones stook cannot do without
-(an object's own ID, the status it is aggregated by, a report's search window); everything
-else may be absent and reads as ``None``. Enumerations are strict: an unknown status would
-be silently miscounted, so it is an error that names the object, field and value.
+API that adds fields keeps working. The spec's ``job``, ``batch``, ``metric`` and
+``metricsData`` schemas list no required field (ReSim's Go client omits empty ones), so
+required here are only the IDs stook cannot do without (an object's own ID, to fetch it or
+match it) and a report's search window. Everything else may be absent, with a documented
+meaning: a missing string reads as ``None`` (names as ``""``: unnamed), a metric's missing
+``status`` as ``NO_STATUS_REPORTED``, a missing ``metricsDataType`` as ``STANDARD`` (ReSim's
+own fetcher reads every metrics-data URL as a ``MetricsData`` message), a missing metric
+``type`` or job ``conflatedStatus`` as ``None``.
+
+Enumerations are open: a value this client does not know (one the platform adds later) is
+kept as its raw string, so that it is counted under its own name instead of failing a job.
+Known values are the ``StrEnum`` members, which are strings too.
 
 Field names and which keys exist follow ReSim's published client (``resim.sdk.client.models``).
 """
@@ -13,10 +21,11 @@ from __future__ import annotations
 
 import enum
 import functools
+import re
 import uuid
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from datetime import datetime
+from datetime import UTC, datetime, timedelta, timezone
 from typing import Any, Self, TypeVar
 
 from stook.service._errors import ApiResponseError
@@ -125,6 +134,48 @@ _E = TypeVar("_E", bound=enum.Enum)
 # the client's CPU per job-metrics page (measured in report mode).
 _parse_uuid = functools.lru_cache(maxsize=16_384)(uuid.UUID)
 
+# RFC 3339 as the platform's Go encoder writes it (RFC3339Nano: up to nine fractional
+# digits) and as the RFC allows it (lower-case t and z, any number of fractional digits).
+_RFC3339 = re.compile(
+    r"(\d{4})-(\d{2})-(\d{2})[Tt ](\d{2}):(\d{2}):(\d{2})(?:\.(\d+))?"
+    r"(?:([Zz])|([+-])(\d{2}):(\d{2}))"
+)
+
+
+def parse_rfc3339(text: str) -> datetime | None:
+    """An RFC 3339 timestamp (fractions past microseconds truncated), or None if it is not one.
+
+    ``datetime.fromisoformat`` reads most of them and is fast, so it goes first; the
+    rest (a lower-case "t" or "z"; more fractional digits than a given Python reads) are
+    read here, so the result does not depend on the Python release.
+    """
+    try:
+        return datetime.fromisoformat(text)
+    except ValueError:
+        pass
+    match = _RFC3339.fullmatch(text)
+    if match is None:
+        return None
+    year, month, day, hour, minute, second, fraction, zulu, sign, off_h, off_m = match.groups()
+    if zulu:
+        zone: timezone = UTC
+    else:
+        offset = timedelta(hours=int(off_h), minutes=int(off_m))
+        zone = timezone(-offset if sign == "-" else offset)
+    try:
+        return datetime(
+            int(year),
+            int(month),
+            int(day),
+            int(hour),
+            int(minute),
+            int(second),
+            int((fraction or "0")[:6].ljust(6, "0")),
+            tzinfo=zone,
+        )
+    except ValueError:  # e.g. month 13, or an offset of a day or more
+        return None
+
 
 class _Fields:
     """Reads typed fields from one JSON object; errors name the object and the field."""
@@ -166,14 +217,13 @@ class _Fields:
         except ValueError:
             raise self._error(key, f"is not a UUID: {text!r}") from None
 
-    def _to_choice(self, key: str, value: Any, kind: type[_E]) -> _E:
+    def _to_choice(self, key: str, value: Any, kind: type[_E]) -> _E | str:
         text = self._to_string(key, value)
         # The value map is what `kind(text)` consults, minus the metaclass call (a tenth of
-        # the time spent parsing a job's metric listing).
+        # the time spent parsing a job's metric listing). A value it lacks is one the
+        # platform added after this client: kept by name, never an error.
         member = kind._value2member_map_.get(text)
-        if member is None:
-            raise self._error(key, f"has unknown value {text!r}")
-        return member  # type: ignore[return-value]
+        return text if member is None else member  # type: ignore[return-value]
 
     def _to_integer(self, key: str, value: Any) -> int:
         if isinstance(value, float) and value.is_integer():
@@ -184,18 +234,14 @@ class _Fields:
 
     def _to_timestamp(self, key: str, value: Any) -> datetime:
         text = self._to_string(key, value)
-        try:
-            moment = datetime.fromisoformat(text)
-        except ValueError:
-            raise self._error(key, f"is not an RFC 3339 timestamp: {text!r}") from None
+        moment = parse_rfc3339(text)
+        if moment is None:
+            raise self._error(key, f"is not an RFC 3339 timestamp: {text!r}")
         if moment.tzinfo is None:
             raise self._error(key, f"has no time zone: {text!r}")
         return moment
 
     # -- accessors -------------------------------------------------------------------------
-
-    def string(self, key: str) -> str:
-        return self._to_string(key, self._required(key))
 
     def opt_string(self, key: str) -> str | None:
         value = self._optional(key)
@@ -216,10 +262,11 @@ class _Fields:
             raise self._error(key, f"should be a list, got {_json_type(value)}")
         return tuple(self._to_id(key, item) for item in value)
 
-    def choice(self, key: str, kind: type[_E]) -> _E:
-        return self._to_choice(key, self._required(key), kind)
+    def choice(self, key: str, kind: type[_E], *, default: _E) -> _E | str:
+        value = self._optional(key)
+        return default if value is None else self._to_choice(key, value, kind)
 
-    def opt_choice(self, key: str, kind: type[_E]) -> _E | None:
+    def opt_choice(self, key: str, kind: type[_E]) -> _E | str | None:
         value = self._optional(key)
         return None if value is None else self._to_choice(key, value, kind)
 
@@ -277,12 +324,16 @@ def _json_type(value: object) -> str:
 
 @dataclass(frozen=True, slots=True)
 class Job:
-    """One test of a batch: an experience run against a build."""
+    """One test of a batch: an experience run against a build.
+
+    ``conflated_status`` is None when the API gave none (batch aggregations count such
+    jobs as ``UNKNOWN``); a status this client does not know is its raw string.
+    """
 
     job_id: uuid.UUID
-    conflated_status: ConflatedJobStatus
-    job_status: JobStatus | None = None
-    job_metrics_status: ApiMetricStatus | None = None
+    conflated_status: ConflatedJobStatus | str | None
+    job_status: JobStatus | str | None = None
+    job_metrics_status: ApiMetricStatus | str | None = None
     batch_id: uuid.UUID | None = None
     project_id: uuid.UUID | None = None
     experience_id: uuid.UUID | None = None
@@ -295,7 +346,7 @@ class Job:
         f = _Fields("Job", data, "jobID")
         return cls(
             job_id=f.id("jobID"),
-            conflated_status=f.choice("conflatedStatus", ConflatedJobStatus),
+            conflated_status=f.opt_choice("conflatedStatus", ConflatedJobStatus),
             job_status=f.opt_choice("jobStatus", JobStatus),
             job_metrics_status=f.opt_choice("jobMetricsStatus", ApiMetricStatus),
             batch_id=f.opt_id("batchID"),
@@ -311,9 +362,9 @@ def _metric_fields(f: _Fields) -> dict[str, Any]:
     """The fields job and batch metrics share, as keyword arguments."""
     return {
         "metric_id": f.id("metricID"),
-        "name": f.string("name"),
-        "type": f.choice("type", ApiMetricType),
-        "status": f.choice("status", ApiMetricStatus),
+        "name": f.opt_string("name") or "",
+        "type": f.opt_choice("type", ApiMetricType),
+        "status": f.choice("status", ApiMetricStatus, default=ApiMetricStatus.NO_STATUS_REPORTED),
         "value": f.opt_number("value"),
         "unit": f.opt_string("unit"),
         "metric_url": f.opt_string("metricURL"),
@@ -328,14 +379,16 @@ class JobMetric:
     """A metric a job's metrics build produced.
 
     ``value`` is the number of a ``SCALAR`` metric (None for ``COMPOSITE``, or when the job
-    reported none). ``metric_url`` is the presigned URL of the serialized ``Metric``
-    message; it expires, so fetch it soon after listing.
+    reported none, or the API lists it as null: then the value is in the message at
+    ``metric_url``). ``metric_url`` is the presigned URL of the serialized ``Metric``
+    message; it expires, so fetch it soon after listing. ``name`` is "" when the API gave
+    none; ``type`` None when it gave none; an unknown type or status is its raw string.
     """
 
     metric_id: uuid.UUID
     name: str
-    type: ApiMetricType
-    status: ApiMetricStatus
+    type: ApiMetricType | str | None
+    status: ApiMetricStatus | str
     value: float | None = None
     unit: str | None = None
     metric_url: str | None = field(default=None, repr=False)
@@ -361,8 +414,8 @@ class BatchMetric:
 
     metric_id: uuid.UUID
     name: str
-    type: ApiMetricType
-    status: ApiMetricStatus
+    type: ApiMetricType | str | None
+    status: ApiMetricStatus | str
     value: float | None = None
     unit: str | None = None
     metric_url: str | None = field(default=None, repr=False)
@@ -384,8 +437,10 @@ def _data_fields(f: _Fields) -> dict[str, Any]:
     """The fields job and batch metrics data share, as keyword arguments."""
     return {
         "data_id": f.id("dataID"),
-        "name": f.string("name"),
-        "metrics_data_type": f.choice("metricsDataType", MetricsDataStorageType),
+        "name": f.opt_string("name") or "",
+        "metrics_data_type": f.choice(
+            "metricsDataType", MetricsDataStorageType, default=MetricsDataStorageType.STANDARD
+        ),
         "metrics_data_url": f.opt_string("metricsDataURL"),
         "filename": f.opt_string("filename"),
         "creation_timestamp": f.opt_timestamp("creationTimestamp"),
@@ -394,7 +449,7 @@ def _data_fields(f: _Fields) -> dict[str, Any]:
 
 class _StorageTyped:
     __slots__ = ()
-    metrics_data_type: MetricsDataStorageType
+    metrics_data_type: MetricsDataStorageType | str
 
     @property
     def is_standard(self) -> bool:
@@ -404,11 +459,14 @@ class _StorageTyped:
 
 @dataclass(frozen=True, slots=True)
 class JobMetricsData(_StorageTyped):
-    """A metrics-data file of a job; ``metrics_data_url`` is presigned and expires."""
+    """A metrics-data file of a job; ``metrics_data_url`` is presigned and expires.
+
+    ``name`` is "" when the API gave none: such data cannot be asked for by name.
+    """
 
     data_id: uuid.UUID
     name: str
-    metrics_data_type: MetricsDataStorageType
+    metrics_data_type: MetricsDataStorageType | str
     metrics_data_url: str | None = field(default=None, repr=False)
     filename: str | None = None
     job_id: uuid.UUID | None = None
@@ -426,7 +484,7 @@ class BatchMetricsData(_StorageTyped):
 
     data_id: uuid.UUID
     name: str
-    metrics_data_type: MetricsDataStorageType
+    metrics_data_type: MetricsDataStorageType | str
     metrics_data_url: str | None = field(default=None, repr=False)
     filename: str | None = None
     batch_id: uuid.UUID | None = None
@@ -443,10 +501,10 @@ class Batch:
     """A run of a test suite (or ad-hoc set of experiences) against one build."""
 
     batch_id: uuid.UUID
-    status: BatchStatus | None = None
-    conflated_status: ConflatedBatchStatus | None = None
-    batch_metrics_status: ApiMetricStatus | None = None
-    jobs_metrics_status: ApiMetricStatus | None = None
+    status: BatchStatus | str | None = None
+    conflated_status: ConflatedBatchStatus | str | None = None
+    batch_metrics_status: ApiMetricStatus | str | None = None
+    jobs_metrics_status: ApiMetricStatus | str | None = None
     project_id: uuid.UUID | None = None
     build_id: uuid.UUID | None = None
     branch_id: uuid.UUID | None = None

@@ -21,11 +21,12 @@ from typing import TypeVar
 
 import structlog
 
-from stook.sdk.aggregations import BatchRecord, JobSummary, Needs, Scalar
+from stook.sdk.aggregations import UNKNOWN_STATUS, BatchRecord, JobSummary, Needs, Scalar
 from stook.service._batch_fetch import MissingJob
 from stook.service._client import ApiClient
 from stook.service._errors import ApiError, AuthError, NotFoundError
-from stook.service._models import ApiMetricType, Batch, Job, Report
+from stook.service._models import Batch, Job, JobMetric, Report
+from stook.service._scalars import is_scalar, read_scalars
 
 log = structlog.get_logger("stook.report")
 _T = TypeVar("_T")
@@ -163,15 +164,22 @@ class ReportFetcher:
         self.outcome.jobs += len(jobs)
         pending = _PendingBatch(
             batch=batch,
-            scalars={
-                m.name: Scalar(m.value, m.unit or "", m.status.value)
-                for m in metrics
-                if m.type is ApiMetricType.SCALAR and m.value is not None and not m.event_metric
-            },
-            metric_statuses=[m.status.value for m in metrics],
+            scalars=await read_scalars(
+                self._api.storage,
+                metrics,
+                self._needs,
+                source=f"batch {batch.batch_id}",
+                relist=lambda: _collect(
+                    self._api.list_batch_metrics(self._project_id, batch.batch_id)
+                ),
+            ),
+            metric_statuses=[str(m.status) for m in metrics],
             jobs=[
                 JobSummary(
-                    j.job_id, j.experience_name or "", j.conflated_status.value, j.experience_id
+                    j.job_id,
+                    j.experience_name or "",
+                    str(j.conflated_status or UNKNOWN_STATUS),
+                    j.experience_id,
                 )
                 for j in jobs
             ],
@@ -195,6 +203,7 @@ class ReportFetcher:
                 metrics = await _collect(
                     self._api.list_job_metrics(self._project_id, pending.batch.batch_id, job.job_id)
                 )
+                scalars = await self._job_scalars(pending.batch, job, metrics)
             except AuthError:
                 raise
             except ApiError as exc:
@@ -205,19 +214,29 @@ class ReportFetcher:
             else:
                 if metrics:
                     self.outcome.jobs_with_metrics += 1
-                for m in metrics:
-                    pending.job_statuses.append(m.status.value)
-                    if (
-                        m.type is ApiMetricType.SCALAR
-                        and m.value is not None
-                        and not m.event_metric
-                    ):
-                        pending.job_scalars.setdefault(m.name, []).append(m.value)
-                        pending.job_units.setdefault(m.name, m.unit or "")
-                        self.outcome.job_scalar_names.add(m.name)
+                pending.job_statuses.extend(str(m.status) for m in metrics)
+                for name, scalar in scalars.items():
+                    pending.job_scalars.setdefault(name, []).append(scalar.value)
+                    pending.job_units.setdefault(name, scalar.unit)
+                # Listed is enough: a name a job has is no typo, even when its value is absent.
+                self.outcome.job_scalar_names.update(m.name for m in metrics if is_scalar(m))
             pending.remaining -= 1
             if pending.remaining == 0 and pending.listed:
                 self._finish(pending, on_batch)
+
+    async def _job_scalars(
+        self, batch: Batch, job: Job, metrics: list[JobMetric]
+    ) -> dict[str, Scalar]:
+        """The job's scalars, values listed as null read from their messages when needed."""
+        return await read_scalars(
+            self._api.storage,
+            metrics,
+            self._needs,
+            source=f"job {job.job_id}",
+            relist=lambda: _collect(
+                self._api.list_job_metrics(self._project_id, batch.batch_id, job.job_id)
+            ),
+        )
 
     def _finish(self, pending: _PendingBatch, on_batch: Callable[[BatchRecord], None]) -> None:
         batch = pending.batch
@@ -231,7 +250,7 @@ class ReportFetcher:
                 batch_id=batch.batch_id,
                 name=batch.friendly_name or str(batch.batch_id)[:8],
                 created=created,
-                conflated_status=batch.conflated_status.value if batch.conflated_status else "",
+                conflated_status=str(batch.conflated_status or ""),
                 scalars=pending.scalars,
                 metric_statuses=sorted(pending.metric_statuses),
                 jobs=sorted(pending.jobs, key=lambda j: j.job_id),

@@ -9,7 +9,13 @@ or register it under the ``stook.aggregations`` entry-point group.
 
 from stook.sdk.aggregations._base import Aggregation, BatchAggregation, Needs, ReportAggregation
 from stook.sdk.aggregations._histogram import MergedHistogram
-from stook.sdk.aggregations._record import BatchRecord, JobRecord, JobSummary, Scalar
+from stook.sdk.aggregations._record import (
+    UNKNOWN_STATUS,
+    BatchRecord,
+    JobRecord,
+    JobSummary,
+    Scalar,
+)
 from stook.sdk.aggregations._registry import (
     AggregationConfigError,
     build,
@@ -23,6 +29,7 @@ from stook.sdk.aggregations._status_counts import JobStatusCounts, MetricStatusC
 from stook.sdk.aggregations._weighted_mean import WeightedMean
 
 __all__ = [
+    "UNKNOWN_STATUS",
     "Aggregation",
     "AggregationConfigError",
     "BatchAggregation",

@@ -15,21 +15,33 @@ from stook.sdk.aggregations._record import BatchRecord, JobRecord
 class Needs:
     """What an aggregation reads, so that the fetcher downloads no more than that.
 
-    Scalars come with the metric listings at no extra cost; each name in `data` costs a
-    download per job that has it. In report mode, `job_metrics` asks for the metric
+    Scalars usually come with the metric listings at no extra cost; each name in `data`
+    costs a download per job that has it. In report mode, `job_metrics` asks for the metric
     listing of every job of every batch (one request per job).
+
+    `scalars` names the SCALAR metrics an aggregation reads, and `every_scalar` says it
+    reads all of them, whatever their names. The API may list a scalar without its value
+    (`value: null`); the value is then downloaded from the metric itself, but only for the
+    scalars declared here, so a scalar that no aggregation declares may be missing from
+    `JobRecord.scalars` when the API lists it without a value.
     """
 
     scalars: frozenset[str] = frozenset()
     data: frozenset[str] = frozenset()
     job_metrics: bool = False
+    every_scalar: bool = False
 
     def __or__(self, other: Needs) -> Needs:
         return Needs(
             self.scalars | other.scalars,
             self.data | other.data,
             self.job_metrics or other.job_metrics,
+            self.every_scalar or other.every_scalar,
         )
+
+    def wants_scalar(self, name: str) -> bool:
+        """Whether an aggregation reads the SCALAR metric `name`."""
+        return self.every_scalar or name in self.scalars
 
 
 R = TypeVar("R")

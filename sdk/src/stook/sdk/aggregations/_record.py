@@ -9,6 +9,11 @@ from datetime import datetime
 
 import polars as pl
 
+#: The conflated status of a job the API listed without one. A status the platform adds
+#: later is kept under its own name; either way it is a category of its own in the charts,
+#: counts as not passed and makes nothing fail (see `JobStatusCounts`).
+UNKNOWN_STATUS = "UNKNOWN"
+
 
 @dataclass(frozen=True, slots=True)
 class Scalar:
@@ -26,6 +31,9 @@ class JobRecord:
     `scalars` holds every SCALAR job metric by name; `series` holds the metrics
     data the aggregation plan asked for, by data name (doubles as Float64);
     `metric_statuses` holds the status of every job metric, scalar or not.
+    Statuses are the API's spellings; one this SDK does not know is kept as it came,
+    a job without a conflated status has `UNKNOWN_STATUS`, and a metric without a
+    status NO_STATUS_REPORTED.
     """
 
     job_id: uuid.UUID

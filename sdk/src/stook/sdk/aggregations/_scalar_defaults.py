@@ -11,7 +11,7 @@ from typing import Self
 from stook.sdk import _data
 from stook.sdk._errors import WriterError
 from stook.sdk._writer import MetricsWriter, histogram_buckets
-from stook.sdk.aggregations._base import Aggregation
+from stook.sdk.aggregations._base import Aggregation, Needs
 from stook.sdk.aggregations._record import JobRecord
 from stook.sdk.aggregations._sums import exact_mean
 from stook.sdk.aggregations._units import pick_unit
@@ -49,6 +49,9 @@ class ScalarDefaults(Aggregation[JobRecord]):
 
     name: str = "(mean) and (distribution) of every scalar"
     columns: dict[str, _Column] = field(default_factory=dict, init=False)
+
+    def needs(self) -> Needs:
+        return Needs(every_scalar=True)
 
     def update(self, job: JobRecord) -> None:
         for metric, scalar in job.scalars.items():

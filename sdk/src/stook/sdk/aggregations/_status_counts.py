@@ -1,4 +1,12 @@
-"""Counts of job statuses and job-metric statuses, and the batch's pass rate."""
+"""Counts of job statuses and job-metric statuses, and the batch's pass rate.
+
+A status outside the lists below (one the platform adds after this release, or
+UNKNOWN for a job listed without one) is counted under its own name, after the known
+ones. It is neither a pass nor a failure: it lowers the pass rate (the job did not
+pass) but never turns a chart or the batch to FAIL_WARN or FAIL_BLOCK, since nothing
+says the job failed; a status that did mean failure would also show in the job's
+metric statuses.
+"""
 
 from __future__ import annotations
 

@@ -14,6 +14,7 @@ from stook.sdk.aggregations._base import Aggregation
 from stook.sdk.aggregations._record import BatchRecord
 from stook.sdk.aggregations.report._timeline import BatchPoint
 
+# Any other status (CANCELLED, one this release does not know, UNKNOWN) is neither.
 FAILED = frozenset({"BLOCKER", "ERROR"})
 PASSED = frozenset({"PASSED", "WARNING"})
 

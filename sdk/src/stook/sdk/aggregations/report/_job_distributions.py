@@ -46,7 +46,11 @@ class JobScalarDistributions(Aggregation[BatchRecord]):
     batches: set[BatchPoint] = field(default_factory=set, init=False)
 
     def needs(self) -> Needs:
-        return Needs(job_metrics=True, scalars=frozenset(self.metrics or ()))
+        return Needs(
+            job_metrics=True,
+            scalars=frozenset(self.metrics or ()),
+            every_scalar=self.metrics is None,
+        )
 
     def update(self, record: BatchRecord) -> None:
         point = BatchPoint(record.created, record.batch_id, record.name)

@@ -10,7 +10,7 @@ from typing import Self
 from stook.sdk import _data
 from stook.sdk._enums import MetricStatus
 from stook.sdk._writer import MetricsWriter
-from stook.sdk.aggregations._base import Aggregation
+from stook.sdk.aggregations._base import Aggregation, Needs
 from stook.sdk.aggregations._record import BatchRecord
 from stook.sdk.aggregations._units import pick_unit
 from stook.sdk.aggregations.report._regression import MIN_BASELINE, Verdict, check
@@ -45,6 +45,9 @@ class ScalarLines(Aggregation[BatchRecord]):
     def __post_init__(self) -> None:
         if self.window < 1 or self.threshold <= 0:
             raise ValueError("window must be at least 1 and threshold positive")
+
+    def needs(self) -> Needs:
+        return Needs(every_scalar=True)  # every SCALAR batch metric
 
     def update(self, record: BatchRecord) -> None:
         point = BatchPoint(record.created, record.batch_id, record.name)

@@ -1,4 +1,8 @@
-"""Job statuses per batch over time, and counts of job-metric and batch-metric statuses."""
+"""Job statuses per batch over time, and counts of job-metric and batch-metric statuses.
+
+As in batch mode (see `_status_counts`), a status this release does not know is a
+category of its own (grey in the batchwise chart) and makes no chart fail.
+"""
 
 from __future__ import annotations
 
