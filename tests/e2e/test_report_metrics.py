@@ -441,7 +441,20 @@ def emu() -> Iterator[Emulator]:
         yield emulator
 
 
-def test_every_default_metric_matches_the_ground_truth(emu: Emulator, tmp_path: Path) -> None:
+@pytest.fixture(scope="module")
+def quirky_emu() -> Iterator[Emulator]:
+    """The same report, answered the way the spec allows (see EmulatorConfig.spec_quirks)."""
+    with EmulatorThread(
+        config(seed=SEED, report_batches=BATCHES, report_jobs_per_batch=JOBS, spec_quirks=True)
+    ) as emulator:
+        yield emulator
+
+
+@pytest.mark.parametrize("emulator", ["emu", "quirky_emu"], ids=["clean", "spec-quirks"])
+def test_every_default_metric_matches_the_ground_truth(
+    emulator: str, request: pytest.FixtureRequest, tmp_path: Path
+) -> None:
+    emu: Emulator = request.getfixturevalue(emulator)
     run = run_report_cli(emu, tmp_path)
     view = run.view()
     expected = expected_report(emu)

@@ -193,6 +193,11 @@ def test_a_missing_or_unreadable_file(tmp_path: Path) -> None:
             id="fraction",
         ),
         pytest.param(
+            {"fetch": {"page_size": 101}},
+            "s.toml: [fetch] page_size must be at most 100 (the API's limit), got 101",
+            id="page-size-above-the-spec",
+        ),
+        pytest.param(
             {"test": {"metrics": 5}},
             "s.toml: [test] metrics must be 'package.module:function'",
             id="metrics-not-a-string",

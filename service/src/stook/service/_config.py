@@ -5,7 +5,7 @@ concurrency = 64       # requests in flight, API and storage together
 timeout = 30.0         # seconds per request attempt
 max_attempts = 6       # per request, first try included
 max_throttled_attempts = 30  # per request, for 429 answers (the server pacing us)
-page_size = 100        # items asked for per list page
+page_size = 100        # items asked for per list page (the API's maximum is 100)
 adaptive = false       # find the server's pace below `concurrency` (AIMD on 429s and latency)
 max_body_mb = 256      # largest metrics data or metric download, decompressed
 max_api_body_mb = 16   # largest API answer (a JSON page), decompressed
@@ -42,6 +42,10 @@ from stook.service._user_code import add_import_folders
 
 class ConfigError(StookError):
     """stook.toml is missing, malformed or names something that does not exist (exit 2)."""
+
+
+# The API spec's `pageSize` maximum; the API answers 400 to more.
+MAX_PAGE_SIZE = 100
 
 
 @dataclass(frozen=True, slots=True)
@@ -234,6 +238,12 @@ def _fetch(table: Mapping[str, Any], source: str) -> FetchSettings:
             raise ConfigError(f"{source}: [fetch] {key} must be a whole number")
         return kind(value)
 
+    page_size = positive("page_size", int, defaults.page_size)
+    if page_size > MAX_PAGE_SIZE:
+        raise ConfigError(
+            f"{source}: [fetch] page_size must be at most {MAX_PAGE_SIZE} "
+            f"(the API's limit), got {page_size}"
+        )
     return FetchSettings(
         concurrency=positive("concurrency", int, defaults.concurrency),
         timeout=positive("timeout", float, defaults.timeout),
@@ -241,7 +251,7 @@ def _fetch(table: Mapping[str, Any], source: str) -> FetchSettings:
         max_throttled_attempts=positive(
             "max_throttled_attempts", int, defaults.max_throttled_attempts
         ),
-        page_size=positive("page_size", int, defaults.page_size),
+        page_size=page_size,
         adaptive=adaptive,
         max_body_mb=positive("max_body_mb", float, defaults.max_body_mb),
         max_api_body_mb=positive("max_api_body_mb", float, defaults.max_api_body_mb),

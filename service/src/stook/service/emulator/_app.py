@@ -18,6 +18,7 @@ from stook.service.emulator._config import EmulatorConfig, Origin
 from stook.service.emulator._dataset import BatchKind, Dataset, MetricsOutput
 from stook.service.emulator._faults import Fault, FaultInjector, FaultKind, Latency, TokenBucket
 from stook.service.emulator._paging import PagingError, paginate
+from stook.service.emulator._quirks import SpecQuirks
 from stook.service.emulator._search import SearchError, parse_search
 from stook.service.emulator._signing import UrlSigner
 from stook.service.emulator._stats import EmulatorStats
@@ -43,6 +44,7 @@ class EmulatorState:
         self.stats = EmulatorStats()
         self.faults = FaultInjector(config)
         self.latency = Latency(config)
+        self.quirks = SpecQuirks(config)
         self.clock_offset = 0.0
         self.storage_url = ""  # known once the storage site is bound
         # The secret only has to be unguessable by clients, not secret across runs.
@@ -221,6 +223,7 @@ class _ApiRoutes:
     def __init__(self, state: EmulatorState) -> None:
         self.state = state
         self.ds = state.dataset
+        self.quirks = state.quirks
 
     # ---- lookups that 400 on malformed IDs and 404 on unknown ones ----
 
@@ -277,34 +280,38 @@ class _ApiRoutes:
         key = f"batches:{request.query.get('search', '')}"
         items, token, total = self._page(request, found, key)
         return _json_response(
-            {
-                "batches": [_json.batch(self.ds, b) for b in items],
-                "nextPageToken": token,
-                "total": total,
-            }
+            self.quirks.page(
+                {
+                    "batches": [self.quirks.batch(_json.batch(self.ds, b)) for b in items],
+                    "nextPageToken": token,
+                    "total": total,
+                }
+            )
         )
 
     async def get_batch(self, request: web.Request) -> web.Response:
         batch = self.ds.batch(self._batch(request))
         assert batch is not None
-        return _json_response(_json.batch(self.ds, batch))
+        return _json_response(self.quirks.batch(_json.batch(self.ds, batch)))
 
     async def list_jobs(self, request: web.Request) -> web.Response:
         batch_id = self._batch(request)
         items, token, total = self._page(request, list(self.ds.jobs(batch_id)), f"jobs:{batch_id}")
         return _json_response(
-            {
-                "jobs": [_json.job(self.ds, j) for j in items],
-                "nextPageToken": token,
-                "total": total,
-            }
+            self.quirks.page(
+                {
+                    "jobs": [self.quirks.job(j, _json.job(self.ds, j)) for j in items],
+                    "nextPageToken": token,
+                    "total": total,
+                }
+            )
         )
 
     async def get_job(self, request: web.Request) -> web.Response:
         batch_id, job_id = self._job(request)
         job = self.ds.job(batch_id, job_id)
         assert job is not None
-        return _json_response(_json.job(self.ds, job))
+        return _json_response(self.quirks.job(job, _json.job(self.ds, job)))
 
     def _job_output(self, request: web.Request) -> tuple[uuid.UUID, uuid.UUID, MetricsOutput]:
         batch_id, job_id = self._job(request)
@@ -313,7 +320,7 @@ class _ApiRoutes:
             raise ApiError(500, f"job {job_id} is broken (emulated permanent server error)")
         output = self.ds.job_output(batch_id, job_id)
         assert output is not None
-        return batch_id, job_id, output
+        return batch_id, job_id, self.quirks.job_output(output)
 
     async def list_job_metrics(self, request: web.Request) -> web.Response:
         batch_id, job_id, output = self._job_output(request)
@@ -324,19 +331,25 @@ class _ApiRoutes:
         owner = {"jobID": str(job_id), "batchID": str(batch_id)}
         created = job.created + timedelta(minutes=3)
         return _json_response(
-            {
-                "metrics": [
-                    _json.metric(
-                        self.ds,
-                        m,
-                        self.state.presign(f"{base}/metrics/{m.id}"),
-                        created,
-                        owner,
-                    )
-                    for m in items
-                ],
-                "nextPageToken": token,
-            }
+            self.quirks.page(
+                {
+                    "metrics": [
+                        self.quirks.metric(
+                            m,
+                            _json.metric(
+                                self.ds,
+                                m,
+                                self.state.presign(f"{base}/metrics/{m.id}"),
+                                created,
+                                owner,
+                            ),
+                            job,
+                        )
+                        for m in items
+                    ],
+                    "nextPageToken": token,
+                }
+            )
         )
 
     async def list_job_metrics_data(self, request: web.Request) -> web.Response:
@@ -348,15 +361,23 @@ class _ApiRoutes:
         owner = {"jobID": str(job_id)}
         created = job.created + timedelta(minutes=3)
         return _json_response(
-            {
-                "metricsData": [
-                    _json.metrics_data(
-                        d, self.state.presign(f"{base}/metricsData/{d.id}"), created, owner, self.ds
-                    )
-                    for d in items
-                ],
-                "nextPageToken": token,
-            }
+            self.quirks.page(
+                {
+                    "metricsData": [
+                        self.quirks.other(
+                            _json.metrics_data(
+                                d,
+                                self.state.presign(f"{base}/metricsData/{d.id}"),
+                                created,
+                                owner,
+                                self.ds,
+                            )
+                        )
+                        for d in items
+                    ],
+                    "nextPageToken": token,
+                }
+            )
         )
 
     def _batch_output(self, request: web.Request) -> tuple[uuid.UUID, MetricsOutput | None]:
@@ -377,19 +398,24 @@ class _ApiRoutes:
         base = f"/{BUCKET}/projects/{self.ds.project_id}/batches/{batch_id}"
         created = batch.created + timedelta(minutes=30)
         return _json_response(
-            {
-                "batchMetrics": [
-                    _json.metric(
-                        self.ds,
-                        m,
-                        self.state.presign(f"{base}/metrics/{m.id}"),
-                        created,
-                        {"batchID": str(batch_id)},
-                    )
-                    for m in items
-                ],
-                "nextPageToken": token,
-            }
+            self.quirks.page(
+                {
+                    "batchMetrics": [
+                        self.quirks.metric(
+                            m,
+                            _json.metric(
+                                self.ds,
+                                m,
+                                self.state.presign(f"{base}/metrics/{m.id}"),
+                                created,
+                                {"batchID": str(batch_id)},
+                            ),
+                        )
+                        for m in items
+                    ],
+                    "nextPageToken": token,
+                }
+            )
         )
 
     async def list_batch_metrics_data(self, request: web.Request) -> web.Response:
@@ -401,19 +427,23 @@ class _ApiRoutes:
         base = f"/{BUCKET}/projects/{self.ds.project_id}/batches/{batch_id}"
         created = batch.created + timedelta(minutes=30)
         return _json_response(
-            {
-                "batchMetricsData": [
-                    _json.metrics_data(
-                        d,
-                        self.state.presign(f"{base}/metricsData/{d.id}"),
-                        created,
-                        {"batchID": str(batch_id)},
-                        self.ds,
-                    )
-                    for d in items
-                ],
-                "nextPageToken": token,
-            }
+            self.quirks.page(
+                {
+                    "batchMetricsData": [
+                        self.quirks.other(
+                            _json.metrics_data(
+                                d,
+                                self.state.presign(f"{base}/metricsData/{d.id}"),
+                                created,
+                                {"batchID": str(batch_id)},
+                                self.ds,
+                            )
+                        )
+                        for d in items
+                    ],
+                    "nextPageToken": token,
+                }
+            )
         )
 
     async def get_report(self, request: web.Request) -> web.Response:
@@ -421,14 +451,14 @@ class _ApiRoutes:
         report = self.ds.reports.get(_uuid_arg(request, "report_id"))
         if report is None:
             raise ApiError(404, f"report {request.match_info['report_id']} not found")
-        return _json_response(_json.report(self.ds, report))
+        return _json_response(self.quirks.other(_json.report(self.ds, report)))
 
     async def get_build(self, request: web.Request) -> web.Response:
         self._project(request)
         build = self.ds.builds.get(_uuid_arg(request, "build_id"))
         if build is None:
             raise ApiError(404, f"build {request.match_info['build_id']} not found")
-        return _json_response(_json.build(self.ds, build))
+        return _json_response(self.quirks.other(_json.build(self.ds, build)))
 
     async def list_experience_tags(self, request: web.Request) -> web.Response:
         self._project(request)
@@ -439,10 +469,14 @@ class _ApiRoutes:
             request, list(experience.tags), f"experience-tags:{experience.id}"
         )
         return _json_response(
-            {
-                "experienceTags": [_json.experience_tag(self.ds, t) for t in items],
-                "nextPageToken": token,
-            }
+            self.quirks.page(
+                {
+                    "experienceTags": [
+                        self.quirks.other(_json.experience_tag(self.ds, t)) for t in items
+                    ],
+                    "nextPageToken": token,
+                }
+            )
         )
 
     async def emulator_stats(self, request: web.Request) -> web.Response:
@@ -517,6 +551,7 @@ def _s3_error(status: int, code: str, message: str) -> web.Response:
 class _StorageRoutes:
     def __init__(self, state: EmulatorState) -> None:
         self.ds = state.dataset
+        self.quirks = state.quirks
 
     def _ids(self, request: web.Request, *keys: str) -> list[uuid.UUID]:
         try:
@@ -529,7 +564,7 @@ class _StorageRoutes:
         output = self.ds.job_output(batch_id, job_id)
         if output is None:
             raise web.HTTPNotFound()
-        return output, object_id
+        return self.quirks.job_output(output), object_id
 
     def _batch_output(self, request: web.Request) -> tuple[MetricsOutput, uuid.UUID]:
         batch_id, object_id = self._ids(request, "batch_id", "object_id")

@@ -37,6 +37,16 @@ class EmulatorConfig:
     report_partial_metric_batches: tuple[int, ...] = ()
     cache_jobs: int = 256  # generated job outputs kept (an LRU); the rest is regenerated
 
+    # ---- answers the API spec allows (see _quirks.py) ----
+    # Everything at once that changes no correct client's output: empty fields left out,
+    # scalar values listed as null (kept in the Metric message), enum values the spec does
+    # not list yet, unnamed metrics data, nine-digit fractional timestamps.
+    spec_quirks: bool = False
+    # Indices of jobs (in every batch) listed with a conflated status and metric statuses
+    # the spec does not list yet, and of jobs listed without either.
+    future_status_jobs: tuple[int, ...] = ()
+    unreported_status_jobs: tuple[int, ...] = ()
+
     # ---- paging ----
     default_page_size: int = 25
     max_page_size: int = 100
@@ -92,6 +102,8 @@ class EmulatorConfig:
             "broken_jobs",
             "report_batches_without_metrics",
             "report_partial_metric_batches",
+            "future_status_jobs",
+            "unreported_status_jobs",
         ):
             indices = getattr(self, name)
             if any(isinstance(i, bool) or not isinstance(i, int) or i < 0 for i in indices):
@@ -119,6 +131,8 @@ class EmulatorConfig:
             "broken_jobs",
             "report_batches_without_metrics",
             "report_partial_metric_batches",
+            "future_status_jobs",
+            "unreported_status_jobs",
         ):
             if name in clean:
                 clean[name] = tuple(clean[name])

@@ -11,6 +11,10 @@ from typing import Generic, TypeVar
 
 T = TypeVar("T")
 
+# The spec's `pageSize` maximum: larger sizes are refused (400), as the spec says. Below it
+# the server may still serve smaller pages than asked (`max_page_size`).
+SPEC_MAX_PAGE_SIZE = 100
+
 
 class PagingError(ValueError):
     """A pageSize or pageToken the API would answer with 400."""
@@ -56,7 +60,9 @@ def page_size(query: Mapping[str, str], *, default: int, maximum: int) -> int:
         raise PagingError(f"pageSize {text!r} is not an integer") from None
     if size < 0:
         raise PagingError(f"pageSize {size} is negative")
-    # Like the real API: 0 means the default and large sizes are capped, not refused.
+    if size > SPEC_MAX_PAGE_SIZE:
+        raise PagingError(f"pageSize {size} is above the maximum of {SPEC_MAX_PAGE_SIZE}")
+    # Like the real API: 0 means the default; a server may serve fewer than asked.
     return default if size == 0 else min(size, maximum)
 
 
