@@ -12,6 +12,7 @@ from __future__ import annotations
 from collections import Counter
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -39,7 +40,7 @@ class BatchRun:
     nulls: int  # SCALAR job metrics listed without a value
 
 
-async def _run_batch(tmp: Path, toml: str, **emulator: object) -> BatchRun:
+async def _run_batch(tmp: Path, toml: str, **emulator: Any) -> BatchRun:
     config = tmp / "stook.toml"
     config.parent.mkdir(parents=True, exist_ok=True)
     config.write_text(toml)

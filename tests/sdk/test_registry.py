@@ -27,7 +27,9 @@ from stook.sdk.aggregations import (
     _registry,
     build,
     build_all,
+    default_batch_aggregations,
 )
+from stook.sdk.aggregations.report import JobScalarDistributions, ScalarLines
 
 # ---------------------------------------------------------------- a user's own aggregation
 
@@ -331,3 +333,19 @@ def test_plugins_from_entry_points(monkeypatch: pytest.MonkeyPatch) -> None:
         build_all({"nope": [{}]}, section="batch")
     assert "broken" in str(info.value)
     assert "max_of" in str(info.value)
+
+
+def test_needs_say_which_scalars_are_read() -> None:
+    """Scalars listed without a value are downloaded only for aggregations that read them."""
+    named = Needs(scalars=frozenset({"a"}))
+    assert named.wants_scalar("a")
+    assert not named.wants_scalar("b")
+    assert (named | Needs(every_scalar=True)).wants_scalar("b")
+    defaults = Needs()
+    for aggregation in default_batch_aggregations():
+        defaults = defaults | aggregation.needs()
+    assert defaults.every_scalar  # "N (mean)" and "N (distribution)" of every scalar
+    assert ScalarLines().needs().every_scalar
+    assert JobScalarDistributions().needs().every_scalar
+    chosen = JobScalarDistributions(metrics=["x"]).needs()
+    assert (chosen.every_scalar, chosen.scalars) == (False, frozenset({"x"}))
