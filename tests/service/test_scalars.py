@@ -50,7 +50,9 @@ async def _read(
         return relisted
 
     async with StorageClient(retry=policy) as storage:
-        return await read_scalars(storage, metrics, needs, source="job 1", relist=relist)
+        return await read_scalars(
+            storage, metrics, needs.wants_scalar, source="job 1", relist=relist
+        )
 
 
 async def test_null_values_are_read_from_the_metric_message(

@@ -47,7 +47,7 @@ def plan_for(aggregations: Iterable[BatchAggregation]) -> tuple[Needs, FetchPlan
     needs = Needs()
     for aggregation in aggregations:
         needs = needs | aggregation.needs()
-    return needs, FetchPlan(data=needs.data, scalars=needs)
+    return needs, FetchPlan(data=needs.data, scalars=needs.scalars, every_scalar=needs.every_scalar)
 
 
 def check_names(needs: Needs, outcome: FetchOutcome, source: str) -> None:

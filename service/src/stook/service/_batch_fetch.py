@@ -20,7 +20,7 @@ import structlog
 
 from stook.sdk._errors import ReadError
 from stook.sdk._reader import read_metrics_data
-from stook.sdk.aggregations import UNKNOWN_STATUS, JobRecord, Needs
+from stook.sdk.aggregations import UNKNOWN_STATUS, JobRecord
 from stook.service._client import ApiClient
 from stook.service._errors import (
     ApiError,
@@ -46,7 +46,11 @@ class FetchPlan:
     the scalars read (downloaded only when the API lists them without a value)."""
 
     data: frozenset[str] = frozenset()
-    scalars: Needs = field(default_factory=lambda: Needs(every_scalar=True))
+    scalars: frozenset[str] = frozenset()
+    every_scalar: bool = True
+
+    def wants_scalar(self, name: str) -> bool:
+        return self.every_scalar or name in self.scalars
 
 
 @dataclass(frozen=True, slots=True)
@@ -153,7 +157,7 @@ class BatchFetcher:
         scalars = await read_scalars(
             self._api.storage,
             metrics,
-            self._plan.scalars,
+            self._plan.wants_scalar,
             source=f"job {job.job_id}",
             relist=lambda: self._list_metrics(job),
         )

@@ -167,7 +167,7 @@ class ReportFetcher:
             scalars=await read_scalars(
                 self._api.storage,
                 metrics,
-                self._needs,
+                self._needs.wants_scalar,
                 source=f"batch {batch.batch_id}",
                 relist=lambda: _collect(
                     self._api.list_batch_metrics(self._project_id, batch.batch_id)
@@ -231,7 +231,7 @@ class ReportFetcher:
         return await read_scalars(
             self._api.storage,
             metrics,
-            self._needs,
+            self._needs.wants_scalar,
             source=f"job {job.job_id}",
             relist=lambda: _collect(
                 self._api.list_job_metrics(self._project_id, batch.batch_id, job.job_id)

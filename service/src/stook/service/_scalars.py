@@ -16,7 +16,7 @@ from collections.abc import Awaitable, Callable, Sequence
 import structlog
 
 from stook.sdk._reader import read_metric
-from stook.sdk.aggregations import Needs, Scalar
+from stook.sdk.aggregations import Scalar
 from stook.service._client import StorageClient
 from stook.service._errors import PresignedUrlExpiredError
 from stook.service._models import ApiMetricType, BatchMetric, JobMetric
@@ -40,15 +40,16 @@ def is_scalar(metric: Metric) -> bool:
 async def read_scalars(
     storage: StorageClient,
     metrics: Sequence[Metric],
-    needs: Needs,
+    wanted: Callable[[str], bool],
     *,
     source: str,
     relist: Relist,
 ) -> dict[str, Scalar]:
     """Every named SCALAR of `metrics` that has a value, by name (the last of a name wins).
 
-    Values listed as null are read from the metric's message when `needs` reads that
-    scalar; `relist` lists the metrics again when a presigned URL has expired.
+    Values listed as null are read from the metric's message when `wanted(name)` (an
+    aggregation reads that scalar); `relist` lists the metrics again when a presigned URL
+    has expired.
     """
     found: list[tuple[str, Scalar | None]] = []
     blobs: list[Awaitable[Scalar | None]] = []
@@ -57,7 +58,7 @@ async def read_scalars(
             continue
         if metric.value is not None:
             found.append((metric.name, Scalar(metric.value, metric.unit or "", str(metric.status))))
-        elif needs.wants_scalar(metric.name):
+        elif wanted(metric.name):
             found.append((metric.name, None))
             blobs.append(_from_message(storage, metric, source=source, relist=relist))
         else:
