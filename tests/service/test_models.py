@@ -314,7 +314,9 @@ def test_timestamps_with_nanoseconds_and_offsets() -> None:
     ],
 )
 def test_rfc3339_timestamps_of_any_precision_and_case(text: str) -> None:
-    job = Job.from_json({"jobID": str(IDS[0]), "creationTimestamp": text})
+    job = Job.from_json(
+        {"jobID": str(IDS[0]), "conflatedStatus": "PASSED", "creationTimestamp": text}
+    )
     assert job.creation_timestamp == datetime(2026, 1, 2, 3, 4, 5, 123456, tzinfo=UTC)
 
 
