@@ -25,6 +25,7 @@ from stook.service._client import ApiClient
 from stook.service._errors import (
     ApiError,
     AuthError,
+    OriginUnavailableError,
     PresignedUrlExpiredError,
 )
 from stook.service._models import ApiMetricType, Job, JobMetric, JobMetricsData
@@ -123,7 +124,7 @@ class BatchFetcher:
         while (job := await queue.get()) is not None:
             try:
                 record = await self._fetch_job(job)
-            except AuthError:
+            except (AuthError, OriginUnavailableError):
                 raise
             except ApiError as exc:
                 self.outcome.missing.append(

@@ -3,8 +3,8 @@
 [fetch]
 concurrency = 64       # requests in flight, API and storage together
 timeout = 30.0         # seconds per request attempt
-max_attempts = 6       # per request, first try included
-max_throttled_attempts = 30  # per request, for 429 answers (the server pacing us)
+retry_for = 120.0      # seconds each request may spend retrying transient failures
+deadline = 1800.0      # optional: seconds the whole fetch may take (default: no limit)
 page_size = 100        # items asked for per list page
 adaptive = false       # find the server's pace below `concurrency` (AIMD on 429s and latency)
 
@@ -27,6 +27,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import structlog
+
 from stook.sdk._errors import StookError
 from stook.sdk.aggregations import (
     AggregationConfigError,
@@ -34,6 +36,8 @@ from stook.sdk.aggregations import (
     ReportAggregation,
     build_all,
 )
+
+log = structlog.get_logger("stook.config")
 
 
 class ConfigError(StookError):
@@ -44,10 +48,16 @@ class ConfigError(StookError):
 class FetchSettings:
     concurrency: int = 64
     timeout: float = 30.0
-    max_attempts: int = 6
-    max_throttled_attempts: int = 30
+    retry_for: float = 120.0
+    deadline: float | None = None
     page_size: int = 100
     adaptive: bool = False
+
+
+# Counts of attempts, replaced by the time budget `retry_for`. Still accepted, so that a
+# config written for an older stook keeps working, but ignored with a warning: honouring
+# them would bring back runs lost to a two-second outage.
+_DEPRECATED_FETCH_KEYS = ("max_attempts", "max_throttled_attempts")
 
 
 @dataclass(frozen=True, slots=True)
@@ -195,16 +205,18 @@ def _report(
 
 
 def _fetch(table: Mapping[str, Any], source: str) -> FetchSettings:
+    for key in _DEPRECATED_FETCH_KEYS:
+        if key in table:
+            log.warning(
+                "deprecated setting ignored",
+                setting=f"[fetch] {key}",
+                config=source,
+                hint="retries are bounded by time now: [fetch] retry_for, in seconds",
+            )
+    table = {k: v for k, v in table.items() if k not in _DEPRECATED_FETCH_KEYS}
     _only(
         table,
-        {
-            "concurrency",
-            "timeout",
-            "max_attempts",
-            "max_throttled_attempts",
-            "page_size",
-            "adaptive",
-        },
+        {"concurrency", "timeout", "retry_for", "deadline", "page_size", "adaptive"},
         "[fetch]",
         source,
     )
@@ -224,10 +236,8 @@ def _fetch(table: Mapping[str, Any], source: str) -> FetchSettings:
     return FetchSettings(
         concurrency=positive("concurrency", int, defaults.concurrency),
         timeout=positive("timeout", float, defaults.timeout),
-        max_attempts=positive("max_attempts", int, defaults.max_attempts),
-        max_throttled_attempts=positive(
-            "max_throttled_attempts", int, defaults.max_throttled_attempts
-        ),
+        retry_for=positive("retry_for", float, defaults.retry_for),
+        deadline=positive("deadline", float, 0.0) if "deadline" in table else None,
         page_size=positive("page_size", int, defaults.page_size),
         adaptive=adaptive,
     )

@@ -24,7 +24,7 @@ import structlog
 from stook.sdk.aggregations import BatchRecord, JobSummary, Needs, Scalar
 from stook.service._batch_fetch import MissingJob
 from stook.service._client import ApiClient
-from stook.service._errors import ApiError, AuthError, NotFoundError
+from stook.service._errors import ApiError, AuthError, NotFoundError, OriginUnavailableError
 from stook.service._models import ApiMetricType, Batch, Job, Report
 
 log = structlog.get_logger("stook.report")
@@ -195,7 +195,7 @@ class ReportFetcher:
                 metrics = await _collect(
                     self._api.list_job_metrics(self._project_id, pending.batch.batch_id, job.job_id)
                 )
-            except AuthError:
+            except (AuthError, OriginUnavailableError):
                 raise
             except ApiError as exc:
                 self.outcome.missing.append(

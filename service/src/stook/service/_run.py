@@ -5,8 +5,9 @@ Exit codes (also in the README):
   1  an unexpected error, or the user's own test-metrics function raised
   2  bad usage, config or inputs (malformed JSON, missing key, non-UUID ID, bad TOML,
      a metric or data name in the config that no job has)
-  3  the API or storage failed after retries, refused the token, or too many jobs
-     stayed unavailable
+  3  the API or storage failed for [fetch] retry_for or asked to wait longer than
+     stook waits, refused the token, too many jobs stayed unavailable, or the
+     [fetch] deadline was reached
   4  invalid metrics data: a downloaded item could not be decoded, or the output
      would not validate
 
