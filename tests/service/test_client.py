@@ -219,25 +219,39 @@ async def test_retry_after_really_waits(server: ScriptedServer) -> None:
     assert time.perf_counter() - started >= 0.1
 
 
-async def test_a_failing_api_is_retried_for_the_time_budget(
+async def test_a_failing_request_is_retried_for_the_time_budget(
     server: ScriptedServer, sleep: RecordingSleep
 ) -> None:
     """Production backoff, on a clock that advances with each pause: far more than the six
-    attempts of old, never a pause past the budget, and in the end an error naming the
-    origin (nothing answered meanwhile: the API is down, not this request unlucky)."""
+    attempts of old, and never a pause past the budget."""
     policy = RetryPolicy(retry_for=60.0, sleep=sleep, clock=sleep.now)
     server.script(BATCH_PATH, answer(500))
     async with client(server, policy) as api:
-        with pytest.raises(OriginUnavailableError) as caught:
+        with pytest.raises(RetriesExhaustedError) as caught:
             await api.get_batch(PROJECT, BATCH)
-    assert len(server.hits(BATCH_PATH)) > 6
-    assert sum(sleep.waits) <= 60.0
-    assert sleep.now() == pytest.approx(60.0, abs=2.0)
+        assert api.gate.is_open  # one request failing is not the API failing
+    hits = len(server.hits(BATCH_PATH))
+    assert hits > 6
+    assert caught.value.attempts == hits
+    assert sum(sleep.waits) == pytest.approx(60.0)
     assert max(sleep.waits) <= 10.0
+
+
+async def test_an_api_failing_every_request_is_named_when_the_budget_is_spent(
+    server: ScriptedServer, sleep: RecordingSleep
+) -> None:
+    """Many requests failing and none answered: the API is down, and the error says so."""
+    policy = RetryPolicy(retry_for=60.0, sleep=sleep, clock=sleep.now)
+    server.script(BATCH_PATH, answer(503))
+    async with client(server, policy) as api:
+        results = await asyncio.gather(
+            *(api.get_batch(PROJECT, BATCH) for _ in range(8)), return_exceptions=True
+        )
+    assert all(isinstance(r, OriginUnavailableError) for r in results), results
     origin = server.url("/").rstrip("/")
-    assert str(caught.value) == (
+    assert str(results[0]) == (
         f"the API at {origin} was unavailable for 60 s, the whole [fetch] retry_for budget; "
-        "last error: HTTP 500"
+        "last error: HTTP 503"
     )
 
 

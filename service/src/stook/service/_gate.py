@@ -4,11 +4,13 @@ Without it, 64 workers that meet an outage each retry on their own schedule, so 
 failing server gets a steady stream of requests, and when it recovers the workers come
 back one by one over the next ten seconds. With it:
 
-* A run of ``trip_after`` transient failures (5xx, resets, refusals, timeouts, truncated
-  bodies) with no answer between them closes the gate for a backoff: full jitter,
-  doubling per failed probe, up to ``max_pause`` (a few seconds), and at least what a
-  ``Retry-After`` asked for. A single failure among successes does not: sporadic
-  faults should cost the request that met them, not stall every worker.
+* Transient failures (5xx, resets, refusals, timeouts, truncated bodies) of
+  ``trip_after`` different requests, with no answer between them, close the gate for a
+  backoff: full jitter, doubling per failed probe, up to ``max_pause`` (a few seconds),
+  and at least what a ``Retry-After`` asked for. A failure among successes does not:
+  sporadic faults should cost the request that met them, not stall every worker. Nor
+  does one request failing again and again (a job whose listing always answers 500):
+  that is the request's trouble, not the origin's.
 * While it is closed, requests wait at the gate instead of sending. When the backoff is
   over, the first one through is the probe; the others keep waiting for its outcome.
 * Any answer (a success, but also a 404 or a 429: the origin is there) to a request sent
@@ -35,8 +37,9 @@ __all__ = ["GateStats", "OriginGate", "Passage"]
 
 _log = get_logger("stook.service.gate")
 
-# Consecutive transient failures, with no answer between them, that close the gate. With
-# 64 requests in flight an outage reaches it at once; a 10% fault rate almost never does.
+# Requests failing, with no answer between their failures, that close the gate. With 64
+# requests in flight an outage reaches it at once; a 10% fault rate almost never does, nor
+# the two listings of a job whose data is broken.
 DEFAULT_TRIP_AFTER: Final = 5
 
 
@@ -77,17 +80,13 @@ class OriginGate:
         self._clock = clock
         self._sleep = sleep
         self._trip_after = trip_after
-        self._consecutive = 0  # transient failures since the last answer
+        self._failing: set[object] = set()  # requests that failed since the last answer
         self._closed = False
         self._closed_at = 0.0
         self._until = 0.0
         self._failed_probes = 0
         self._probing = False
-        # When the origin last answered anything, and when the latest request it answered
-        # was sent; -inf until it has. An answer to a request sent before a time says
-        # nothing about whether the origin still answered after it.
-        self.last_answer = -math.inf
-        self.answered_sent_at = -math.inf
+        self.last_answer = -math.inf  # when the origin last answered anything
         self.last_failure = ""  # a short reason, for messages
         self.origin = ""  # scheme://host[:port] of the last failure
         self._changed = asyncio.Event()
@@ -101,8 +100,7 @@ class OriginGate:
         `sent_at`: open the gate, unless the request left before it closed (an answer to
         an old request says nothing about the origin now)."""
         self.last_answer = self._clock()
-        self.answered_sent_at = max(self.answered_sent_at, sent_at)
-        self._consecutive = 0
+        self._failing.clear()
         if self._closed and sent_at >= self._closed_at:
             self._closed = False
             self._failed_probes = 0
@@ -115,8 +113,17 @@ class OriginGate:
             )
             self._notify()
 
-    def failed(self, *, reason: str, origin: str, retry_after: float | None, probe: bool) -> None:
-        """A transient failure; a probe's failure, or enough in a row, closes the gate."""
+    def failed(
+        self,
+        *,
+        request: object,
+        reason: str,
+        origin: str,
+        retry_after: float | None,
+        probe: bool,
+    ) -> None:
+        """A transient failure of `request`; a probe's failure, or failures of enough
+        requests with no answer between them, close the gate."""
         self.last_failure = reason
         self.origin = origin
         if self._closed:
@@ -127,9 +134,10 @@ class OriginGate:
             self._close_for(self._failed_probes + 1, retry_after)
             self._notify()
             return
-        self._consecutive += 1
-        if self._consecutive < self._trip_after:
+        self._failing.add(request)
+        if len(self._failing) < self._trip_after:
             return
+        self._failing.clear()
         self._closed = True
         self._closed_at = self._clock()
         self._failed_probes = 0

@@ -234,23 +234,15 @@ class _GateTimeoutError(Exception):
 
 
 class _Budget:
-    """One request's time budget: its deadline, when it first failed, and why it stopped."""
+    """One request's time budget: its deadline, and why it stopped. The request's identity
+    for its origin's gate, too."""
 
     def __init__(self, policy: RetryPolicy, started: float, gate: OriginGate | None) -> None:
         self.policy = policy
         self.gate = gate
-        self.started = started
         self.deadline = started + policy.retry_for
-        # From when no answer from the origin would mean that the origin is down.
-        self.since = started
-        self._failed = False
         self.reason: _GiveUp | None = None
         self.left_at_stop = 0.0
-
-    def note_failure(self) -> None:
-        if not self._failed:
-            self._failed = True
-            self.since = self.policy.clock()
 
     def left(self) -> float:
         return self.deadline - self.policy.clock()
@@ -351,15 +343,17 @@ def _observe(
     url: str,
     policy: RetryPolicy,
     *,
+    request: object,
     sent_at: float,
     probe: bool,
 ) -> None:
-    """Tell the origin's gate what a failed attempt says about the origin."""
+    """Tell the origin's gate what a failed attempt of `request` says about the origin."""
     if trips_gate(exc):
         retry_after = _retry_after(exc)
         if retry_after is not None and retry_after > policy.max_retry_after:
             retry_after = None  # not honoured: that request ends instead (see _Stop)
         gate.failed(
+            request=request,
             reason=describe_failure(exc),
             origin=str(URL(url, encoded=True).origin()),
             retry_after=retry_after,
@@ -381,12 +375,13 @@ async def call_with_retries(
     """Await ``attempt()`` until it succeeds, fails for good, or its time budget is spent.
 
     A non-transient error propagates unchanged after its first occurrence. Running out of
-    budget raises :class:`OriginUnavailableError` when the origin (`gate`) has answered
-    nothing since this request first failed, else :class:`RetriesExhaustedError` naming the
-    last transient failure; a ``Retry-After`` that cannot be honoured raises
+    budget raises :class:`OriginUnavailableError` when the origin's `gate` is closed (the
+    origin is failing, not just this request), else :class:`RetriesExhaustedError` naming
+    the last transient failure; a ``Retry-After`` that cannot be honoured raises
     :class:`RetryAfterTooLongError` at once.
     """
     started = policy.clock()
+    budget: _Budget | None = None
     first_failure: Exception | None = None
     # The first attempt runs outside tenacity: almost every request succeeds at once, and
     # building and driving an AsyncRetrying cost a fifth of the client's CPU per request
@@ -397,8 +392,10 @@ async def call_with_retries(
         try:
             result = await attempt()
         except Exception as exc:
+            # Made only now: most requests never need one.
+            budget = _Budget(policy, started, gate)
             if gate is not None:
-                _observe(gate, exc, url, policy, sent_at=started, probe=False)
+                _observe(gate, exc, url, policy, request=budget, sent_at=started, probe=False)
             if not is_retryable(exc):
                 raise
             first_failure = exc
@@ -407,9 +404,8 @@ async def call_with_retries(
                 gate.answered(started)
             return result
 
-    budget = _Budget(policy, started, gate)
-    if first_failure is not None:
-        budget.note_failure()
+    if budget is None:
+        budget = _Budget(policy, started, gate)
     retrying = _new_retrying(budget, stats=stats, method=method, url=url)
 
     # tenacity awaits only what it recognises as a coroutine function, not any callable
@@ -430,9 +426,15 @@ async def call_with_retries(
             result = await attempt()
         except Exception as exc:
             if gate is not None:
-                _observe(gate, exc, url, policy, sent_at=sent_at, probe=passage is Passage.PROBE)
-            if is_retryable(exc):
-                budget.note_failure()
+                _observe(
+                    gate,
+                    exc,
+                    url,
+                    policy,
+                    request=budget,
+                    sent_at=sent_at,
+                    probe=passage is Passage.PROBE,
+                )
             raise
         else:
             if gate is not None:
@@ -489,13 +491,9 @@ def _give_up(
         reason = gate.last_failure
     else:
         reason = "unknown"
-    if (
-        budget.reason is _GiveUp.BUDGET
-        and gate is not None
-        and gate.answered_sent_at < budget.since
-    ):
-        # No request sent since this one first failed got an answer: the origin is down,
-        # and every other request would wait out its budget the same way.
+    if budget.reason is _GiveUp.BUDGET and gate is not None and not gate.is_open:
+        # Requests of many kinds fail and none is answered: the origin is down, and every
+        # other request would wait out its budget the same way.
         return OriginUnavailableError(
             label=gate.label,
             origin=gate.origin or str(URL(url, encoded=True).origin()),
