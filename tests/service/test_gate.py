@@ -54,7 +54,7 @@ def test_failures_among_answers_leave_it_open(sleep: RecordingSleep) -> None:
     for _ in range(3):
         for _ in range(4):
             fail(gate)
-        gate.answered(sleep.now())
+        gate.answered(gate.closures)
     assert gate.is_open
     assert gate.stats.trips == 0
 
@@ -98,7 +98,7 @@ async def test_a_run_of_failures_closes_it_and_one_probe_goes_out() -> None:
     await asyncio.sleep(0.2)  # the others wait on the probe, however long it takes
     assert [task.result() for task in waiting if task.done()] == [Passage.PROBE]
     # The probe's answer lets every waiter through at once.
-    gate.answered(sent_at=time.monotonic())
+    gate.answered(sent_in=gate.closures)
     assert gate.is_open
     results = await asyncio.gather(*waiting)
     assert results.count(Passage.PROBE) == 1
@@ -133,15 +133,13 @@ async def test_failures_echoing_from_before_the_closure_do_not_extend_it(
 async def test_an_answer_to_a_request_sent_before_the_closure_does_not_reopen_it(
     sleep: RecordingSleep,
 ) -> None:
-    await sleep(5.0)
-    sent = sleep.now()
-    await sleep(1.0)
     gate = gate_on(sleep)
+    sent_in = gate.closures  # a request sent while it was open...
     for _ in range(5):
         fail(gate)
-    gate.answered(sent_at=sent)
+    gate.answered(sent_in)  # ...answered after it closed
     assert not gate.is_open
-    gate.answered(sent_at=sleep.now())
+    gate.answered(gate.closures)  # a request sent since
     assert gate.is_open
 
 

@@ -26,7 +26,6 @@ from __future__ import annotations
 
 import asyncio
 import enum
-import math
 from collections.abc import Awaitable, Callable
 from dataclasses import dataclass
 from typing import Final
@@ -86,7 +85,9 @@ class OriginGate:
         self._until = 0.0
         self._failed_probes = 0
         self._probing = False
-        self.last_answer = -math.inf  # when the origin last answered anything
+        # Times the gate closed: a request notes it when sent, so that an answer can tell
+        # whether it was sent before the current closure (and so says nothing about now).
+        self.closures = 0
         self.last_failure = ""  # a short reason, for messages
         self.origin = ""  # scheme://host[:port] of the last failure
         self._changed = asyncio.Event()
@@ -95,13 +96,16 @@ class OriginGate:
     def is_open(self) -> bool:
         return not self._closed
 
-    def answered(self, sent_at: float) -> None:
-        """The origin answered (any status but a transient failure) a request sent at
-        `sent_at`: open the gate, unless the request left before it closed (an answer to
-        an old request says nothing about the origin now)."""
-        self.last_answer = self._clock()
-        self._failing.clear()
-        if self._closed and sent_at >= self._closed_at:
+    def answered(self, sent_in: int) -> None:
+        """The origin answered (any status but a transient failure) a request sent when
+        `closures` was `sent_in`: open the gate, unless the request left before it closed
+        (an answer to an old request says nothing about the origin now).
+
+        Called for every successful request, so it does as little as it can.
+        """
+        if self._failing:
+            self._failing.clear()
+        if self._closed and sent_in == self.closures:
             self._closed = False
             self._failed_probes = 0
             self._probing = False
@@ -109,7 +113,7 @@ class OriginGate:
             _log.info(
                 "origin answers again; requests resume",
                 origin=self.label,
-                closed_s=round(self.last_answer - self._closed_at, 3),
+                closed_s=round(self._clock() - self._closed_at, 3),
             )
             self._notify()
 
@@ -140,6 +144,7 @@ class OriginGate:
         self._failing.clear()
         self._closed = True
         self._closed_at = self._clock()
+        self.closures += 1
         self._failed_probes = 0
         self.stats.trips += 1
         wait = self._close_for(1, retry_after)

@@ -344,7 +344,7 @@ def _observe(
     policy: RetryPolicy,
     *,
     request: object,
-    sent_at: float,
+    sent_in: int,
     probe: bool,
 ) -> None:
     """Tell the origin's gate what a failed attempt of `request` says about the origin."""
@@ -360,7 +360,7 @@ def _observe(
             probe=probe,
         )
     elif _is_answer(exc):
-        gate.answered(sent_at)
+        gate.answered(sent_in)
 
 
 async def call_with_retries(
@@ -380,7 +380,6 @@ async def call_with_retries(
     the last transient failure; a ``Retry-After`` that cannot be honoured raises
     :class:`RetryAfterTooLongError` at once.
     """
-    started = policy.clock()
     budget: _Budget | None = None
     first_failure: Exception | None = None
     # The first attempt runs outside tenacity: almost every request succeeds at once, and
@@ -389,23 +388,25 @@ async def call_with_retries(
     # (replayed below), so counting, waits, logging and the stop rule are unchanged. At a
     # closed gate, the first attempt waits there inside the loop instead.
     if gate is None or gate.is_open:
+        sent_in = 0 if gate is None else gate.closures
         try:
             result = await attempt()
         except Exception as exc:
-            # Made only now: most requests never need one.
-            budget = _Budget(policy, started, gate)
+            # Made only now, and the budget counted from here: most requests never need
+            # one, and the clock is not free.
+            budget = _Budget(policy, policy.clock(), gate)
             if gate is not None:
-                _observe(gate, exc, url, policy, request=budget, sent_at=started, probe=False)
+                _observe(gate, exc, url, policy, request=budget, sent_in=sent_in, probe=False)
             if not is_retryable(exc):
                 raise
             first_failure = exc
         else:
             if gate is not None:
-                gate.answered(started)
+                gate.answered(sent_in)
             return result
 
     if budget is None:
-        budget = _Budget(policy, started, gate)
+        budget = _Budget(policy, policy.clock(), gate)
     retrying = _new_retrying(budget, stats=stats, method=method, url=url)
 
     # tenacity awaits only what it recognises as a coroutine function, not any callable
@@ -421,7 +422,7 @@ async def call_with_retries(
             passage = await gate.enter(budget.deadline)
             if passage is Passage.TIMED_OUT:
                 raise _GateTimeoutError
-        sent_at = policy.clock()
+        sent_in = 0 if gate is None else gate.closures
         try:
             result = await attempt()
         except Exception as exc:
@@ -432,13 +433,13 @@ async def call_with_retries(
                     url,
                     policy,
                     request=budget,
-                    sent_at=sent_at,
+                    sent_in=sent_in,
                     probe=passage is Passage.PROBE,
                 )
             raise
         else:
             if gate is not None:
-                gate.answered(sent_at)
+                gate.answered(sent_in)
             return result
         finally:
             if gate is not None and passage is Passage.PROBE:
