@@ -116,7 +116,7 @@ class StorageClient:
         Raises :class:`PresignedUrlExpiredError` when storage refuses the signature (list
         again for a fresh URL), :class:`StorageError` for other refusals, and
         :class:`RetriesExhaustedError` when transient failures outlast the retry policy
-        (:class:`OriginUnavailableError` when storage answered nothing else meanwhile).
+        (:class:`OriginUnavailableError` when storage as a whole is failing).
         """
         # encoded=True: re-quoting would alter the signed query string and void the signature.
         target = URL(url, encoded=True)

@@ -251,8 +251,9 @@ class _Budget:
 class _Wait(wait_base):
     """The pause before the next attempt, never past the budget.
 
-    While the origin's gate is closed the request does not pause on its own: it waits at
-    the gate (see run_attempt), so that it resumes with the others.
+    A pause the server asked for comes first. Otherwise, while the origin's gate is closed,
+    the request does not back off on its own: it waits at the gate (see run_attempt), so
+    that it resumes with the others.
     """
 
     def __init__(self, budget: _Budget) -> None:
@@ -261,13 +262,13 @@ class _Wait(wait_base):
 
     def __call__(self, retry_state: RetryCallState) -> float:
         budget = self.budget
-        if budget.gate is not None and not budget.gate.is_open:
-            return 0.0
         left = max(0.0, budget.left())
         outcome = retry_state.outcome
         retry_after = _retry_after(outcome.exception() if outcome is not None else None)
         if retry_after is not None:
             return min(retry_after, budget.policy.max_retry_after, left)
+        if budget.gate is not None and not budget.gate.is_open:
+            return 0.0
         return min(self.backoff(retry_state), left)
 
 
