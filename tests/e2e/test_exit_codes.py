@@ -36,7 +36,7 @@ from tests.e2e.support import (
 
 REPO = Path(__file__).resolve().parents[2]
 BROKEN = 3  # index of a job with metrics (6 is the job that never wrote any)
-FAST_FETCH = "[fetch]\nmax_attempts = 3\ntimeout = 5.0\n"
+FAST_FETCH = "[fetch]\nretry_for = 2\ntimeout = 5.0\n"
 
 
 @pytest.fixture(autouse=True)
@@ -201,7 +201,7 @@ def test_unreachable_api(capsys: pytest.CaptureFixture[str], tmp_path: Path, emu
     # Closed now: nothing listens on the port.
     url = f"http://127.0.0.1:{port}/v1"
     write_json(tmp_path / "inputs", batch_config(emu, apiURL=url))
-    code, err = stook_run(capsys, tmp_path, toml="[fetch]\nmax_attempts = 2\ntimeout = 2.0\n")
+    code, err = stook_run(capsys, tmp_path, toml="[fetch]\nretry_for = 2\ntimeout = 2.0\n")
     assert code == 3
     assert_failed(err, tmp_path / "outputs", f"127.0.0.1:{port}")
 

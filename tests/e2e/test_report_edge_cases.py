@@ -222,7 +222,7 @@ def test_the_token_stays_out_of_storage_and_logs(
     token = f"e2e-report-secret-{uuid.uuid4().hex}"
     emulator_config = config(**FAULT_DATA, **FAULTS, token=token)
     inputs, outputs = tmp_path / "inputs", tmp_path / "outputs"
-    (tmp_path / "stook.toml").write_text("[fetch]\nmax_attempts = 6\n")
+    (tmp_path / "stook.toml").write_text("[fetch]\nretry_for = 30\n")
     argv = ["run", "--inputs", str(inputs), "--outputs", str(outputs)]
     argv += ["--config", str(tmp_path / "stook.toml"), "--log-level", "debug", "--log-format"]
     argv += ["json"]

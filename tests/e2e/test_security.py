@@ -44,7 +44,7 @@ def test_no_credential_reaches_storage_logs_or_outputs(
         broken_jobs=(5,) if allowed else (),
     )
     inputs, outputs = tmp_path / "inputs", tmp_path / "outputs"
-    (tmp_path / "stook.toml").write_text("[fetch]\nmax_attempts = 4\n" + BATCH_TOML)
+    (tmp_path / "stook.toml").write_text("[fetch]\nretry_for = 3\n" + BATCH_TOML)
     argv = ["run", "--inputs", str(inputs), "--outputs", str(outputs)]
     argv += ["--config", str(tmp_path / "stook.toml"), "--log-level", "debug"]
     argv += ["--log-format", "json"]

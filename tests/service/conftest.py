@@ -28,14 +28,23 @@ async def server() -> AsyncIterator[ScriptedServer]:
 
 
 class RecordingSleep:
-    """Stands in for asyncio.sleep: remembers each requested pause, waits only a tick."""
+    """Stands in for asyncio.sleep: remembers each requested pause, waits only a tick.
+
+    `now` is a clock that advances by each pause instead, for a policy's ``clock``: a
+    request then spends its time budget without the time passing.
+    """
 
     def __init__(self) -> None:
         self.waits: list[float] = []
+        self.slept = 0.0
 
     async def __call__(self, seconds: float) -> None:
         self.waits.append(seconds)
+        self.slept += seconds
         await asyncio.sleep(0)
+
+    def now(self) -> float:
+        return self.slept
 
 
 @pytest.fixture
@@ -45,8 +54,9 @@ def sleep() -> RecordingSleep:
 
 @pytest.fixture
 def fast_policy(sleep: RecordingSleep) -> RetryPolicy:
-    """The production rules (6 attempts, Retry-After honoured) without the waiting."""
-    return RetryPolicy(backoff=wait_none(), sleep=sleep, request_timeout=2.0)
+    """The production rules (Retry-After honoured) without the waiting; as no time passes,
+    six attempts stand in for the time budget."""
+    return RetryPolicy(backoff=wait_none(), sleep=sleep, request_timeout=2.0, max_attempts=6)
 
 
 @pytest.fixture(autouse=True)

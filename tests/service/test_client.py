@@ -17,8 +17,10 @@ from stook.service._errors import (
     ApiStatusError,
     AuthError,
     NotFoundError,
+    OriginUnavailableError,
     PresignedUrlExpiredError,
     RetriesExhaustedError,
+    RetryAfterTooLongError,
     StorageError,
 )
 from stook.service._http import HttpTransport
@@ -173,21 +175,37 @@ async def test_transient_statuses_are_retried(
     assert len(server.hits(BATCH_PATH)) == 3
 
 
-async def test_retry_after_is_honoured_and_capped(
-    server: ScriptedServer, sleep: RecordingSleep
-) -> None:
-    policy = RetryPolicy(backoff=wait_none(), sleep=sleep, max_retry_after=0.02)
+async def test_retry_after_is_honoured(server: ScriptedServer, sleep: RecordingSleep) -> None:
+    policy = RetryPolicy(backoff=wait_none(), sleep=sleep)
     server.script(
         BATCH_PATH,
         answer(429, headers={"Retry-After": "0.01"}),
-        answer(503, headers={"Retry-After": "3600"}),
+        answer(503, headers={"Retry-After": "0.02"}),
         answer(503),
         answer_json(batch_json()),
     )
     async with client(server, policy) as api:
         await api.get_batch(PROJECT, BATCH)
-    # Asked-for pause, then capped pause, then the (injected, zero) backoff.
+    # Asked-for pauses, then the (injected, zero) backoff.
     assert sleep.waits == [0.01, 0.02, 0.0]
+
+
+async def test_retry_after_beyond_the_cap_fails_fast(
+    server: ScriptedServer, sleep: RecordingSleep
+) -> None:
+    """`Retry-After: 3600` used to be waited out at the cap, again and again (~15 minutes);
+    now the request ends at once, naming the header and the cap."""
+    policy = RetryPolicy(sleep=sleep, clock=sleep.now)
+    server.script(BATCH_PATH, answer(503, headers={"Retry-After": "3600"}))
+    async with client(server, policy) as api:
+        with pytest.raises(RetryAfterTooLongError) as caught:
+            await api.get_batch(PROJECT, BATCH)
+    assert len(server.hits(BATCH_PATH)) == 1
+    assert sleep.waits == []
+    message = str(caught.value)
+    assert "HTTP 503 with Retry-After: 3600" in message
+    assert "the 60 s stook waits at most" in message
+    assert BATCH_PATH in message
 
 
 async def test_retry_after_really_waits(server: ScriptedServer) -> None:
@@ -201,17 +219,40 @@ async def test_retry_after_really_waits(server: ScriptedServer) -> None:
     assert time.perf_counter() - started >= 0.1
 
 
-async def test_default_backoff_is_small_exponential_full_jitter(
+async def test_a_failing_request_is_retried_for_the_time_budget(
     server: ScriptedServer, sleep: RecordingSleep
 ) -> None:
-    policy = RetryPolicy(sleep=sleep)
+    """Production backoff, on a clock that advances with each pause: far more than the six
+    attempts of old, and never a pause past the budget."""
+    policy = RetryPolicy(retry_for=60.0, sleep=sleep, clock=sleep.now)
     server.script(BATCH_PATH, answer(500))
     async with client(server, policy) as api:
-        with pytest.raises(RetriesExhaustedError):
+        with pytest.raises(RetriesExhaustedError) as caught:
             await api.get_batch(PROJECT, BATCH)
-    assert len(sleep.waits) == 5
-    for attempt, wait in enumerate(sleep.waits):
-        assert 0 <= wait <= min(5.0, 0.05 * 2**attempt)
+        assert api.gate.is_open  # one request failing is not the API failing
+    hits = len(server.hits(BATCH_PATH))
+    assert hits > 6
+    assert caught.value.attempts == hits
+    assert sum(sleep.waits) == pytest.approx(60.0)
+    assert max(sleep.waits) <= 10.0
+
+
+async def test_an_api_failing_every_request_is_named_when_the_budget_is_spent(
+    server: ScriptedServer, sleep: RecordingSleep
+) -> None:
+    """Many requests failing and none answered: the API is down, and the error says so."""
+    policy = RetryPolicy(retry_for=60.0, sleep=sleep, clock=sleep.now)
+    server.script(BATCH_PATH, answer(503))
+    async with client(server, policy) as api:
+        results = await asyncio.gather(
+            *(api.get_batch(PROJECT, BATCH) for _ in range(8)), return_exceptions=True
+        )
+    assert all(isinstance(r, OriginUnavailableError) for r in results), results
+    origin = server.url("/").rstrip("/")
+    assert str(results[0]) == (
+        f"the API at {origin} was unavailable for 60 s, the whole [fetch] retry_for budget; "
+        "last error: HTTP 503"
+    )
 
 
 async def test_connection_reset_is_retried(

@@ -9,6 +9,7 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+import structlog.testing
 
 from stook.sdk._errors import InvalidMetricsError, Problem, ReadError, StookError, WriterError
 from stook.sdk.aggregations import JobStatusCounts, MergedHistogram, ScalarStats, WeightedMean
@@ -51,7 +52,7 @@ def test_the_docstring_example_parses(tmp_path: Path) -> None:
     config = load(path)
     assert config.source == str(path)
     assert config.fetch == FetchSettings(
-        concurrency=64, timeout=30.0, max_attempts=6, page_size=100
+        concurrency=64, timeout=30.0, retry_for=120.0, deadline=1800.0, page_size=100
     )
     assert config.test_metrics == "my_metrics.test:compute"
     assert config.batch_defaults is True
@@ -75,7 +76,8 @@ def test_a_full_config(tmp_path: Path) -> None:
 [fetch]
 concurrency = 8
 timeout = 5
-max_attempts = 2
+retry_for = 30
+deadline = 600
 page_size = 50
 
 [batch]
@@ -101,8 +103,12 @@ job_metrics = ["Localization error"]
 """,
     )
     config = load(path)
-    assert config.fetch == FetchSettings(concurrency=8, timeout=5.0, max_attempts=2, page_size=50)
+    assert config.fetch == FetchSettings(
+        concurrency=8, timeout=5.0, retry_for=30.0, deadline=600.0, page_size=50
+    )
     assert isinstance(config.fetch.timeout, float)
+    assert isinstance(config.fetch.retry_for, float)
+    assert isinstance(config.fetch.deadline, float)
     assert config.batch_defaults is False
     assert config.test_metrics is None
     assert config.report == ReportSettings(
@@ -156,8 +162,8 @@ def test_a_missing_or_unreadable_file(tmp_path: Path) -> None:
         pytest.param(
             {"fetch": {"concurrency": 4, "retries": 3}},
             "s.toml: unknown key 'retries' in [fetch] "
-            "(known: adaptive, concurrency, max_api_body_mb, max_attempts, max_body_mb, "
-            "max_throttled_attempts, page_size, timeout)",
+            "(known: adaptive, concurrency, deadline, max_api_body_mb, max_body_mb, "
+            "page_size, retry_for, timeout)",
             id="unknown-fetch-key",
         ),
         pytest.param(
@@ -183,9 +189,14 @@ def test_a_missing_or_unreadable_file(tmp_path: Path) -> None:
             id="zero",
         ),
         pytest.param(
-            {"fetch": {"max_attempts": -1}},
-            "s.toml: [fetch] max_attempts must be a positive number",
+            {"fetch": {"retry_for": -1}},
+            "s.toml: [fetch] retry_for must be a positive number",
             id="negative",
+        ),
+        pytest.param(
+            {"fetch": {"deadline": 0}},
+            "s.toml: [fetch] deadline must be a positive number",
+            id="zero-deadline",
         ),
         pytest.param(
             {"fetch": {"page_size": 10.5}},
@@ -228,6 +239,22 @@ def test_bad_configs(doc: dict[str, Any], message: str) -> None:
     with pytest.raises(ConfigError) as info:
         parse(doc, source="s.toml")
     assert str(info.value).startswith(message)
+
+
+def test_retry_counts_of_old_configs_are_accepted_ignored_and_warned_about() -> None:
+    """`max_attempts` and `max_throttled_attempts` gave way to the time budget `retry_for`:
+    a config written for them still loads, and says once that they no longer count."""
+    with structlog.testing.capture_logs() as logs:
+        fetch = parse(
+            {"fetch": {"max_attempts": 2, "max_throttled_attempts": 9}}, source="s.toml"
+        ).fetch
+    assert fetch == FetchSettings()
+    warned = [e for e in logs if e["event"] == "deprecated setting ignored"]
+    assert [e["setting"] for e in warned] == [
+        "[fetch] max_attempts",
+        "[fetch] max_throttled_attempts",
+    ]
+    assert all("retry_for" in e["hint"] and e["log_level"] == "warning" for e in warned)
 
 
 def test_fetch_float_timeout_is_fine_and_int_is_kept_whole() -> None:

@@ -213,3 +213,18 @@ def test_capture_logs_with_the_redaction_processor() -> None:
     with capture_logs(processors=[redact_event]) as captured:
         get_logger("test").info("oops", header=f"Bearer {TOKEN}")
     assert captured[0]["header"] == "Bearer ***"
+
+
+@pytest.mark.parametrize(
+    ("text", "expected"),
+    [
+        # Prose punctuation after a URL is not part of it, and must not break its parsing.
+        ("see (http://127.0.0.1:4000)", "see (http://127.0.0.1:4000/)"),
+        ("at http://h/x?sig=abc, then", "at http://h/x?sig=***, then"),
+        ("[http://h/x?sig=abc]. Done", "[http://h/x?sig=***]. Done"),
+        # A port that is no number: the URL is hidden, the message survives.
+        ("GET http://h:12ab/x failed", "GET <unparseable URL> failed"),
+    ],
+)
+def test_redact_text_survives_urls_inside_prose(text: str, expected: str) -> None:
+    assert redact_text(text) == expected

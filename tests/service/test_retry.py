@@ -17,6 +17,7 @@ from stook.service._errors import (
     NotFoundError,
     PresignedUrlExpiredError,
     RetriesExhaustedError,
+    RetryAfterTooLongError,
     StorageError,
     TransportError,
 )
@@ -79,12 +80,16 @@ def test_parse_retry_after() -> None:
 
 def test_policy_defaults_and_validation() -> None:
     policy = RetryPolicy()
-    assert policy.max_attempts == 6
-    assert policy.initial_backoff == 0.05
-    assert policy.max_backoff == 5.0
+    assert policy.retry_for == 120.0
+    assert policy.max_attempts is None  # bounded by time alone
+    assert policy.initial_backoff == 0.2
+    assert policy.max_backoff == 10.0
+    assert policy.max_retry_after == 60.0
     assert policy.request_timeout == 30.0
     with pytest.raises(ValueError, match="max_attempts"):
         RetryPolicy(max_attempts=0)
+    with pytest.raises(ValueError, match="retry_for"):
+        RetryPolicy(retry_for=0)
 
 
 async def test_call_with_retries_counts_and_gives_up(sleep: RecordingSleep) -> None:
@@ -155,36 +160,73 @@ def _scripted(
     return calls, attempt
 
 
-async def test_throttling_answers_spend_their_own_larger_allowance(sleep: RecordingSleep) -> None:
-    # Ten 429s are more than max_attempts, but a server pacing us is not failing.
-    calls, attempt = _scripted([status_error(429)] * 10)
-    policy = RetryPolicy(backoff=wait_none(), sleep=sleep, max_attempts=3)
+async def test_retries_last_the_time_budget_not_a_count(sleep: RecordingSleep) -> None:
+    """Production backoff on a clock that advances with each pause: the request retries
+    for the whole of `retry_for`, with full-jitter pauses from 0.2 s up to 10 s, and
+    never sleeps past the budget."""
+    calls, attempt = _scripted([status_error(503)] * 10_000)
+    policy = RetryPolicy(retry_for=120.0, sleep=sleep, clock=sleep.now)
+    with pytest.raises(RetriesExhaustedError) as caught:
+        await call_with_retries(attempt, policy, stats=TransferStats(), method="GET", url=URL)
+    assert calls[0] > 6  # the old count; 120 s of backoff holds about 25 attempts
+    assert calls[0] == len(sleep.waits) + 1
+    assert caught.value.attempts == calls[0]
+    assert sum(sleep.waits) == pytest.approx(120.0)
+    for retry, wait in enumerate(sleep.waits):
+        assert 0 <= wait <= min(10.0, 0.2 * 2**retry)
+
+
+async def test_an_outage_shorter_than_the_budget_is_ridden_out(sleep: RecordingSleep) -> None:
+    calls = 0
+
+    async def down_for_a_minute() -> str:
+        nonlocal calls
+        calls += 1
+        if sleep.now() < 60.0:
+            raise status_error(503)
+        return "done"
+
+    policy = RetryPolicy(retry_for=120.0, sleep=sleep, clock=sleep.now)
+    got = await call_with_retries(
+        down_for_a_minute, policy, stats=TransferStats(), method="GET", url=URL
+    )
+    assert got == "done"
+    assert 60.0 <= sleep.now() <= 70.0  # back within one capped pause of the recovery
+
+
+async def test_a_retry_after_beyond_the_cap_ends_the_request_at_once(
+    sleep: RecordingSleep,
+) -> None:
+    throttled = ApiStatusError(status=429, method="GET", url=URL, retry_after=3600.0)
+    calls, attempt = _scripted([throttled] * 100)
+    policy = RetryPolicy(sleep=sleep, clock=sleep.now)
+    with pytest.raises(RetryAfterTooLongError) as caught:
+        await call_with_retries(attempt, policy, stats=TransferStats(), method="GET", url=URL)
+    assert calls[0] == 1
+    assert sleep.waits == []
+    message = str(caught.value)
+    assert "Retry-After: 3600" in message
+    assert "the 60 s stook waits at most" in message
+    assert "HTTP 429" in message
+
+
+async def test_a_retry_after_beyond_the_budget_left_ends_the_request(
+    sleep: RecordingSleep,
+) -> None:
+    unavailable = ApiStatusError(status=503, method="GET", url=URL, retry_after=30.0)
+    calls, attempt = _scripted([unavailable] * 100)
+    policy = RetryPolicy(retry_for=10.0, sleep=sleep, clock=sleep.now)
+    with pytest.raises(RetryAfterTooLongError, match=r"left of its 10 s \[fetch\] retry_for"):
+        await call_with_retries(attempt, policy, stats=TransferStats(), method="GET", url=URL)
+    assert calls[0] == 1
+    assert sleep.waits == []
+
+
+async def test_a_retry_after_within_the_cap_and_budget_is_waited(sleep: RecordingSleep) -> None:
+    throttled = ApiStatusError(status=429, method="GET", url=URL, retry_after=45.0)
+    calls, attempt = _scripted([throttled, throttled])
+    policy = RetryPolicy(sleep=sleep, clock=sleep.now)
     got = await call_with_retries(attempt, policy, stats=TransferStats(), method="GET", url=URL)
     assert got == "done"
-    assert calls[0] == 11
-
-
-async def test_throttling_allowance_runs_out_too(sleep: RecordingSleep) -> None:
-    calls, attempt = _scripted([status_error(429)] * 100)
-    policy = RetryPolicy(backoff=wait_none(), sleep=sleep, max_throttled_attempts=7)
-    with pytest.raises(RetriesExhaustedError) as caught:
-        await call_with_retries(attempt, policy, stats=TransferStats(), method="GET", url=URL)
-    assert calls[0] == 7
-    assert caught.value.last_status == 429
-
-
-async def test_throttles_do_not_buy_extra_failures(sleep: RecordingSleep) -> None:
-    # 429s between them do not reset the count of real failures.
-    failures: list[BaseException] = [status_error(503), status_error(429)] * 3
-    calls, attempt = _scripted(failures)
-    policy = RetryPolicy(backoff=wait_none(), sleep=sleep, max_attempts=3)
-    with pytest.raises(RetriesExhaustedError) as caught:
-        await call_with_retries(attempt, policy, stats=TransferStats(), method="GET", url=URL)
-    assert calls[0] == 5  # 503, 429, 503, 429, 503: the third failure stops it
-    assert caught.value.last_status == 503
-
-
-def test_throttled_allowance_is_validated() -> None:
-    assert RetryPolicy().max_throttled_attempts == 30
-    with pytest.raises(ValueError, match="max_throttled_attempts"):
-        RetryPolicy(max_throttled_attempts=0)
+    assert calls[0] == 3
+    assert sleep.waits == [45.0, 45.0]

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import asyncio
 import difflib
 from collections.abc import Iterable
 from dataclasses import dataclass
@@ -14,6 +15,7 @@ from stook.sdk._writer import MetricsWriter
 from stook.sdk.aggregations import BatchAggregation, JobRecord, Needs, default_batch_aggregations
 from stook.service._batch_fetch import BatchFetcher, FetchOutcome, FetchPlan, MissingJob
 from stook.service._config import ConfigError, StookConfig
+from stook.service._deadline import fetch_deadline
 from stook.service._errors import ApiError
 from stook.service._inputs import BatchInputs
 from stook.service._progress import NoProgress, Progress
@@ -73,6 +75,7 @@ async def run_batch(
     retry: RetryPolicy | None = None,
     progress: Progress | None = None,
 ) -> BatchResult:
+    started = asyncio.get_running_loop().time()
     aggregations = aggregations_for(config)
     needs, plan = plan_for(aggregations)
     settings = config.fetch
@@ -107,8 +110,14 @@ async def run_batch(
             workers=settings.concurrency,
             on_progress=report,
         )
+
+        def how_far() -> str:
+            o = fetcher.outcome
+            return f"{o.jobs_done + len(o.missing):,} of {o.jobs_listed:,} jobs"
+
         try:
-            outcome = await fetcher.run(fold)
+            async with fetch_deadline(settings.deadline, started=started, progress=how_far):
+                outcome = await fetcher.run(fold)
         finally:
             shown.close()
         traffic = Traffic.of(api)

@@ -25,6 +25,7 @@ from stook.service._client import ApiClient
 from stook.service._errors import (
     ApiError,
     AuthError,
+    OriginUnavailableError,
     PresignedUrlExpiredError,
 )
 from stook.service._models import Job, JobMetric, JobMetricsData
@@ -131,7 +132,7 @@ class BatchFetcher:
         while (job := await queue.get()) is not None:
             try:
                 record = await self._fetch_job(job)
-            except AuthError:
+            except (AuthError, OriginUnavailableError):
                 raise
             except ApiError as exc:
                 self.outcome.missing.append(

@@ -47,6 +47,7 @@ from stook.service._retry import (
     RetryPolicy,
     TransferStats,
     call_with_retries,
+    new_gate,
     parse_retry_after,
 )
 
@@ -90,6 +91,8 @@ class StorageClient:
     ) -> None:
         self._policy = retry or RetryPolicy()
         self.stats = TransferStats()
+        # Shared by every storage request: when storage fails, they wait together.
+        self.gate = new_gate("object storage", self._policy)
         self._transport = HttpTransport(
             name="storage",
             body_cap=body_cap or body_cap_mb(DEFAULT_MAX_BODY_MB, "max_body_mb"),
@@ -119,7 +122,8 @@ class StorageClient:
 
         Raises :class:`PresignedUrlExpiredError` when storage refuses the signature (list
         again for a fresh URL), :class:`StorageError` for other refusals, and
-        :class:`RetriesExhaustedError` when transient failures outlast the retry policy.
+        :class:`RetriesExhaustedError` when transient failures outlast the retry policy
+        (:class:`OriginUnavailableError` when storage as a whole is failing).
         """
         # encoded=True: re-quoting would alter the signed query string and void the signature.
         target = URL(url, encoded=True)
@@ -131,6 +135,7 @@ class StorageClient:
             stats=self.stats,
             method="GET",
             url=url,
+            gate=self.gate,
         )
 
     async def _fetch_once(self, url: URL) -> bytes:
@@ -193,6 +198,8 @@ class ApiClient:
         self._policy = retry or RetryPolicy()
         self._page_size = page_size
         self.stats = TransferStats()
+        # Shared by every API request: when the API fails, they wait together.
+        self.gate = new_gate("the API", self._policy)
         if concurrency < 1:
             raise ValueError(f"concurrency must be at least 1, got {concurrency}")
         self.limiter = FixedLimit(concurrency)
@@ -268,6 +275,7 @@ class ApiClient:
             stats=self.stats,
             method="GET",
             url=str(url),
+            gate=self.gate,
         )
         try:
             document = json.loads(response.body)

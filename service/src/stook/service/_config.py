@@ -3,8 +3,8 @@
 [fetch]
 concurrency = 64       # requests in flight, API and storage together
 timeout = 30.0         # seconds per request attempt
-max_attempts = 6       # per request, first try included
-max_throttled_attempts = 30  # per request, for 429 answers (the server pacing us)
+retry_for = 120.0      # seconds each request may spend retrying transient failures
+deadline = 1800.0      # optional: seconds the whole fetch may take (default: no limit)
 page_size = 100        # items asked for per list page (the API's maximum is 100)
 adaptive = false       # find the server's pace below `concurrency` (AIMD on 429s and latency)
 max_body_mb = 256      # largest metrics data or metric download, decompressed
@@ -30,6 +30,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import structlog
+
 from stook.sdk._errors import StookError
 from stook.sdk.aggregations import (
     AggregationConfigError,
@@ -38,6 +40,8 @@ from stook.sdk.aggregations import (
     build_all,
 )
 from stook.service._user_code import add_import_folders
+
+log = structlog.get_logger("stook.config")
 
 
 class ConfigError(StookError):
@@ -52,12 +56,18 @@ MAX_PAGE_SIZE = 100
 class FetchSettings:
     concurrency: int = 64
     timeout: float = 30.0
-    max_attempts: int = 6
-    max_throttled_attempts: int = 30
+    retry_for: float = 120.0
+    deadline: float | None = None
     page_size: int = 100
     adaptive: bool = False
     max_body_mb: float = 256.0
     max_api_body_mb: float = 16.0
+
+
+# Counts of attempts, replaced by the time budget `retry_for`. Still accepted, so that a
+# config written for an older stook keeps working, but ignored with a warning: honouring
+# them would bring back runs lost to a two-second outage.
+_DEPRECATED_FETCH_KEYS = ("max_attempts", "max_throttled_attempts")
 
 
 @dataclass(frozen=True, slots=True)
@@ -210,13 +220,22 @@ def _report(
 
 
 def _fetch(table: Mapping[str, Any], source: str) -> FetchSettings:
+    for key in _DEPRECATED_FETCH_KEYS:
+        if key in table:
+            log.warning(
+                "deprecated setting ignored",
+                setting=f"[fetch] {key}",
+                config=source,
+                hint="retries are bounded by time now: [fetch] retry_for, in seconds",
+            )
+    table = {k: v for k, v in table.items() if k not in _DEPRECATED_FETCH_KEYS}
     _only(
         table,
         {
             "concurrency",
             "timeout",
-            "max_attempts",
-            "max_throttled_attempts",
+            "retry_for",
+            "deadline",
             "page_size",
             "adaptive",
             "max_body_mb",
@@ -247,10 +266,8 @@ def _fetch(table: Mapping[str, Any], source: str) -> FetchSettings:
     return FetchSettings(
         concurrency=positive("concurrency", int, defaults.concurrency),
         timeout=positive("timeout", float, defaults.timeout),
-        max_attempts=positive("max_attempts", int, defaults.max_attempts),
-        max_throttled_attempts=positive(
-            "max_throttled_attempts", int, defaults.max_throttled_attempts
-        ),
+        retry_for=positive("retry_for", float, defaults.retry_for),
+        deadline=positive("deadline", float, 0.0) if "deadline" in table else None,
         page_size=page_size,
         adaptive=adaptive,
         max_body_mb=positive("max_body_mb", float, defaults.max_body_mb),

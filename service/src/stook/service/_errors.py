@@ -25,9 +25,11 @@ __all__ = [
     "BodyTooLargeError",
     "IncompleteBodyError",
     "NotFoundError",
+    "OriginUnavailableError",
     "PresignedUrlExpiredError",
     "RedirectedRefusalError",
     "RetriesExhaustedError",
+    "RetryAfterTooLongError",
     "StorageError",
     "TransportError",
     "body_excerpt",
@@ -194,4 +196,46 @@ class RetriesExhaustedError(ApiError):
         self.last_status = last_status
         super().__init__(
             f"{method} {self.url} failed after {attempts} attempts; last error: {self.last_reason}"
+        )
+
+
+class OriginUnavailableError(ApiError):
+    """An origin (the API, object storage) answered nothing but transient failures for a
+    request's whole retry budget, and no other request either: it is down, not one request
+    unlucky. Fatal for the run, unlike :class:`RetriesExhaustedError`, which costs one job.
+    """
+
+    def __init__(
+        self, *, label: str, origin: str | URL, retry_for: float, last_reason: str
+    ) -> None:
+        self.label = label
+        self.origin = redact_url(origin).rstrip("/")
+        self.retry_for = retry_for
+        self.last_reason = redact_text(last_reason)
+        super().__init__(
+            f"{label} at {self.origin} was unavailable for {retry_for:g} s, the whole "
+            f"[fetch] retry_for budget; last error: {self.last_reason}"
+        )
+
+
+class RetryAfterTooLongError(ApiError):
+    """A server asked to wait (``Retry-After``) longer than stook waits: the request ends now
+    instead of sleeping through its budget for an answer that cannot come in time."""
+
+    def __init__(
+        self,
+        *,
+        method: str,
+        url: str | URL,
+        status: int | None,
+        retry_after: float,
+        limit: str,
+    ) -> None:
+        self.url = redact_url(url)
+        self.status = status
+        self.retry_after = retry_after
+        answered = f"answered HTTP {status}" if status is not None else "answered"
+        super().__init__(
+            f"{method} {self.url} {answered} with Retry-After: {retry_after:g} (seconds), "
+            f"longer than {limit}; not waiting"
         )

@@ -30,6 +30,7 @@ _WORD_CHAR: Final = "A-Za-z0-9"
 _secrets: dict[str, re.Pattern[str]] = {}
 
 _URL_IN_TEXT: Final = re.compile(r"""https?://[^\s'"<>`]+""", re.IGNORECASE)
+_TRAILING_PUNCTUATION: Final = ").,;:!?]}"
 # A short lower-case word after "bearer" ("invalid bearer token") is prose, not a secret;
 # registered secrets are masked whatever their shape (see _mask_secrets).
 _BEARER_IN_TEXT: Final = re.compile(
@@ -60,16 +61,17 @@ def redact_url(url: str | URL) -> str:
     Query parameter names are kept (``?X-Amz-Signature=***``) because they tell a reader which
     kind of URL failed without revealing anything that grants access.
     """
+    # yarl parses the authority lazily: a bad port fails on first access, not in URL().
     try:
         parsed = url if isinstance(url, URL) else URL(url, encoded=True)
+        if not parsed.absolute:
+            # A relative reference has no authority to keep; its path is all that is safe.
+            return parsed.path or "<relative URL>"
+        origin = f"{parsed.scheme}://{parsed.raw_host or ''}"
+        if parsed.explicit_port is not None:
+            origin += f":{parsed.explicit_port}"
     except (ValueError, TypeError):
         return "<unparseable URL>"
-    if not parsed.absolute:
-        # A relative reference has no authority to keep; its path is all that is safe.
-        return parsed.path or "<relative URL>"
-    origin = f"{parsed.scheme}://{parsed.raw_host or ''}"
-    if parsed.explicit_port is not None:
-        origin += f":{parsed.explicit_port}"
     text = origin + parsed.raw_path
     if parsed.query:
         text += "?" + "&".join(
@@ -83,9 +85,16 @@ def redact_text(text: str) -> str:
     """``text`` with registered secrets, bearer tokens and URL query values masked."""
     if not text:
         return text
-    text = _URL_IN_TEXT.sub(lambda match: redact_url(match.group(0)), text)
+    text = _URL_IN_TEXT.sub(_redact_url_in_text, text)
     text = _BEARER_IN_TEXT.sub(lambda match: match.group(1) + MASK, text)
     return _mask_secrets(text)
+
+
+def _redact_url_in_text(match: re.Match[str]) -> str:
+    # Prose closes a URL with punctuation ("(see http://host:4000).") that is not part of it.
+    found = match.group(0)
+    url = found.rstrip(_TRAILING_PUNCTUATION)
+    return redact_url(url) + found[len(url) :]
 
 
 def _mask_secrets(text: str) -> str:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import asyncio
 import difflib
 from dataclasses import dataclass
 from pathlib import Path
@@ -19,6 +20,7 @@ from stook.sdk.aggregations import (
 )
 from stook.service._batch import OUTPUT_NAME, write_missing_jobs
 from stook.service._config import ConfigError, StookConfig
+from stook.service._deadline import fetch_deadline
 from stook.service._inputs import ReportInputs
 from stook.service._progress import NoProgress, Progress
 from stook.service._report_fetch import ReportFetcher, ReportOutcome
@@ -75,13 +77,17 @@ async def run_report(
     retry: RetryPolicy | None = None,
     progress: Progress | None = None,
 ) -> ReportResult:
+    started = asyncio.get_running_loop().time()
     aggregations = report_aggregations_for(config, str(inputs.access.project_id))
     needs = Needs()
     for aggregation in aggregations:
         needs = needs | aggregation.needs()
     settings = config.fetch
+    folded = 0
 
     def fold(record: BatchRecord) -> None:
+        nonlocal folded
+        folded += 1
         for aggregation in aggregations:
             aggregation.update(record)
 
@@ -102,8 +108,13 @@ async def run_report(
             workers=settings.concurrency,
             on_progress=report,
         )
+
+        def how_far() -> str:
+            return f"{folded:,} of {fetcher.outcome.batches:,} batches"
+
         try:
-            outcome = await fetcher.run(fold)
+            async with fetch_deadline(settings.deadline, started=started, progress=how_far):
+                outcome = await fetcher.run(fold)
         finally:
             shown.close()
         traffic = Traffic.of(api)

@@ -24,7 +24,7 @@ import structlog
 from stook.sdk.aggregations import UNKNOWN_STATUS, BatchRecord, JobSummary, Needs, Scalar
 from stook.service._batch_fetch import MissingJob
 from stook.service._client import ApiClient
-from stook.service._errors import ApiError, AuthError, NotFoundError
+from stook.service._errors import ApiError, AuthError, NotFoundError, OriginUnavailableError
 from stook.service._models import Batch, Job, JobMetric, Report
 from stook.service._scalars import is_scalar, read_scalars
 
@@ -204,7 +204,7 @@ class ReportFetcher:
                     self._api.list_job_metrics(self._project_id, pending.batch.batch_id, job.job_id)
                 )
                 scalars = await self._job_scalars(pending.batch, job, metrics)
-            except AuthError:
+            except (AuthError, OriginUnavailableError):
                 raise
             except ApiError as exc:
                 self.outcome.missing.append(

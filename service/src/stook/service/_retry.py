@@ -3,12 +3,21 @@
 What is transient: 5xx and 429 answers (honouring ``Retry-After``), connection resets and
 refusals, timeouts, and bodies cut short. What is not: every other 4xx — asking again with
 the same token or ID gets the same answer — and anything that is not a transport problem.
+
+How long: each request has a budget in time, ``retry_for`` (120 s by default), not a count
+of attempts, so an API that is down for a minute costs the run a minute, not the run. The
+pauses between attempts grow exponentially with full jitter from ``initial_backoff`` up to
+``max_backoff``, and are cut short rather than sleep past the budget. A ``Retry-After`` is
+honoured up to ``max_retry_after``; a longer one, or one longer than what is left of the
+budget, ends the request at once with an error naming it. When an origin fails as a whole,
+its :class:`~stook.service._gate.OriginGate` makes the requests wait together.
 """
 
 from __future__ import annotations
 
 import asyncio
 import email.utils
+import enum
 import time
 from collections import Counter
 from collections.abc import Awaitable, Callable
@@ -25,13 +34,17 @@ from tenacity import (
 )
 from tenacity.stop import stop_base
 from tenacity.wait import wait_base
+from yarl import URL
 
 from stook.service._errors import (
     ApiStatusError,
+    OriginUnavailableError,
     RetriesExhaustedError,
+    RetryAfterTooLongError,
     StorageError,
     TransportError,
 )
+from stook.service._gate import OriginGate, Passage
 from stook.service._logging import get_logger
 from stook.service._redact import redact_text, redact_url
 
@@ -42,7 +55,7 @@ __all__ = [
     "describe_failure",
     "is_retryable",
     "is_transient_transport_failure",
-    "new_retrying",
+    "new_gate",
     "parse_retry_after",
 ]
 
@@ -56,40 +69,65 @@ RETRYABLE_STATUSES: Final = frozenset({THROTTLED_STATUS}) | frozenset(range(500,
 
 @dataclass(frozen=True, slots=True)
 class RetryPolicy:
-    """How often and how patiently to retry one request.
+    """How long and how patiently to retry one request.
 
-    ``backoff`` and ``sleep`` exist so tests (and the emulator) can run without waiting:
-    ``RetryPolicy(backoff=tenacity.wait_none())`` keeps every other rule but never pauses,
-    and a recording ``sleep`` shows exactly which pauses were asked for.
+    ``backoff``, ``sleep`` and ``clock`` exist so tests (and the emulator) can run without
+    waiting: ``RetryPolicy(backoff=tenacity.wait_none())`` keeps every other rule but never
+    pauses, a recording ``sleep`` shows exactly which pauses were asked for, and a ``clock``
+    that advances with it spends the time budget without the time passing.
+    ``max_attempts`` adds a cap on attempts for such tests; runs are bounded by time alone.
     """
 
-    max_attempts: int = 6
-    # A 429 is the server pacing us, not failing: it spends this larger allowance instead,
-    # so that a client over a strict rate limit slows down rather than gives up.
-    max_throttled_attempts: int = 30
-    initial_backoff: float = 0.05
-    max_backoff: float = 5.0
-    # A server may ask for a long pause; beyond this we would rather spend an attempt.
-    max_retry_after: float = 30.0
+    retry_for: float = 120.0
+    initial_backoff: float = 0.2
+    max_backoff: float = 10.0
+    # A server may ask for a long pause; beyond this the request ends with an error naming
+    # it, rather than sleep away its budget (a `Retry-After: 3600` cannot be waited out).
+    max_retry_after: float = 60.0
     request_timeout: float = 30.0
+    max_attempts: int | None = None
     backoff: wait_base | None = None
     sleep: Callable[[float], Awaitable[None]] = asyncio.sleep
+    clock: Callable[[], float] = time.monotonic
 
     def __post_init__(self) -> None:
-        if self.max_attempts < 1:
+        if self.retry_for <= 0:
+            raise ValueError(f"retry_for must be positive, got {self.retry_for}")
+        if self.max_attempts is not None and self.max_attempts < 1:
             raise ValueError(f"max_attempts must be at least 1, got {self.max_attempts}")
-        if self.max_throttled_attempts < 1:
-            raise ValueError(
-                f"max_throttled_attempts must be at least 1, got {self.max_throttled_attempts}"
-            )
         if self.request_timeout <= 0:
             raise ValueError(f"request_timeout must be positive, got {self.request_timeout}")
+        if self.max_retry_after < 0:
+            raise ValueError(f"max_retry_after cannot be negative, got {self.max_retry_after}")
 
     def backoff_wait(self) -> wait_base:
         """The pause before a retry when the server did not name one: full-jitter exponential."""
         if self.backoff is not None:
             return self.backoff
         return wait_random_exponential(multiplier=self.initial_backoff, max=self.max_backoff)
+
+    def pause(self, attempt: int) -> float:
+        """The backoff after the `attempt`-th failure, outside a tenacity loop (the gate's)."""
+        state = RetryCallState(AsyncRetrying(), None, (), {})
+        state.attempt_number = attempt
+        return self.backoff_wait()(state)
+
+
+# The longest pause between two probes of a closed gate. Shorter than a request's own
+# backoff cap: one probe every two seconds costs a failing origin nothing, and the run
+# resumes within two seconds of it answering again instead of ten.
+MAX_PROBE_INTERVAL: Final = 2.0
+
+
+def new_gate(label: str, policy: RetryPolicy) -> OriginGate:
+    """The gate of one origin ("the API", "object storage"), paced by `policy`."""
+    return OriginGate(
+        label,
+        pause=policy.pause,
+        max_pause=min(policy.max_backoff, MAX_PROBE_INTERVAL),
+        clock=policy.clock,
+        sleep=policy.sleep,
+    )
 
 
 @dataclass(slots=True)
@@ -165,46 +203,101 @@ def parse_retry_after(value: str | None, *, now: float | None = None) -> float |
     return max(0.0, moment.timestamp() - current)
 
 
-class _WaitRetryAfterOrBackoff(wait_base):
-    """Wait as long as the server asked (capped), else fall back to the backoff strategy."""
-
-    def __init__(self, backoff: wait_base, cap: float) -> None:
-        self.backoff = backoff
-        self.cap = cap
-
-    def __call__(self, retry_state: RetryCallState) -> float:
-        outcome = retry_state.outcome
-        exc = outcome.exception() if outcome is not None else None
-        retry_after = getattr(exc, "retry_after", None)
-        if isinstance(retry_after, int | float):
-            return min(float(retry_after), self.cap)
-        return self.backoff(retry_state)
+def trips_gate(exc: BaseException) -> bool:
+    """Whether a failure says the origin is failing (5xx, no answer), not pacing us (429)."""
+    if isinstance(exc, ApiStatusError | StorageError):
+        return exc.status is not None and exc.status >= 500 and exc.status in RETRYABLE_STATUSES
+    if isinstance(exc, TransportError):
+        return exc.retryable
+    return is_transient_transport_failure(exc)
 
 
-class _StopAfterAttempts(stop_base):
-    """Stop after `attempts` failed attempts, where a 429 answer counts against `throttled`.
+def _is_answer(exc: BaseException) -> bool:
+    """An HTTP status that shows the origin is there, though it refused (404, 429, 403...)."""
+    return isinstance(exc, ApiStatusError | StorageError) and exc.status is not None
 
-    Stateful, which is safe because every request gets its own AsyncRetrying.
+
+def _retry_after(exc: BaseException | None) -> float | None:
+    value = getattr(exc, "retry_after", None)
+    return float(value) if isinstance(value, int | float) else None
+
+
+class _GiveUp(enum.Enum):
+    ATTEMPTS = "attempts"
+    BUDGET = "budget"
+    RETRY_AFTER_CAP = "Retry-After above the cap"
+    RETRY_AFTER_BUDGET = "Retry-After beyond the budget"
+
+
+class _GateTimeoutError(Exception):
+    """The request's budget ran out while it waited at its origin's closed gate."""
+
+
+class _Budget:
+    """One request's time budget: its deadline, and why it stopped. The request's identity
+    for its origin's gate, too."""
+
+    def __init__(self, policy: RetryPolicy, started: float, gate: OriginGate | None) -> None:
+        self.policy = policy
+        self.gate = gate
+        self.deadline = started + policy.retry_for
+        self.reason: _GiveUp | None = None
+        self.left_at_stop = 0.0
+
+    def left(self) -> float:
+        return self.deadline - self.policy.clock()
+
+
+class _Wait(wait_base):
+    """The pause before the next attempt, never past the budget.
+
+    A pause the server asked for comes first. Otherwise, while the origin's gate is closed,
+    the request does not back off on its own: it waits at the gate (see run_attempt), so
+    that it resumes with the others.
     """
 
-    def __init__(self, attempts: int, throttled: int) -> None:
-        self._attempts = attempts
-        self._throttled = throttled
-        self._failures = 0
-        self._throttles = 0
+    def __init__(self, budget: _Budget) -> None:
+        self.budget = budget
+        self.backoff = budget.policy.backoff_wait()
+
+    def __call__(self, retry_state: RetryCallState) -> float:
+        budget = self.budget
+        left = max(0.0, budget.left())
+        outcome = retry_state.outcome
+        retry_after = _retry_after(outcome.exception() if outcome is not None else None)
+        if retry_after is not None:
+            return min(retry_after, budget.policy.max_retry_after, left)
+        if budget.gate is not None and not budget.gate.is_open:
+            return 0.0
+        return min(self.backoff(retry_state), left)
+
+
+class _Stop(stop_base):
+    """Stop when the budget is spent, or a Retry-After cannot be honoured within it."""
+
+    def __init__(self, budget: _Budget) -> None:
+        self.budget = budget
 
     def __call__(self, retry_state: RetryCallState) -> bool:
+        budget = self.budget
+        policy = budget.policy
         outcome = retry_state.outcome
-        failure = outcome.exception() if outcome is not None else None
-        if getattr(failure, "status", None) == THROTTLED_STATUS:
-            self._throttles += 1
-        else:
-            self._failures += 1
-        return self._failures >= self._attempts or self._throttles >= self._throttled
+        retry_after = _retry_after(outcome.exception() if outcome is not None else None)
+        left = budget.left()
+        budget.left_at_stop = left
+        if policy.max_attempts is not None and retry_state.attempt_number >= policy.max_attempts:
+            budget.reason = _GiveUp.ATTEMPTS
+        elif retry_after is not None and retry_after > policy.max_retry_after:
+            budget.reason = _GiveUp.RETRY_AFTER_CAP
+        elif left <= 0:
+            budget.reason = _GiveUp.BUDGET
+        elif retry_after is not None and retry_after > left:
+            budget.reason = _GiveUp.RETRY_AFTER_BUDGET
+        return budget.reason is not None
 
 
-def new_retrying(
-    policy: RetryPolicy,
+def _new_retrying(
+    budget: _Budget,
     *,
     stats: TransferStats,
     method: str,
@@ -216,6 +309,7 @@ def new_retrying(
     concurrent tasks would otherwise share.
     """
     redacted = redact_url(url)
+    policy = budget.policy
 
     def before_sleep(retry_state: RetryCallState) -> None:
         outcome = retry_state.outcome
@@ -223,26 +317,51 @@ def new_retrying(
         reason = describe_failure(exc) if exc is not None else "unknown"
         stats.retries += 1
         stats.retry_reasons[reason.split(":", 1)[0]] += 1
-        wait = retry_state.upcoming_sleep
         _log.info(
             "retrying request",
             method=method,
             url=redacted,
             reason=reason,
             attempt=retry_state.attempt_number,
-            max_attempts=policy.max_attempts,
-            max_throttled_attempts=policy.max_throttled_attempts,
-            wait_s=round(wait, 3),
+            wait_s=round(retry_state.upcoming_sleep, 3),
+            left_s=round(max(0.0, budget.left()), 3),
+            retry_for_s=policy.retry_for,
         )
 
     return AsyncRetrying(
-        stop=_StopAfterAttempts(policy.max_attempts, policy.max_throttled_attempts),
-        wait=_WaitRetryAfterOrBackoff(policy.backoff_wait(), policy.max_retry_after),
+        stop=_Stop(budget),
+        wait=_Wait(budget),
         retry=retry_if_exception(is_retryable),
         before_sleep=before_sleep,
         sleep=policy.sleep,
         reraise=False,
     )
+
+
+def _observe(
+    gate: OriginGate,
+    exc: BaseException,
+    url: str,
+    policy: RetryPolicy,
+    *,
+    request: object,
+    sent_in: int,
+    probe: bool,
+) -> None:
+    """Tell the origin's gate what a failed attempt of `request` says about the origin."""
+    if trips_gate(exc):
+        retry_after = _retry_after(exc)
+        if retry_after is not None and retry_after > policy.max_retry_after:
+            retry_after = None  # not honoured: that request ends instead (see _Stop)
+        gate.failed(
+            request=request,
+            reason=describe_failure(exc),
+            origin=str(URL(url, encoded=True).origin()),
+            retry_after=retry_after,
+            probe=probe,
+        )
+    elif _is_answer(exc):
+        gate.answered(sent_in)
 
 
 async def call_with_retries(
@@ -252,24 +371,44 @@ async def call_with_retries(
     stats: TransferStats,
     method: str,
     url: str,
+    gate: OriginGate | None = None,
 ) -> _T:
-    """Await ``attempt()`` until it succeeds, fails for good, or the policy gives up.
+    """Await ``attempt()`` until it succeeds, fails for good, or its time budget is spent.
 
-    A non-transient error propagates unchanged after its first occurrence; running out of
-    attempts raises :class:`RetriesExhaustedError` naming the last transient failure.
+    A non-transient error propagates unchanged after its first occurrence. Running out of
+    budget raises :class:`OriginUnavailableError` when the origin's `gate` is closed (the
+    origin is failing, not just this request), else :class:`RetriesExhaustedError` naming
+    the last transient failure; a ``Retry-After`` that cannot be honoured raises
+    :class:`RetryAfterTooLongError` at once.
     """
+    budget: _Budget | None = None
+    first_failure: Exception | None = None
     # The first attempt runs outside tenacity: almost every request succeeds at once, and
     # building and driving an AsyncRetrying cost a fifth of the client's CPU per request
     # (measured at 0 ms latency). A failure is handed to tenacity as its own first attempt
-    # (replayed below), so counting, waits, logging and the stop rule are unchanged.
-    try:
-        return await attempt()
-    except Exception as exc:
-        if not is_retryable(exc):
-            raise
-        first_failure: Exception | None = exc
+    # (replayed below), so counting, waits, logging and the stop rule are unchanged. At a
+    # closed gate, the first attempt waits there inside the loop instead.
+    if gate is None or gate.is_open:
+        sent_in = 0 if gate is None else gate.closures
+        try:
+            result = await attempt()
+        except Exception as exc:
+            # Made only now, and the budget counted from here: most requests never need
+            # one, and the clock is not free.
+            budget = _Budget(policy, policy.clock(), gate)
+            if gate is not None:
+                _observe(gate, exc, url, policy, request=budget, sent_in=sent_in, probe=False)
+            if not is_retryable(exc):
+                raise
+            first_failure = exc
+        else:
+            if gate is not None:
+                gate.answered(sent_in)
+            return result
 
-    retrying = new_retrying(policy, stats=stats, method=method, url=url)
+    if budget is None:
+        budget = _Budget(policy, policy.clock(), gate)
+    retrying = _new_retrying(budget, stats=stats, method=method, url=url)
 
     # tenacity awaits only what it recognises as a coroutine function, not any callable
     # returning an awaitable (a lambda, a bound partial).
@@ -278,17 +417,95 @@ async def call_with_retries(
         if first_failure is not None:
             failure, first_failure = first_failure, None
             raise failure
-        return await attempt()
+        if gate is None or gate.is_open:
+            passage = Passage.OPEN
+        else:
+            passage = await gate.enter(budget.deadline)
+            if passage is Passage.TIMED_OUT:
+                raise _GateTimeoutError
+        sent_in = 0 if gate is None else gate.closures
+        try:
+            result = await attempt()
+        except Exception as exc:
+            if gate is not None:
+                _observe(
+                    gate,
+                    exc,
+                    url,
+                    policy,
+                    request=budget,
+                    sent_in=sent_in,
+                    probe=passage is Passage.PROBE,
+                )
+            raise
+        else:
+            if gate is not None:
+                gate.answered(sent_in)
+            return result
+        finally:
+            if gate is not None and passage is Passage.PROBE:
+                gate.probe_finished()
 
     try:
         return await retrying(run_attempt)
+    except _GateTimeoutError:
+        budget.reason = _GiveUp.BUDGET
+        last: BaseException | None = None
+        # The attempt that timed out at the gate was never sent.
+        attempts = max(int(retrying.statistics.get("attempt_number", 1)) - 1, 0)
     except RetryError as exhausted:
         last = exhausted.last_attempt.exception()
-        last_status = getattr(last, "status", None)
-        raise RetriesExhaustedError(
+        attempts = exhausted.last_attempt.attempt_number
+    raise _give_up(budget, last, attempts, method=method, url=url) from None
+
+
+def _give_up(
+    budget: _Budget, last: BaseException | None, attempts: int, *, method: str, url: str
+) -> Exception:
+    """The error that ends a request whose retries stopped (see :class:`_Stop`)."""
+    policy = budget.policy
+    gate = budget.gate
+    retry_after = _retry_after(last)
+    status = getattr(last, "status", None)
+    status = status if isinstance(status, int) else None
+    if budget.reason is _GiveUp.RETRY_AFTER_CAP and retry_after is not None:
+        return RetryAfterTooLongError(
             method=method,
             url=url,
-            attempts=exhausted.last_attempt.attempt_number,
-            last_reason=describe_failure(last) if last is not None else "unknown",
-            last_status=last_status if isinstance(last_status, int) else None,
-        ) from None
+            status=status,
+            retry_after=retry_after,
+            limit=f"the {policy.max_retry_after:g} s stook waits at most",
+        )
+    if budget.reason is _GiveUp.RETRY_AFTER_BUDGET and retry_after is not None:
+        return RetryAfterTooLongError(
+            method=method,
+            url=url,
+            status=status,
+            retry_after=retry_after,
+            limit=(
+                f"the {max(budget.left_at_stop, 0.0):.1f} s left of its "
+                f"{policy.retry_for:g} s [fetch] retry_for"
+            ),
+        )
+    if last is not None:
+        reason = describe_failure(last)
+    elif gate is not None and gate.last_failure:
+        reason = gate.last_failure
+    else:
+        reason = "unknown"
+    if budget.reason is _GiveUp.BUDGET and gate is not None and not gate.is_open:
+        # Requests of many kinds fail and none is answered: the origin is down, and every
+        # other request would wait out its budget the same way.
+        return OriginUnavailableError(
+            label=gate.label,
+            origin=gate.origin or str(URL(url, encoded=True).origin()),
+            retry_for=policy.retry_for,
+            last_reason=reason,
+        )
+    return RetriesExhaustedError(
+        method=method,
+        url=url,
+        attempts=attempts,
+        last_reason=reason,
+        last_status=status,
+    )

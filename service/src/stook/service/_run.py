@@ -6,8 +6,9 @@ Exit codes (also in the README):
   2  bad usage, config or inputs (malformed JSON, missing key, non-UUID ID, bad TOML,
      a metric or data name in the config that no job has, a misspelt config file name),
      or an outputs folder that cannot be written (checked before the first request)
-  3  the API or storage failed after retries, refused the token, or too many jobs
-     stayed unavailable; an answer over its cap; a listing that does not end
+  3  the API or storage failed for [fetch] retry_for or asked to wait longer than
+     stook waits, refused the token, too many jobs stayed unavailable, or the
+     [fetch] deadline was reached; an answer over its cap; a listing that does not end
   4  invalid metrics data: a downloaded item could not be decoded, or the output
      would not validate
   5  the output could not be written (disk full, file-size limit, I/O error)

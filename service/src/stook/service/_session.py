@@ -17,11 +17,7 @@ async def open_api(
     access: ApiAccess, settings: FetchSettings, retry: RetryPolicy | None = None
 ) -> AsyncIterator[ApiClient]:
     """An ApiClient configured from `[fetch]`; `retry` overrides its retry policy (tests)."""
-    policy = retry or RetryPolicy(
-        max_attempts=settings.max_attempts,
-        max_throttled_attempts=settings.max_throttled_attempts,
-        request_timeout=settings.timeout,
-    )
+    policy = retry or RetryPolicy(retry_for=settings.retry_for, request_timeout=settings.timeout)
     async with ApiClient(
         access.api_url,
         access.token,

@@ -13,7 +13,7 @@ deterministic by seed; latency, transient faults and rate limits are configurabl
         truth = emu.dataset.scalar_values(emu.batch_id)
 """
 
-from stook.service.emulator._config import EmulatorConfig, Origin
+from stook.service.emulator._config import EmulatorConfig, Origin, Outage
 from stook.service.emulator._dataset import (
     BatchKind,
     BatchSpec,
@@ -55,6 +55,7 @@ __all__ = [
     "JobSpec",
     "MetricsOutput",
     "Origin",
+    "Outage",
     "ReportSpec",
     "StoredData",
     "StoredMetric",

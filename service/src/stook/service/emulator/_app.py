@@ -16,7 +16,14 @@ from aiohttp import web
 from stook.service.emulator import _json
 from stook.service.emulator._config import EmulatorConfig, Origin
 from stook.service.emulator._dataset import BatchKind, Dataset, MetricsOutput
-from stook.service.emulator._faults import Fault, FaultInjector, FaultKind, Latency, TokenBucket
+from stook.service.emulator._faults import (
+    Fault,
+    FaultInjector,
+    FaultKind,
+    Latency,
+    OutageSchedule,
+    TokenBucket,
+)
 from stook.service.emulator._paging import PagingError, paginate
 from stook.service.emulator._quirks import SpecQuirks
 from stook.service.emulator._search import SearchError, parse_search
@@ -45,6 +52,7 @@ class EmulatorState:
         self.faults = FaultInjector(config)
         self.latency = Latency(config)
         self.quirks = SpecQuirks(config)
+        self.outages = OutageSchedule(config.outages, time.monotonic())
         self.clock_offset = 0.0
         self.storage_url = ""  # known once the storage site is bound
         # The secret only has to be unguessable by clients, not secret across runs.
@@ -123,6 +131,14 @@ async def _admit(state: EmulatorState, request: web.Request, origin: Origin) -> 
     stats = state.stats
     stats.requests[origin] += 1
     stats.endpoints[f"{origin}:{_route_name(request)}"] += 1
+    now = time.monotonic()
+    window = state.outages.refuses(origin, stats.requests[origin] - 1, now)
+    if window is not None:
+        # Before the latency: a load balancer with nothing behind it answers at once.
+        stats.outage_refusals[origin] += 1
+        if window not in stats.outage_windows:
+            stats.outage_windows.append(window)
+        return _error(503, "service unavailable (emulated outage)")
     delay = state.latency.next_delay()
     if delay > 0:
         await asyncio.sleep(delay)

@@ -11,6 +11,30 @@ ORIGINS: tuple[Origin, ...] = ("api", "storage")
 
 
 @dataclass(frozen=True, slots=True)
+class Outage:
+    """A window in which one origin answers 503 to everything, as a load balancer does when
+    the service behind it is down.
+
+    It begins with the first request to `origin` that arrives once `after_requests`
+    requests to it have been answered and `after_s` seconds have passed since the emulator
+    started, and lasts `duration_s` seconds of wall time.
+    """
+
+    origin: Origin
+    duration_s: float
+    after_requests: int = 0
+    after_s: float = 0.0
+
+    def __post_init__(self) -> None:
+        if self.origin not in ORIGINS:
+            raise ValueError(f"an outage's origin must be one of {ORIGINS}, got {self.origin!r}")
+        if self.duration_s <= 0:
+            raise ValueError("an outage's duration_s must be positive")
+        if self.after_requests < 0 or self.after_s < 0:
+            raise ValueError("an outage's after_requests and after_s cannot be negative")
+
+
+@dataclass(frozen=True, slots=True)
 class EmulatorConfig:
     """What the emulated ReSim serves and how badly it behaves.
 
@@ -67,6 +91,8 @@ class EmulatorConfig:
     # Indices of main-batch jobs whose metrics and metrics-data listings always answer 500:
     # permanent, unlike the faults above, so a client exhausts its retries on them.
     broken_jobs: tuple[int, ...] = ()
+    # Whole-origin outages (503 to everything for a while); see Outage.
+    outages: tuple[Outage, ...] = ()
 
     # ---- rate limits (token buckets; None: unlimited) ----
     rate_limit_rps: float | None = None  # API origin
@@ -126,6 +152,10 @@ class EmulatorConfig:
         if unknown:
             raise ValueError(f"unknown emulator settings: {sorted(unknown)}")
         clean = dict(values)
+        if "outages" in clean:
+            clean["outages"] = tuple(
+                o if isinstance(o, Outage) else Outage(**o) for o in clean["outages"]
+            )
         for name in (
             "fault_origins",
             "broken_jobs",

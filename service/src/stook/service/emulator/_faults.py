@@ -1,4 +1,4 @@
-"""Latency, transient faults and rate limits, all decided from the seed."""
+"""Latency, transient faults, outages and rate limits; faults are decided from the seed."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import math
 import random
 from dataclasses import dataclass
 
-from stook.service.emulator._config import EmulatorConfig, Origin
+from stook.service.emulator._config import EmulatorConfig, Origin, Outage
 
 
 class FaultKind(enum.StrEnum):
@@ -79,6 +79,30 @@ def _cumulative(*parts: tuple[FaultKind, float]) -> list[tuple[FaultKind, float]
             total += fraction
             out.append((kind, total))
     return out
+
+
+class OutageSchedule:
+    """Which requests fall into one of the configured outages (wall time, not seeded)."""
+
+    def __init__(self, outages: tuple[Outage, ...], now: float) -> None:
+        self._outages = outages
+        self._started = now
+        self.began: list[float | None] = [None] * len(outages)
+
+    def refuses(self, origin: Origin, answered: int, now: float) -> tuple[str, float, float] | None:
+        """The outage window (origin, start, end) this request to `origin` falls into, if
+        any; `answered` requests to it came before."""
+        for index, outage in enumerate(self._outages):
+            if outage.origin != origin:
+                continue
+            began = self.began[index]
+            if began is None:
+                if answered < outage.after_requests or now - self._started < outage.after_s:
+                    continue
+                began = self.began[index] = now
+            if now < began + outage.duration_s:
+                return (origin, began, began + outage.duration_s)
+        return None
 
 
 class TokenBucket:

@@ -23,6 +23,9 @@ class EmulatorStats:
     expired_urls: int = 0
     bad_signatures: int = 0
     broken_job_answers: int = 0  # 500s answered for EmulatorConfig.broken_jobs
+    outage_refusals: Counter[str] = field(default_factory=Counter)  # 503s of outages, per origin
+    # Each outage that began: (origin, start, end), in time.monotonic() seconds.
+    outage_windows: list[tuple[str, float, float]] = field(default_factory=list)
 
     def fault_count(self, kind: str | None = None, origin: str | None = None) -> int:
         total = 0
@@ -54,6 +57,8 @@ class EmulatorStats:
             "expired_urls": self.expired_urls,
             "bad_signatures": self.bad_signatures,
             "broken_job_answers": self.broken_job_answers,
+            "outage_refusals": dict(self.outage_refusals),
+            "outage_windows": [list(w) for w in self.outage_windows],
         }
 
     @classmethod
@@ -70,4 +75,8 @@ class EmulatorStats:
             expired_urls=int(values.get("expired_urls", 0)),
             bad_signatures=int(values.get("bad_signatures", 0)),
             broken_job_answers=int(values.get("broken_job_answers", 0)),
+            outage_refusals=Counter(values.get("outage_refusals", {})),
+            outage_windows=[
+                (str(o), float(a), float(b)) for o, a, b in values.get("outage_windows", [])
+            ],
         )
