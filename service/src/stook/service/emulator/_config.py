@@ -57,6 +57,12 @@ class EmulatorConfig:
     # Indices of main-batch jobs whose metrics and metrics-data listings always answer 500:
     # permanent, unlike the faults above, so a client exhausts its retries on them.
     broken_jobs: tuple[int, ...] = ()
+    # Indices of main-batch jobs whose metrics-data blobs are garbage (not a MetricsData
+    # message), every time: a client that downloads one must fail with invalid data.
+    corrupt_data_jobs: tuple[int, ...] = ()
+    # After this many API requests the token counts as expired: every later API request is
+    # answered 401, as when a platform token runs out mid-run. None: it never expires.
+    revoke_token_after_requests: int | None = None
 
     # ---- rate limits (token buckets; None: unlimited) ----
     rate_limit_rps: float | None = None  # API origin
@@ -88,8 +94,11 @@ class EmulatorConfig:
                 raise ValueError("a rate limit must be positive (or None)")
         if any(o not in ORIGINS for o in self.fault_origins):
             raise ValueError(f"fault_origins must be drawn from {ORIGINS}")
+        if self.revoke_token_after_requests is not None and self.revoke_token_after_requests < 0:
+            raise ValueError("revoke_token_after_requests cannot be negative")
         for name in (
             "broken_jobs",
+            "corrupt_data_jobs",
             "report_batches_without_metrics",
             "report_partial_metric_batches",
         ):
@@ -117,6 +126,7 @@ class EmulatorConfig:
         for name in (
             "fault_origins",
             "broken_jobs",
+            "corrupt_data_jobs",
             "report_batches_without_metrics",
             "report_partial_metric_batches",
         ):
