@@ -23,13 +23,14 @@ from pathlib import Path
 
 import structlog
 
+from stook.sdk._atomic import remove_stale_temp_files
 from stook.sdk._enums import MetricStatus
 from stook.sdk._errors import InvalidMetricsError, ReadError, StookError, WriterError
 from stook.service._batch import OUTPUT_NAME, run_batch
 from stook.service._config import ConfigError, StookConfig, load
 from stook.service._errors import ApiError, AuthError
 from stook.service._inputs import BatchInputs, InputsError, ReportInputs, TestInputs, detect
-from stook.service._progress import for_stream
+from stook.service._progress import Progress, for_stream
 from stook.service._report import run_report
 from stook.service._session import Traffic
 from stook.service._test_mode import UserFunctionError, run_test_mode
@@ -102,11 +103,16 @@ def resolve_options(
     )
 
 
-async def run(options: RunOptions) -> Path:
-    """Run the detected mode; raises the typed errors that `exit_code_for` maps."""
+async def run(options: RunOptions, *, progress: Progress | None = None) -> Path:
+    """Run the detected mode; raises the typed errors that `exit_code_for` maps.
+
+    `progress` is shown the jobs done and listed (default: a terminal line on a TTY).
+    """
     config: StookConfig = load(options.config)
     mode = detect(options.inputs, project_id=options.project_id)
     output = options.outputs / OUTPUT_NAME
+    _remove_stale_temp_files(output)
+    shown = progress or for_stream(label="jobs")
     match mode:
         case ReportInputs():
             log.info("report mode", report_id=str(mode.report_id), config=config.source)
@@ -115,7 +121,7 @@ async def run(options: RunOptions) -> Path:
                 config,
                 options.outputs,
                 allow_missing_jobs=options.allow_missing_jobs,
-                progress=for_stream(label="jobs"),
+                progress=shown,
             )
             _log_written(
                 "report metrics written",
@@ -136,7 +142,7 @@ async def run(options: RunOptions) -> Path:
                 config,
                 options.outputs,
                 allow_missing_jobs=options.allow_missing_jobs,
-                progress=for_stream(label="jobs"),
+                progress=shown,
             )
             _log_written(
                 "batch metrics written",
@@ -152,6 +158,13 @@ async def run(options: RunOptions) -> Path:
         case TestInputs():
             log.info("test mode", config=config.source)
             return await run_test_mode(mode, config, output)
+
+
+def _remove_stale_temp_files(output: Path) -> None:
+    """Temporary files that an earlier, killed run's write left beside the output."""
+    removed = remove_stale_temp_files(output)
+    if removed:
+        log.info("removed stale temporary files", files=[str(p) for p in removed])
 
 
 def _log_written(
