@@ -9,6 +9,7 @@ Exit codes (also in the README):
      stayed unavailable
   4  invalid metrics data: a downloaded item could not be decoded, or the output
      would not validate
+  130, 143  interrupted by SIGINT or SIGTERM (stook.service._signals)
 
 Whatever the failure, metrics.binproto is written atomically or not at all.
 """

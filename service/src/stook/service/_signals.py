@@ -26,21 +26,22 @@ from __future__ import annotations
 import contextlib
 import os
 import signal
-import threading
-from collections.abc import Callable, Coroutine, Iterator
-from types import FrameType
-from typing import TYPE_CHECKING, Any, Final, TypeVar
 
+# typing.TYPE_CHECKING without importing typing (see cli.py).
+TYPE_CHECKING = False
 if TYPE_CHECKING:
     import asyncio
+    from collections.abc import Callable, Coroutine, Iterator
+    from types import FrameType
+    from typing import Any, Final, TypeVar
+
+    _T = TypeVar("_T")
 
 __all__ = ["GRACE_S", "SIGNALS", "Interrupted", "handled", "install", "run"]
 
 SIGNALS: Final = (signal.SIGINT, signal.SIGTERM)
 # Seconds from the first signal to a forced exit, inside the 2 s that stook promises.
 GRACE_S: Final = 1.5
-
-_T = TypeVar("_T")
 
 
 class Interrupted(BaseException):
@@ -98,6 +99,8 @@ class _Guard:
         loop.call_soon_threadsafe(task.cancel)
 
     def _start_watchdog(self, signum: int) -> None:
+        import threading
+
         timer = threading.Timer(GRACE_S, self._give_up, args=(signum,))
         timer.daemon = True
         timer.start()
@@ -137,6 +140,8 @@ def handled(*, on_give_up: Callable[[Interrupted], object] | None = None) -> Ite
 
     Outside the main thread signals cannot be handled (nor arrive); then this does nothing.
     """
+    import threading
+
     if threading.current_thread() is not threading.main_thread():
         yield
         return

@@ -7,20 +7,21 @@ during those still ends in one line and not a traceback.
 
 from __future__ import annotations
 
-import argparse
-import json
 import os
 import sys
-import threading
-import traceback
-from collections.abc import Sequence
-from datetime import UTC, datetime
-from pathlib import Path
-from typing import Any
 
 from stook.service import _signals
-from stook.service._progress import Tally
 from stook.service._signals import Interrupted
+
+# typing.TYPE_CHECKING without importing typing, which alone costs milliseconds before the
+# handlers are in place; mypy and ruff read this constant the same way.
+TYPE_CHECKING = False
+if TYPE_CHECKING:
+    import argparse
+    from collections.abc import Sequence
+    from typing import Any
+
+    from stook.service._progress import Tally
 
 
 def _add_logging(parser: argparse.ArgumentParser, *, default_level: str = "info") -> None:
@@ -39,6 +40,9 @@ def _add_logging(parser: argparse.ArgumentParser, *, default_level: str = "info"
 
 
 def build_parser() -> argparse.ArgumentParser:
+    import argparse
+    from pathlib import Path
+
     parser = argparse.ArgumentParser(
         prog="stook",
         description="Fast aggregation of ReSim test, batch and report metrics.",
@@ -95,12 +99,13 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: Sequence[str] | None = None) -> None:
-    voice = Voice()
     _signals.install()  # first: a signal from here on ends in one line, imports included
+    voice: Voice | None = None
     try:
+        voice = Voice(argv)
         code = run_cli(argv, voice=voice)
-    except Interrupted as stop:  # a second signal while the first one's line was due
-        code = voice.interrupted(stop)
+    except Interrupted as stop:  # before run_cli took over, or a second signal in its end
+        code = (voice or Voice(argv)).interrupted(stop)
     sys.exit(code)
 
 
@@ -108,10 +113,19 @@ class Voice:
     """Says how a failed command ended, exactly once: one JSON event when logging JSON
     lines, one `stook: …` line otherwise. Thread-safe, for the signal watchdog."""
 
-    def __init__(self) -> None:
-        # Until the arguments are parsed, what --log-format=auto would pick.
+    def __init__(self, argv: Sequence[str] | None = None) -> None:
+        import threading
+
+        # Until the arguments are parsed (a signal during the imports): the format they ask
+        # for, read without argparse.
         chosen = os.environ.get("STOOK_LOG_FORMAT", "auto")
-        self.json = chosen == "json" or (chosen == "auto" and not _is_tty(sys.stderr))
+        args = list(sys.argv[1:] if argv is None else argv)
+        for i, arg in enumerate(args):
+            if arg == "--log-format" and i + 1 < len(args):
+                chosen = args[i + 1]
+            elif arg.startswith("--log-format="):
+                chosen = arg.partition("=")[2]
+        self.json = chosen == "json" or (chosen != "console" and not _is_tty(sys.stderr))
         self.logging_ready = False
         self.progress: Tally | None = None
         self._lock = threading.Lock()
@@ -151,6 +165,8 @@ class Voice:
     def _say(
         self, event: str, line: str, shown: BaseException | None = None, **fields: Any
     ) -> None:
+        import traceback
+
         with self._lock:
             if self._said:
                 return
@@ -168,6 +184,9 @@ class Voice:
         else:
             # Before structlog is set up (a signal during the imports): the same event,
             # by hand.
+            import json
+            from datetime import UTC, datetime
+
             stamp = datetime.now(UTC).isoformat().replace("+00:00", "Z")
             body = {**fields, "event": event, "level": "error", "timestamp": stamp}
             if shown is not None:
@@ -176,7 +195,7 @@ class Voice:
 
 
 def run_cli(argv: Sequence[str] | None = None, *, voice: Voice | None = None) -> int:
-    voice = voice or Voice()
+    voice = voice or Voice(argv)
     with _signals.handled(on_give_up=voice.interrupted):
         try:
             code = _run_cli(argv, voice)
@@ -202,8 +221,9 @@ def _run_cli(argv: Sequence[str] | None, voice: Voice) -> int:
         configure_logging(json=json_logs, level=args.log_level)
     else:
         # Commands without logging flags still log to stderr, never onto their stdout.
-        json_logs = None
-        configure_logging(level="warning")
+        chosen = os.environ.get("STOOK_LOG_FORMAT", "auto")
+        json_logs = None if chosen not in ("json", "console") else chosen == "json"
+        configure_logging(json=json_logs, level="warning")
     voice.json = not _is_tty(sys.stderr) if json_logs is None else json_logs
     voice.logging_ready = True
     return _dispatch(args, voice)
@@ -219,7 +239,7 @@ def _is_tty(stream: Any) -> bool:
 def _dispatch(args: argparse.Namespace, voice: Voice) -> int:
     match args.command:
         case "run":
-            from stook.service._progress import for_stream
+            from stook.service._progress import Tally, for_stream
             from stook.service._run import resolve_options, run
 
             options = resolve_options(
@@ -233,6 +253,8 @@ def _dispatch(args: argparse.Namespace, voice: Voice) -> int:
             _signals.run(run(options, progress=voice.progress))
             return 0
         case "demo":
+            from pathlib import Path
+
             from stook.service._demo import run_demo
 
             return run_demo(jobs=args.jobs, output=Path(args.output), seed=args.seed)
@@ -241,6 +263,8 @@ def _dispatch(args: argparse.Namespace, voice: Voice) -> int:
 
             return _signals.run(emulate(args))
         case "bench":
+            from pathlib import Path
+
             from stook.service.bench import run_bench
 
             run_bench(Path(args.out), quick=args.quick)
