@@ -104,7 +104,11 @@ def test_a_users_aggregation_raising_mid_fetch_ends_the_run_with_exit_1(
 
 def test_a_token_revoked_mid_report_ends_the_run_with_exit_3(tmp_path: Path) -> None:
     # 12 batches of 200 jobs, four batches listed at a time into the same bounded queue.
-    report: dict[str, Any] = {"report_batches": 12, "report_jobs_per_batch": 200, "latency_ms": 10.0}
+    report: dict[str, Any] = {
+        "report_batches": 12,
+        "report_jobs_per_batch": 200,
+        "latency_ms": 10.0,
+    }
     with EmulatorThread(EmulatorConfig(**report, revoke_token_after_requests=400)) as emu:
         emu.write_report_config(tmp_path / "inputs")
         run = StookProcess(tmp_path, toml=FEW_WORKERS)
