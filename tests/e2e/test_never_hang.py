@@ -9,6 +9,7 @@ error used to hang the run for ever.
 
 from __future__ import annotations
 
+import json
 import re
 import signal
 import time
@@ -191,6 +192,25 @@ def test_a_signal_during_the_write_leaves_no_file(
     name = signal.Signals(signum).name
     assert_one_line(run, f"stook: interrupted by {name} after {JOBS:,} of {JOBS:,} jobs")
     assert "Traceback" not in run.err
+    assert seconds < SIGNAL_BOUND_S
+
+
+def test_a_signal_ends_the_run_even_when_user_code_swallows_it(
+    tmp_path: Path,
+) -> None:
+    marker = tmp_path / "finishing"
+    toml = (
+        '[[batch.custom]]\nclass = "tests.e2e.user_metrics:StuckFinish"\n'
+        f"marker = {json.dumps(str(marker))}\n"
+    )
+    with EmulatorThread(config(jobs_per_batch=10, seed=73)) as emu:
+        emu.write_batch_config(tmp_path / "inputs")
+        run = StookProcess(tmp_path, "--log-format", "console", toml=toml)
+        run.wait_until(marker.exists, "the stuck aggregation is finishing")
+        code, seconds = send(run, signal.SIGTERM)
+    # Unwinding never gets past the user's loop; the watchdog ends the process.
+    assert code == 143, run.err
+    assert_one_line(run, "stook: interrupted by SIGTERM after 10 of 10 jobs")
     assert seconds < SIGNAL_BOUND_S
 
 

@@ -26,6 +26,8 @@ from __future__ import annotations
 import contextlib
 import os
 import signal
+import threading
+import time
 
 # typing.TYPE_CHECKING without importing typing (see cli.py).
 TYPE_CHECKING = False
@@ -72,7 +74,10 @@ class _Guard:
         self.reset()
         # Called by the watchdog before it ends the process; it says the one line.
         self.on_give_up: Callable[[Interrupted], object] | None = None
-        self.watchdog = False
+        # Set by the first signal, for the watchdog thread that `install` starts. The
+        # handler only sets an event: starting a thread from a signal handler could wait
+        # for a lock that the interrupted code holds.
+        self.alarm: threading.Event | None = None
 
     def reset(self) -> None:
         self.signum: int | None = None
@@ -88,8 +93,8 @@ class _Guard:
             return  # the run has ended; its result or error is on its way out
         if self.signum is None:
             self.signum = signum
-            if self.watchdog:
-                self._start_watchdog(signum)
+            if self.alarm is not None:
+                self.alarm.set()
         if loop is None or task is None:
             raise Interrupted(signum)
         import asyncio
@@ -98,12 +103,12 @@ class _Guard:
             raise Interrupted(signum)
         loop.call_soon_threadsafe(task.cancel)
 
-    def _start_watchdog(self, signum: int) -> None:
-        import threading
-
-        timer = threading.Timer(GRACE_S, self._give_up, args=(signum,))
-        timer.daemon = True
-        timer.start()
+    def watch(self, alarm: threading.Event) -> None:
+        """The watchdog thread: from the first signal, `GRACE_S` for the run to end."""
+        alarm.wait()
+        if self.signum is not None:
+            time.sleep(GRACE_S)
+            self._give_up(self.signum)
 
     def _give_up(self, signum: int) -> None:
         stop = Interrupted(signum)
@@ -125,10 +130,15 @@ _guard = _Guard()
 def install(*, on_give_up: Callable[[Interrupted], object] | None = None) -> None:
     """Take SIGINT and SIGTERM for the whole process (the `stook` entry point, first thing).
 
-    Also arms the watchdog, which `handled` alone does not: a test calling `run_cli` in
+    Also starts the watchdog, which `handled` alone does not: a test calling `run_cli` in
     its own process must never be ended by it.
     """
-    _guard.watchdog = True
+    if _guard.alarm is None:
+        _guard.alarm = threading.Event()
+        watchdog = threading.Thread(
+            target=_guard.watch, args=(_guard.alarm,), name="stook-signal-watchdog", daemon=True
+        )
+        watchdog.start()
     _guard.on_give_up = on_give_up
     for signum in SIGNALS:
         signal.signal(signum, _guard.handle)
@@ -140,8 +150,6 @@ def handled(*, on_give_up: Callable[[Interrupted], object] | None = None) -> Ite
 
     Outside the main thread signals cannot be handled (nor arrive); then this does nothing.
     """
-    import threading
-
     if threading.current_thread() is not threading.main_thread():
         yield
         return
