@@ -132,9 +132,12 @@ class Voice:
         self._said = False
 
     def failed(self, error: Exception) -> int:
-        from stook.service._run import ExitCode, exit_code_for, explain
-        from stook.service._test_mode import UserFunctionError
-
+        try:
+            from stook.service._run import ExitCode, exit_code_for, explain
+            from stook.service._test_mode import UserFunctionError
+        except ImportError:  # a broken installation: the error is what failed to import
+            self._say("stook failed", f"error: {error}", error, error=str(error), exit_code=1)
+            return 1
         code = exit_code_for(error)
         shown: BaseException | None = None
         if isinstance(error, UserFunctionError) and error.__cause__ is not None:
