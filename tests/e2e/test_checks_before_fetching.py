@@ -33,6 +33,7 @@ from tests.e2e.support import (
     read_output,
     write_batch_inputs,
 )
+from tests.failures import failure_lines
 
 IMAGE_UID = 10001  # the non-root user of deploy/Dockerfile's optional variant
 SETPRIV = shutil.which("setpriv")
@@ -83,7 +84,7 @@ def run_process(
 
 
 def error_line(stderr: str) -> str:
-    lines = [line for line in stderr.splitlines() if line.startswith("stook: error:")]
+    lines = failure_lines(stderr)
     assert len(lines) == 1, stderr
     assert "Traceback" not in stderr, stderr
     return lines[0]
@@ -389,8 +390,11 @@ def test_the_body_cap_setting_reaches_storage(
     toml = "[fetch]\nmax_body_mb = 0.0001\n" + BATCH_TOML  # about 100 bytes
     code, err = in_process(capsys, tmp_path / "inputs", tmp_path / "outputs", toml)
     assert code == 3, err
-    line = error_line(err)
-    assert "larger than 104 bytes (the [fetch] max_body_mb cap)" in line
-    assert "X-Amz-Signature=***" in line
+    assert "jobs missing, allowed share 0" in error_line(err)
+    # Each over-cap job is named in its own warning, the run's one error line sums them up.
+    warnings = [line for line in err.splitlines() if "job unavailable" in line]
+    assert warnings, err
+    assert all("larger than 104 bytes (the [fetch] max_body_mb cap)" in w for w in warnings)
+    assert all("X-Amz-Signature=***" in w for w in warnings)
     assert set(re.findall(r"X-Amz-Signature=([^&\s]+)", err)) <= {"***"}
     assert outputs_left(tmp_path / "outputs") == []

@@ -19,6 +19,7 @@ from tests.e2e.support import (
     read_output,
     text_of,
 )
+from tests.failures import failure_lines
 
 
 @pytest.mark.parametrize("toml", [None, BATCH_TOML], ids=["defaults", "configured"])
@@ -45,7 +46,7 @@ def test_a_batch_without_jobs(
         listed = emu.stats.endpoints["api:list_jobs"]
     err = capsys.readouterr().err
     assert code == 0, err
-    assert "stook: error:" not in err
+    assert failure_lines(err) == []
     assert listed == 1
     assert outputs_left(outputs) == [OUTPUT_NAME]
     view = read_output(outputs / OUTPUT_NAME)

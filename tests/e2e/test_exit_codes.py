@@ -33,6 +33,7 @@ from tests.e2e.support import (
     read_output,
     text_of,
 )
+from tests.failures import failure_lines, traceback_text
 
 REPO = Path(__file__).resolve().parents[2]
 BROKEN = 3  # index of a job with metrics (6 is the job that never wrote any)
@@ -88,7 +89,7 @@ def stook_run(
 
 
 def assert_failed(err: str, outputs: Path, *named: str, traceback: bool = False) -> str:
-    lines = [line for line in err.splitlines() if line.startswith("stook: error:")]
+    lines = failure_lines(err)
     assert len(lines) == 1, err
     for thing in named:
         assert thing in lines[0], f"{thing!r} not named in {lines[0]!r}"
@@ -274,7 +275,7 @@ def test_broken_job_within_the_allowance(
         capsys, tmp_path, "--allow-missing-jobs", "0.2", toml=FAST_FETCH + BATCH_TOML
     )
     assert code == 0, err
-    assert "stook: error:" not in err
+    assert failure_lines(err) == []
     outputs = tmp_path / "outputs"
     assert outputs_left(outputs) == [OUTPUT_NAME]
     view = read_output(outputs / OUTPUT_NAME)
@@ -321,7 +322,7 @@ def test_the_process_exit_status(tmp_path: Path, emu: Emulator, case: str, code:
         argv, cwd=tmp_path, env=env, capture_output=True, text=True, timeout=60, check=False
     )
     assert done.returncode == code, done.stderr
-    errors = [line for line in done.stderr.splitlines() if line.startswith("stook: error:")]
+    errors = failure_lines(done.stderr)
     if code == 0:
         assert errors == []
         read_output(outputs / OUTPUT_NAME)
@@ -330,9 +331,10 @@ def test_the_process_exit_status(tmp_path: Path, emu: Emulator, case: str, code:
     assert outputs_left(outputs) == []
     if case == "user-raises":
         # The user's traceback, down to their own frame, and nothing of stook's machinery.
-        assert "Traceback (most recent call last)" in done.stderr
-        assert "_lane_model_step" in done.stderr
-        assert "RuntimeError: lane model diverged on experience" in done.stderr
+        shown = traceback_text(done.stderr)
+        assert "Traceback (most recent call last)" in shown
+        assert "_lane_model_step" in shown
+        assert "RuntimeError: lane model diverged on experience" in shown
     else:
         assert "Traceback" not in done.stderr
 

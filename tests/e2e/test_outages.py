@@ -24,6 +24,7 @@ from tests.e2e.support import (
     outputs_left,
     read_output,
 )
+from tests.failures import failure_lines
 
 JOBS = 60
 SEED = 37
@@ -75,7 +76,7 @@ def run_batch(
 
 
 def error_line(err: str) -> str:
-    lines = [line for line in err.splitlines() if line.startswith("stook: error:")]
+    lines = failure_lines(err)
     assert len(lines) == 1, err
     assert "Traceback" not in err
     return lines[0]

@@ -39,6 +39,7 @@ from tests.e2e.test_report_metrics import (
     status_name,
     the_line,
 )
+from tests.failures import failure_lines
 
 LOC = "Mean localization error"
 DIST = "Mean distance driven"
@@ -58,7 +59,7 @@ def test_an_unknown_report_exits_3_naming_it(tmp_path: Path) -> None:
         run = run_report_cli(emu, tmp_path, report_id=unknown)
         searched = emu.stats.endpoints["api:list_batches"]
     assert run.code == 3, run.err
-    errors = [line for line in run.err.splitlines() if line.startswith("stook: error:")]
+    errors = failure_lines(run.err)
     assert len(errors) == 1, run.err
     assert f"report {unknown} does not exist" in errors[0]
     assert "Traceback" not in run.err

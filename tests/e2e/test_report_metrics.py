@@ -38,6 +38,7 @@ from tests.e2e.support import (
     text_of,
     worst,
 )
+from tests.failures import failure_lines
 
 SEED = 17
 BATCHES = 13
@@ -498,7 +499,7 @@ def test_an_unknown_job_metric_is_a_configuration_error(emu: Emulator, tmp_path:
         emu, tmp_path, '[report]\njob_metrics = ["Max speed", "Localisation error"]\n'
     )
     assert run.code == 2, run.err
-    errors = [line for line in run.err.splitlines() if line.startswith("stook: error:")]
+    errors = failure_lines(run.err)
     assert len(errors) == 1, run.err
     assert "'Localisation error'" in errors[0]
     assert "did you mean 'Localization error'" in errors[0]

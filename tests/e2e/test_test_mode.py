@@ -13,6 +13,7 @@ from stook.sdk import MetricType
 from stook.service.cli import run_cli
 from tests.e2e.support import OUTPUT_NAME, by_name, outputs_left, read_output
 from tests.e2e.user_metrics import ASYNC_VALUE
+from tests.failures import failure_lines, traceback_text
 
 
 @pytest.fixture(autouse=True)
@@ -86,11 +87,12 @@ def test_a_user_function_that_raises(capsys: pytest.CaptureFixture[str], inputs:
     )
     assert code == 1
     # The user's own traceback, down to the frame that raised.
-    assert "Traceback (most recent call last)" in err
-    assert 'user_metrics.py", line' in err
-    assert "in _lane_model_step" in err
-    assert "RuntimeError: lane model diverged on experience" in err
-    errors = [line for line in err.splitlines() if line.startswith("stook: error:")]
+    shown = traceback_text(err)
+    assert "Traceback (most recent call last)" in shown
+    assert 'user_metrics.py", line' in shown
+    assert "in _lane_model_step" in shown
+    assert "RuntimeError: lane model diverged on experience" in shown
+    errors = failure_lines(err)
     assert len(errors) == 1
     assert "tests.e2e.user_metrics:raises" in errors[0]
     assert outputs_left(outputs) == []
@@ -115,7 +117,7 @@ def test_a_function_that_cannot_be_imported(
         capsys, inputs, '[test]\nmetrics = "tests.e2e.user_metrics:no_such_function"\n'
     )
     assert code == 2
-    errors = [line for line in err.splitlines() if line.startswith("stook: error:")]
+    errors = failure_lines(err)
     assert len(errors) == 1
     assert "tests.e2e.user_metrics:no_such_function" in errors[0]
     assert "Traceback" not in err

@@ -22,6 +22,7 @@ from resim.metrics.proto.validate_metrics_proto import validate_job_metrics as v
 from stook.sdk import MetricStatus, MetricsWriter, MetricType, data, read_job_metrics
 from stook.sdk.example import every_metric_type
 from stook.service.cli import run_cli
+from tests.failures import failure_lines
 
 JOB = uuid.UUID("0b7a4c1e-5d2f-4e8a-9c3b-6f1d2e3a4b5c")
 T0 = datetime(2026, 1, 1, tzinfo=UTC)
@@ -61,7 +62,7 @@ def invalid_file(tmp_path: Path) -> Path:
 
 
 def _error_lines(err: str) -> list[str]:
-    return [line for line in err.splitlines() if line.startswith("stook: error:")]
+    return failure_lines(err)
 
 
 def _row(out: str, name: str) -> list[str]:

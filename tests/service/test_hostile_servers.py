@@ -29,6 +29,7 @@ from stook.service._errors import (
 )
 from stook.service._retry import RetryPolicy
 from stook.service._run import exit_code_for, explain
+from tests.failures import failure_lines
 from tests.service.scripted_server import (
     Responder,
     ScriptedServer,
@@ -342,7 +343,7 @@ async def test_stook_run_ends_with_exit_3_naming_the_listing(
     stderr = stderr_bytes.decode()
     assert process.returncode == 3, stderr
     assert time.monotonic() - started < 60
-    errors = [line for line in stderr.splitlines() if line.startswith("stook: error:")]
+    errors = failure_lines(stderr)
     assert len(errors) == 1, stderr
     assert f"GET {server.url(JOBS_PATH)}" in errors[0]
     if hostile == "endless-listing":

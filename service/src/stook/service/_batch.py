@@ -154,8 +154,9 @@ def write_missing_jobs(
     first = missing[0]
     if share > allowed:
         more = f" and {len(missing) - 1} more" if len(missing) > 1 else ""
+        # A summary: each job's reason was said once already, in its "unavailable" warning.
         raise MissingJobsError(
-            f"job {first.job_id} could not be fetched ({first.reason}){more}; "
+            f"job {first.job_id}{more} could not be fetched (see the warnings above); "
             f"{len(missing)} of {jobs} jobs missing, allowed share {allowed:g}"
         )
     lines = [

@@ -117,14 +117,16 @@ class BatchFetcher:
         return self.outcome
 
     async def _list_jobs(self, queue: asyncio.Queue[Job | None]) -> None:
-        try:
-            async for job in self._api.list_jobs(self._project_id, self._batch_id):
-                self.outcome.jobs_listed += 1
-                await queue.put(job)
-        finally:
-            # Workers stop on None; sent even on failure so the group can unwind.
-            for _ in range(self._workers):
-                await queue.put(None)
+        async for job in self._api.list_jobs(self._project_id, self._batch_id):
+            self.outcome.jobs_listed += 1
+            if self._on_progress is not None:
+                self._on_progress(self.outcome)
+            await queue.put(job)
+        # Workers stop on None, sent only after a complete listing. On any failure the task
+        # group cancels the workers itself; waiting here to put None into a full queue that
+        # nobody drains any more would hang the run.
+        for _ in range(self._workers):
+            await queue.put(None)
 
     async def _work(
         self, queue: asyncio.Queue[Job | None], on_job: Callable[[JobRecord], None]

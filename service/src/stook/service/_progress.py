@@ -59,3 +59,20 @@ def for_stream(stream: TextIO | None = None, *, label: str = "jobs") -> Progress
     except (AttributeError, ValueError):
         tty = False
     return TerminalProgress(out, label=label) if tty else NoProgress()
+
+
+class Tally:
+    """A Progress that remembers the last counts it was given, for the line that an
+    interrupted run ends with; it passes every update on to the display it wraps."""
+
+    def __init__(self, shown: Progress | None = None) -> None:
+        self._shown = shown or NoProgress()
+        self.done = 0
+        self.listed = 0
+
+    def update(self, *, done: int, listed: int, requests: int, retries: int) -> None:
+        self.done, self.listed = done, listed
+        self._shown.update(done=done, listed=listed, requests=requests, retries=retries)
+
+    def close(self) -> None:
+        self._shown.close()

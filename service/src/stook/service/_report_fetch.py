@@ -129,6 +129,8 @@ class ReportFetcher:
                     group.create_task(self._work(queue, on_batch))
                 lister = group.create_task(self._list_all(batches, gate, queue, on_batch))
                 await lister
+                # Reached only after a complete listing. Should a worker fail meanwhile, the
+                # group cancels this body too, so a put into a full queue cannot hang here.
                 for _ in range(workers):
                     await queue.put(None)
         except ExceptionGroup as group_error:

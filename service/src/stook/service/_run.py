@@ -12,6 +12,7 @@ Exit codes (also in the README):
   4  invalid metrics data: a downloaded item could not be decoded, or the output
      would not validate
   5  the output could not be written (disk full, file-size limit, I/O error)
+  130, 143  interrupted by SIGINT or SIGTERM (stook.service._signals)
 
 Whatever the failure, metrics.binproto is written atomically or not at all.
 """
@@ -26,6 +27,7 @@ from pathlib import Path
 
 import structlog
 
+from stook.sdk._atomic import remove_stale_temp_files
 from stook.sdk._enums import MetricStatus
 from stook.sdk._errors import (
     InvalidMetricsError,
@@ -39,7 +41,7 @@ from stook.service._config import ConfigError, StookConfig, load
 from stook.service._errors import ApiError, AuthError
 from stook.service._inputs import BatchInputs, InputsError, ReportInputs, TestInputs, detect
 from stook.service._outputs import OutputsError, check_outputs_folder
-from stook.service._progress import for_stream
+from stook.service._progress import Progress, for_stream
 from stook.service._report import run_report
 from stook.service._session import Traffic
 from stook.service._test_mode import UserFunctionError, run_test_mode
@@ -113,12 +115,17 @@ def resolve_options(
     )
 
 
-async def run(options: RunOptions) -> Path:
-    """Run the detected mode; raises the typed errors that `exit_code_for` maps."""
+async def run(options: RunOptions, *, progress: Progress | None = None) -> Path:
+    """Run the detected mode; raises the typed errors that `exit_code_for` maps.
+
+    `progress` is shown the jobs done and listed (default: a terminal line on a TTY).
+    """
     config: StookConfig = load(options.config)
     mode = detect(options.inputs, project_id=options.project_id)
     check_outputs_folder(options.outputs)  # before the first request, not after the fetch
     output = options.outputs / OUTPUT_NAME
+    _remove_stale_temp_files(output)
+    shown = progress or for_stream(label="jobs")
     match mode:
         case ReportInputs():
             log.info("report mode", report_id=str(mode.report_id), config=config.source)
@@ -127,7 +134,7 @@ async def run(options: RunOptions) -> Path:
                 config,
                 options.outputs,
                 allow_missing_jobs=options.allow_missing_jobs,
-                progress=for_stream(label="jobs"),
+                progress=shown,
             )
             _log_written(
                 "report metrics written",
@@ -148,7 +155,7 @@ async def run(options: RunOptions) -> Path:
                 config,
                 options.outputs,
                 allow_missing_jobs=options.allow_missing_jobs,
-                progress=for_stream(label="jobs"),
+                progress=shown,
             )
             _log_written(
                 "batch metrics written",
@@ -164,6 +171,13 @@ async def run(options: RunOptions) -> Path:
         case TestInputs():
             log.info("test mode", config=config.source)
             return await run_test_mode(mode, config, output)
+
+
+def _remove_stale_temp_files(output: Path) -> None:
+    """Temporary files that an earlier, killed run's write left beside the output."""
+    removed = remove_stale_temp_files(output)
+    if removed:
+        log.info("removed stale temporary files", files=[str(p) for p in removed])
 
 
 def _log_written(

@@ -1,22 +1,27 @@
-"""The `stook` command: run (the metrics-build entry point), demo, emulate, validate, show."""
+"""The `stook` command: run (the metrics-build entry point), demo, emulate, validate, show.
+
+Only the standard library and the signal guard are imported at the top: `main` takes
+SIGINT and SIGTERM before the heavy imports (polars, aiohttp, protobuf), so that a signal
+during those still ends in one line and not a traceback.
+"""
 
 from __future__ import annotations
 
-import argparse
-import asyncio
 import os
 import sys
-import traceback
-from collections.abc import Sequence
-from pathlib import Path
 
-import structlog
+from stook.service import _signals
+from stook.service._signals import Interrupted
 
-from stook.service._logging import configure_logging
-from stook.service._run import ExitCode, exit_code_for, explain, resolve_options, run
-from stook.service._test_mode import UserFunctionError
+# typing.TYPE_CHECKING without importing typing, which alone costs milliseconds before the
+# handlers are in place; mypy and ruff read this constant the same way.
+TYPE_CHECKING = False
+if TYPE_CHECKING:
+    import argparse
+    from collections.abc import Sequence
+    from typing import Any
 
-log = structlog.get_logger("stook.cli")
+    from stook.service._progress import Tally
 
 
 def _add_logging(parser: argparse.ArgumentParser, *, default_level: str = "info") -> None:
@@ -35,6 +40,9 @@ def _add_logging(parser: argparse.ArgumentParser, *, default_level: str = "info"
 
 
 def build_parser() -> argparse.ArgumentParser:
+    import argparse
+    from pathlib import Path
+
     parser = argparse.ArgumentParser(
         prog="stook",
         description="Fast aggregation of ReSim test, batch and report metrics.",
@@ -91,36 +99,152 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: Sequence[str] | None = None) -> None:
-    sys.exit(run_cli(argv))
+    _signals.install()  # first: a signal from here on ends in one line, imports included
+    voice: Voice | None = None
+    try:
+        voice = Voice(argv)
+        code = run_cli(argv, voice=voice)
+    except Interrupted as stop:  # before run_cli took over, or a second signal in its end
+        code = (voice or Voice(argv)).interrupted(stop)
+    sys.exit(code)
 
 
-def run_cli(argv: Sequence[str] | None = None) -> int:
+class Voice:
+    """Says how a failed command ended, exactly once: one JSON event when logging JSON
+    lines, one `stook: …` line otherwise. Thread-safe, for the signal watchdog."""
+
+    def __init__(self, argv: Sequence[str] | None = None) -> None:
+        import threading
+
+        # Until the arguments are parsed (a signal during the imports): the format they ask
+        # for, read without argparse.
+        chosen = os.environ.get("STOOK_LOG_FORMAT", "auto")
+        args = list(sys.argv[1:] if argv is None else argv)
+        for i, arg in enumerate(args):
+            if arg == "--log-format" and i + 1 < len(args):
+                chosen = args[i + 1]
+            elif arg.startswith("--log-format="):
+                chosen = arg.partition("=")[2]
+        self.json = chosen == "json" or (chosen != "console" and not _is_tty(sys.stderr))
+        self.logging_ready = False
+        self.progress: Tally | None = None
+        self._lock = threading.Lock()
+        self._said = False
+
+    def failed(self, error: Exception) -> int:
+        try:
+            from stook.service._run import ExitCode, exit_code_for, explain
+            from stook.service._test_mode import UserFunctionError
+        except ImportError:  # a broken installation: the error is what failed to import
+            self._say("stook failed", f"error: {error}", error, error=str(error), exit_code=1)
+            return 1
+        code = exit_code_for(error)
+        shown: BaseException | None = None
+        if isinstance(error, UserFunctionError) and error.__cause__ is not None:
+            shown = error.__cause__  # the user's own traceback, not stook's wrapper
+        elif code is ExitCode.UNEXPECTED:
+            shown = error
+        message = explain(error)
+        self._say("stook failed", f"error: {message}", shown, error=message, exit_code=int(code))
+        return int(code)
+
+    def interrupted(self, stop: Interrupted) -> int:
+        counts: dict[str, Any] = {}
+        where = ""
+        if self.progress is not None and self.progress.listed:
+            counts = {"jobs_done": self.progress.done, "jobs_listed": self.progress.listed}
+            where = f" after {self.progress.done:,} of {self.progress.listed:,} jobs"
+        line = f"interrupted by {stop.signal_name}{where}"
+        self._say(
+            "stook interrupted",
+            line,
+            error=line,
+            signal=stop.signal_name,
+            exit_code=stop.exit_code,
+            **counts,
+        )
+        return stop.exit_code
+
+    def _say(
+        self, event: str, line: str, shown: BaseException | None = None, **fields: Any
+    ) -> None:
+        import traceback
+
+        with self._lock:
+            if self._said:
+                return
+            self._said = True
+        if not self.json:
+            if shown is not None:
+                traceback.print_exception(shown)
+            print(f"stook: {line}", file=sys.stderr, flush=True)
+        elif self.logging_ready:
+            import structlog
+
+            if shown is not None:
+                fields["exc_info"] = shown  # rendered into the event's "exception" text
+            structlog.get_logger("stook.cli").error(event, **fields)
+        else:
+            # Before structlog is set up (a signal during the imports): the same event,
+            # by hand.
+            import json
+            from datetime import UTC, datetime
+
+            stamp = datetime.now(UTC).isoformat().replace("+00:00", "Z")
+            body = {**fields, "event": event, "level": "error", "timestamp": stamp}
+            if shown is not None:
+                body["exception"] = "".join(traceback.format_exception(shown))
+            print(json.dumps(body), file=sys.stderr, flush=True)
+
+
+def run_cli(argv: Sequence[str] | None = None, *, voice: Voice | None = None) -> int:
+    voice = voice or Voice(argv)
+    with _signals.handled(on_give_up=voice.interrupted):
+        try:
+            code = _run_cli(argv, voice)
+        except Interrupted as stop:
+            _signals.settle()
+            return voice.interrupted(stop)
+        except KeyboardInterrupt:  # only where no handler could be installed
+            _signals.settle()
+            return voice.interrupted(Interrupted(_signals.SIGNALS[0]))
+        except Exception as error:
+            _signals.settle()
+            return voice.failed(error)
+        _signals.settle()
+        return code
+
+
+def _run_cli(argv: Sequence[str] | None, voice: Voice) -> int:
     args = build_parser().parse_args(argv)
+    from stook.service._logging import configure_logging
+
     if hasattr(args, "log_format"):
         json_logs = None if args.log_format == "auto" else args.log_format == "json"
         configure_logging(json=json_logs, level=args.log_level)
     else:
         # Commands without logging flags still log to stderr, never onto their stdout.
-        configure_logging(level="warning")
+        chosen = os.environ.get("STOOK_LOG_FORMAT", "auto")
+        json_logs = None if chosen not in ("json", "console") else chosen == "json"
+        configure_logging(json=json_logs, level="warning")
+    voice.json = not _is_tty(sys.stderr) if json_logs is None else json_logs
+    voice.logging_ready = True
+    return _dispatch(args, voice)
+
+
+def _is_tty(stream: Any) -> bool:
     try:
-        return _dispatch(args)
-    except KeyboardInterrupt:
-        return 130
-    except Exception as error:
-        code = exit_code_for(error)
-        if isinstance(error, UserFunctionError) and error.__cause__ is not None:
-            traceback.print_exception(error.__cause__)
-        elif code is ExitCode.UNEXPECTED:
-            traceback.print_exception(error)
-        message = explain(error)
-        log.error("stook failed", error=message, exit_code=int(code))
-        print(f"stook: error: {message}", file=sys.stderr)
-        return int(code)
+        return bool(stream.isatty())
+    except (AttributeError, ValueError):
+        return False
 
 
-def _dispatch(args: argparse.Namespace) -> int:
+def _dispatch(args: argparse.Namespace, voice: Voice) -> int:
     match args.command:
         case "run":
+            from stook.service._progress import Tally, for_stream
+            from stook.service._run import resolve_options, run
+
             options = resolve_options(
                 inputs=args.inputs,
                 outputs=args.outputs,
@@ -128,17 +252,22 @@ def _dispatch(args: argparse.Namespace) -> int:
                 allow_missing_jobs=args.allow_missing_jobs,
                 project_id=args.project_id,
             )
-            asyncio.run(run(options))
+            voice.progress = Tally(for_stream(label="jobs"))
+            _signals.run(run(options, progress=voice.progress))
             return 0
         case "demo":
+            from pathlib import Path
+
             from stook.service._demo import run_demo
 
             return run_demo(jobs=args.jobs, output=Path(args.output), seed=args.seed)
         case "emulate":
             from stook.service._emulate_cli import emulate
 
-            return asyncio.run(emulate(args))
+            return _signals.run(emulate(args))
         case "bench":
+            from pathlib import Path
+
             from stook.service.bench import run_bench
 
             run_bench(Path(args.out), quick=args.quick)

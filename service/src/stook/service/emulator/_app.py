@@ -33,6 +33,9 @@ from stook.service.emulator._stats import EmulatorStats
 API_PREFIX = "/v1"
 BUCKET = "emulated-resim-metrics"
 Handler = Callable[[web.Request], Awaitable[web.StreamResponse]]
+# What EmulatorConfig.corrupt_data_jobs serve instead of a MetricsData message: a first
+# tag with wire type 7, which no protobuf parser accepts.
+CORRUPT_BLOB = b"\xff\xff\xff\xff corrupt metrics data"
 
 
 class ApiError(Exception):
@@ -176,7 +179,9 @@ def build_api_app(state: EmulatorState) -> web.Application:
         refused = await _admit(state, request, "api")
         if refused is not None:
             return _finish(state.stats, "api", refused)
-        if request.headers.get("Authorization") != expected:
+        revoke_after = state.config.revoke_token_after_requests
+        expired = revoke_after is not None and state.stats.requests["api"] > revoke_after
+        if request.headers.get("Authorization") != expected or expired:
             state.stats.unauthorized += 1
             return _finish(state.stats, "api", _error(401, "missing or invalid bearer token"))
         fault = state.faults.decide("api", request.method, request.path_qs)
@@ -568,6 +573,7 @@ class _StorageRoutes:
     def __init__(self, state: EmulatorState) -> None:
         self.ds = state.dataset
         self.quirks = state.quirks
+        self.corrupt = frozenset(state.config.corrupt_data_jobs)
 
     def _ids(self, request: web.Request, *keys: str) -> list[uuid.UUID]:
         try:
@@ -595,7 +601,17 @@ class _StorageRoutes:
 
     async def job_data(self, request: web.Request) -> web.Response:
         output, object_id = self._job_output(request)
-        return _data_body(output, object_id)
+        response = _data_body(output, object_id)
+        if self.corrupt and self._is_corrupt(request):
+            return web.Response(body=CORRUPT_BLOB, content_type=response.content_type)
+        return response
+
+    def _is_corrupt(self, request: web.Request) -> bool:
+        batch_id, job_id = self._ids(request, "batch_id", "job_id")
+        if batch_id != self.ds.main_batch_id:
+            return False
+        job = self.ds.job(batch_id, job_id)
+        return job is not None and job.index in self.corrupt
 
     async def batch_metric(self, request: web.Request) -> web.Response:
         output, object_id = self._batch_output(request)

@@ -93,6 +93,12 @@ class EmulatorConfig:
     broken_jobs: tuple[int, ...] = ()
     # Whole-origin outages (503 to everything for a while); see Outage.
     outages: tuple[Outage, ...] = ()
+    # Indices of main-batch jobs whose metrics-data blobs are garbage (not a MetricsData
+    # message), every time: a client that downloads one must fail with invalid data.
+    corrupt_data_jobs: tuple[int, ...] = ()
+    # After this many API requests the token counts as expired: every later API request is
+    # answered 401, as when a platform token runs out mid-run. None: it never expires.
+    revoke_token_after_requests: int | None = None
 
     # ---- rate limits (token buckets; None: unlimited) ----
     rate_limit_rps: float | None = None  # API origin
@@ -124,8 +130,11 @@ class EmulatorConfig:
                 raise ValueError("a rate limit must be positive (or None)")
         if any(o not in ORIGINS for o in self.fault_origins):
             raise ValueError(f"fault_origins must be drawn from {ORIGINS}")
+        if self.revoke_token_after_requests is not None and self.revoke_token_after_requests < 0:
+            raise ValueError("revoke_token_after_requests cannot be negative")
         for name in (
             "broken_jobs",
+            "corrupt_data_jobs",
             "report_batches_without_metrics",
             "report_partial_metric_batches",
             "future_status_jobs",
@@ -159,6 +168,7 @@ class EmulatorConfig:
         for name in (
             "fault_origins",
             "broken_jobs",
+            "corrupt_data_jobs",
             "report_batches_without_metrics",
             "report_partial_metric_batches",
             "future_status_jobs",
