@@ -38,7 +38,7 @@ from stook.sdk import (
     find_problems,
     read_job_metrics,
 )
-from stook.sdk._writer import histogram_buckets
+from stook.sdk._buckets import histogram_buckets
 
 JOB = uuid.UUID("0b7a4c1e-5d2f-4e8a-9c3b-6f1d2e3a4b5c")
 OTHER_JOB = uuid.UUID("9e8d7c6b-5a49-4382-9170-6f5e4d3c2b1a")

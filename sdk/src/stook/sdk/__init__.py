@@ -23,6 +23,7 @@ from stook.sdk._errors import (
     StookError,
     WriterError,
 )
+from stook.sdk._handle import MetricHandle, MetricOptions
 from stook.sdk._reader import (
     KIND_DTYPE,
     STATUS_DTYPE,
@@ -38,7 +39,7 @@ from stook.sdk._reader import (
     read_metrics_data,
 )
 from stook.sdk._validate import find_problems, validate_job_metrics
-from stook.sdk._writer import MetricHandle, MetricOptions, MetricsWriter
+from stook.sdk._writer import MetricsWriter
 
 __all__ = [
     "KIND_DTYPE",
