@@ -25,12 +25,6 @@ from stook.sdk._errors import (
 )
 from stook.sdk._handle import MetricHandle, MetricOptions
 from stook.sdk._reader import (
-    KIND_DTYPE,
-    STATUS_DTYPE,
-    EventView,
-    JobMetricsView,
-    MetricsDataView,
-    MetricView,
     parse_job_metrics,
     parse_metric,
     parse_metrics_data,
@@ -38,7 +32,9 @@ from stook.sdk._reader import (
     read_metric,
     read_metrics_data,
 )
+from stook.sdk._series import KIND_DTYPE, STATUS_DTYPE
 from stook.sdk._validate import find_problems, validate_job_metrics
+from stook.sdk._views import EventView, JobMetricsView, MetricsDataView, MetricView
 from stook.sdk._writer import MetricsWriter
 
 __all__ = [
