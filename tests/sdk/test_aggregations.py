@@ -17,12 +17,17 @@ import pytest
 import resim.metrics.proto.metrics_pb2 as rp
 from resim.metrics.proto.validate_metrics_proto import validate_job_metrics as resim_validate
 
+from stook.sdk import (
+    JobMetricsView,
+    MetricStatus,
+    MetricsWriter,
+    MetricType,
+    MetricView,
+    WriterError,
+    read_job_metrics,
+    validate_job_metrics,
+)
 from stook.sdk._buckets import histogram_buckets
-from stook.sdk._enums import MetricStatus, MetricType
-from stook.sdk._errors import WriterError
-from stook.sdk._reader import JobMetricsView, MetricView, read_job_metrics
-from stook.sdk._validate import validate_job_metrics
-from stook.sdk._writer import MetricsWriter
 from stook.sdk.aggregations import (
     BatchAggregation,
     JobRecord,

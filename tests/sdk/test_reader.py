@@ -26,14 +26,16 @@ from resim.metrics.python.metrics_utils import (
 from resim.metrics.python.metrics_writer import ResimMetricsWriter
 
 from stook.proto import metrics_pb2 as pb
-from stook.sdk._enums import MetricStatus as StookStatus
-from stook.sdk._enums import MetricType, SeriesKind
-from stook.sdk._errors import ReadError
-from stook.sdk._reader import (
+from stook.sdk import (
     KIND_DTYPE,
     STATUS_DTYPE,
     JobMetricsView,
     MetricsDataView,
+    MetricsWriter,
+    MetricType,
+    ReadError,
+    SeriesKind,
+    find_problems,
     parse_job_metrics,
     parse_metric,
     parse_metrics_data,
@@ -41,8 +43,7 @@ from stook.sdk._reader import (
     read_metric,
     read_metrics_data,
 )
-from stook.sdk._validate import find_problems
-from stook.sdk._writer import MetricsWriter
+from stook.sdk import MetricStatus as StookStatus
 from tests.hypothesis_profiles import examples
 from tests.strategies import valid_job_metrics
 

@@ -10,8 +10,7 @@ from typing import Any, Self
 
 import pytest
 
-from stook.sdk._reader import read_job_metrics
-from stook.sdk._writer import MetricsWriter
+from stook.sdk import MetricsWriter, read_job_metrics
 from stook.sdk.aggregations import (
     AggregationConfigError,
     BatchAggregation,

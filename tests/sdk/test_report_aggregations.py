@@ -21,14 +21,15 @@ import resim.metrics.proto.metrics_pb2 as rp
 from resim.metrics.proto.validate_metrics_proto import validate_job_metrics as resim_validate
 
 from stook.sdk import (
+    JobMetricsView,
     MetricStatus,
+    MetricsWriter,
     MetricType,
+    MetricView,
     SeriesKind,
     read_job_metrics,
     validate_job_metrics,
 )
-from stook.sdk._reader import JobMetricsView, MetricView
-from stook.sdk._writer import MetricsWriter
 from stook.sdk.aggregations import (
     BatchRecord,
     JobSummary,

@@ -17,8 +17,7 @@ from resim.metrics.proto.validate_metrics_proto import validate_job_metrics as r
 
 from stook.proto import metrics_pb2 as pb
 from stook.proto import uuid_pb2
-from stook.sdk._errors import InvalidMetricsError
-from stook.sdk._validate import find_problems, validate_job_metrics
+from stook.sdk import InvalidMetricsError, find_problems, validate_job_metrics
 
 _NS = uuid.UUID("00000000-0000-4000-8000-000000000000")
 JOB = str(uuid.uuid5(_NS, "job"))
