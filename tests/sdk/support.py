@@ -78,3 +78,10 @@ def float_bits(values: Iterable[float]) -> bytes:
 
 def writer_error(match: str) -> AbstractContextManager[pytest.ExceptionInfo[WriterError]]:
     return pytest.raises(WriterError, match=re.escape(match))
+
+
+def bare_data(kind: int, **fields: object) -> pb.MetricsData:
+    """A MetricsData message of `kind` with a random ID and nothing else, to fill by hand."""
+    d = pb.MetricsData(data_type=kind, name="d", **fields)  # type: ignore[arg-type]
+    d.metrics_data_id.id.data = str(uuid.uuid4())
+    return d

@@ -7,11 +7,7 @@ from datetime import datetime
 import polars as pl
 import pytest
 
-from stook.sdk import (
-    SeriesKind,
-    WriterError,
-    data,
-)
+from stook.sdk import SeriesKind, WriterError, data
 from tests.sdk.support import writer_error
 
 

@@ -2,11 +2,7 @@
 
 from __future__ import annotations
 
-from stook.sdk import (
-    MetricsWriter,
-    MetricType,
-    data,
-)
+from stook.sdk import MetricsWriter, MetricType, data
 from tests.sdk.support import JOB, metric, written
 
 

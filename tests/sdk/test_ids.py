@@ -4,12 +4,7 @@ from __future__ import annotations
 
 import uuid
 
-from stook.sdk import (
-    JobMetricsView,
-    MetricsWriter,
-    data,
-    find_problems,
-)
+from stook.sdk import JobMetricsView, MetricsWriter, data, find_problems
 from tests.sdk.support import JOB, OTHER_JOB, written
 
 

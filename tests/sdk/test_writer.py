@@ -13,14 +13,7 @@ from datetime import timedelta
 import pytest
 
 from stook.proto import metrics_pb2 as pb
-from stook.sdk import (
-    MetricImportance,
-    MetricStatus,
-    MetricsWriter,
-    MetricType,
-    SeriesKind,
-    data,
-)
+from stook.sdk import MetricImportance, MetricStatus, MetricsWriter, MetricType, SeriesKind, data
 from tests.sdk.support import (
     JOB,
     PROJECT,

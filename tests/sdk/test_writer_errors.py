@@ -9,13 +9,7 @@ from datetime import datetime
 
 import pytest
 
-from stook.sdk import (
-    MetricStatus,
-    MetricsWriter,
-    SeriesKind,
-    WriterError,
-    data,
-)
+from stook.sdk import MetricStatus, MetricsWriter, SeriesKind, WriterError, data
 from tests.sdk.support import JOB, PROJECT, writer_error
 
 
