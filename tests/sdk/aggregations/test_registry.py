@@ -69,7 +69,7 @@ def not_a_class(**options: Any) -> MaxOfScalar:
     return MaxOfScalar(**options)
 
 
-HERE = __name__  # "tests.sdk.test_registry" under pytest
+HERE = __name__  # "tests.sdk.aggregations.test_registry" under pytest
 
 
 def job(**scalars: float) -> JobRecord:
