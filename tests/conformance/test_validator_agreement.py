@@ -7,7 +7,7 @@ from resim.metrics.proto import metrics_pb2 as resim_pb
 from resim.metrics.proto.validate_metrics_proto import validate_job_metrics as resim_validate
 
 from stook.proto import metrics_pb2 as pb
-from stook.sdk._validate import find_problems, validate_job_metrics
+from stook.sdk import find_problems, validate_job_metrics
 from tests.hypothesis_profiles import examples
 from tests.strategies import job_metrics_cases, mutated_job_metrics, valid_job_metrics
 

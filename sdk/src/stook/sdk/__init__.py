@@ -23,13 +23,8 @@ from stook.sdk._errors import (
     StookError,
     WriterError,
 )
+from stook.sdk._handle import MetricHandle, MetricOptions
 from stook.sdk._reader import (
-    KIND_DTYPE,
-    STATUS_DTYPE,
-    EventView,
-    JobMetricsView,
-    MetricsDataView,
-    MetricView,
     parse_job_metrics,
     parse_metric,
     parse_metrics_data,
@@ -37,8 +32,10 @@ from stook.sdk._reader import (
     read_metric,
     read_metrics_data,
 )
+from stook.sdk._series import KIND_DTYPE, STATUS_DTYPE
 from stook.sdk._validate import find_problems, validate_job_metrics
-from stook.sdk._writer import MetricHandle, MetricOptions, MetricsWriter
+from stook.sdk._views import EventView, JobMetricsView, MetricsDataView, MetricView
+from stook.sdk._writer import MetricsWriter
 
 __all__ = [
     "KIND_DTYPE",

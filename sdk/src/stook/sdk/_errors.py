@@ -1,8 +1,17 @@
-"""The SDK's exception types: one base, one type per thing that can go wrong."""
+"""The SDK's exception types: one base, one type per thing that can go wrong.
+
+`MalformedError` and `read_error` are the reader's internals, not part of the public
+surface: a view that finds a value it cannot decode raises the former deep down, and
+the reader's entry points turn it into a `ReadError` that names what was being read.
+"""
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from google.protobuf.message import Message
 
 
 class StookError(Exception):
@@ -28,6 +37,14 @@ class ReadError(StookError):
     The message names what was being read, e.g.
     ``could not read MetricsData from 'job 1234 / speeds': truncated or not a protobuf message``.
     """
+
+
+class MalformedError(Exception):
+    """Parsed, but not readable as the claimed message; turned into a ReadError."""
+
+
+def read_error(what: type[Message], source: str, reason: str) -> ReadError:
+    return ReadError(f"could not read {what.DESCRIPTOR.name} from {source!r}: {reason}")
 
 
 @dataclass(frozen=True)

@@ -25,10 +25,18 @@ from stook.sdk.aggregations._registry import (
 )
 from stook.sdk.aggregations._scalar_defaults import ScalarDefaults
 from stook.sdk.aggregations._scalar_stats import ScalarStats
-from stook.sdk.aggregations._status_counts import JobStatusCounts, MetricStatusCounts, PassRate
+from stook.sdk.aggregations._status_counts import (
+    JOB_STATUSES,
+    METRIC_STATUSES,
+    JobStatusCounts,
+    MetricStatusCounts,
+    PassRate,
+)
 from stook.sdk.aggregations._weighted_mean import WeightedMean
 
 __all__ = [
+    "JOB_STATUSES",
+    "METRIC_STATUSES",
     "UNKNOWN_STATUS",
     "Aggregation",
     "AggregationConfigError",

@@ -10,8 +10,9 @@ import numpy as np
 import polars as pl
 
 from stook.sdk import _data
+from stook.sdk._buckets import histogram_buckets
 from stook.sdk._enums import MetricStatus
-from stook.sdk._writer import MetricsWriter, histogram_buckets
+from stook.sdk._writer import MetricsWriter
 from stook.sdk.aggregations._base import Aggregation, Needs
 from stook.sdk.aggregations._record import JobRecord
 

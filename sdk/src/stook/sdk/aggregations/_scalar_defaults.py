@@ -9,8 +9,9 @@ from dataclasses import dataclass, field
 from typing import Self
 
 from stook.sdk import _data
+from stook.sdk._buckets import histogram_buckets
 from stook.sdk._errors import WriterError
-from stook.sdk._writer import MetricsWriter, histogram_buckets
+from stook.sdk._writer import MetricsWriter
 from stook.sdk.aggregations._base import Aggregation, Needs
 from stook.sdk.aggregations._record import JobRecord
 from stook.sdk.aggregations._sums import exact_mean

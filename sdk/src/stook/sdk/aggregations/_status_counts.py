@@ -19,9 +19,11 @@ from stook.sdk._writer import MetricsWriter
 from stook.sdk.aggregations._base import Aggregation
 from stook.sdk.aggregations._record import JobRecord
 
-# Shown even at zero, in the app's order, so charts of different batches line up.
+#: The job statuses the status charts know, in the app's order; the commonest are shown
+#: even at zero, so that charts of different batches line up. Others come after, sorted.
 JOB_STATUSES = ("PASSED", "WARNING", "BLOCKER", "ERROR", "CANCELLED", "QUEUED", "RUNNING")
 _ALWAYS_SHOWN_JOB_STATUSES = JOB_STATUSES[:4]
+#: The same for the statuses of job metrics, in the API's spelling.
 METRIC_STATUSES = (
     "PASSED",
     "FAIL_WARN",

@@ -12,9 +12,15 @@ from datetime import UTC, datetime, timedelta
 from hypothesis import given
 from hypothesis import strategies as st
 
-from stook.sdk._writer import MetricsWriter
-from stook.sdk.aggregations import BatchRecord, JobSummary, ReportAggregation, Scalar
-from stook.sdk.aggregations._status_counts import JOB_STATUSES, METRIC_STATUSES
+from stook.sdk import MetricsWriter
+from stook.sdk.aggregations import (
+    JOB_STATUSES,
+    METRIC_STATUSES,
+    BatchRecord,
+    JobSummary,
+    ReportAggregation,
+    Scalar,
+)
 from stook.sdk.aggregations.report import (
     BatchMetricStatusCounts,
     FlakyExperiences,

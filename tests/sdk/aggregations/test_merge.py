@@ -12,8 +12,10 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from stook.sdk._writer import MetricsWriter
+from stook.sdk import MetricsWriter
 from stook.sdk.aggregations import (
+    JOB_STATUSES,
+    METRIC_STATUSES,
     BatchAggregation,
     JobRecord,
     JobStatusCounts,
@@ -25,7 +27,6 @@ from stook.sdk.aggregations import (
     ScalarStats,
     WeightedMean,
 )
-from stook.sdk.aggregations._status_counts import JOB_STATUSES, METRIC_STATUSES
 from tests import merge_laws
 from tests.hypothesis_profiles import examples
 

@@ -10,8 +10,7 @@ from typing import Any, Self
 
 import pytest
 
-from stook.sdk._reader import read_job_metrics
-from stook.sdk._writer import MetricsWriter
+from stook.sdk import MetricsWriter, read_job_metrics
 from stook.sdk.aggregations import (
     AggregationConfigError,
     BatchAggregation,
@@ -70,7 +69,7 @@ def not_a_class(**options: Any) -> MaxOfScalar:
     return MaxOfScalar(**options)
 
 
-HERE = __name__  # "tests.sdk.test_registry" under pytest
+HERE = __name__  # "tests.sdk.aggregations.test_registry" under pytest
 
 
 def job(**scalars: float) -> JobRecord:

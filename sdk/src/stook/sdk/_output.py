@@ -1,0 +1,253 @@
+"""The output a writer builds: its metrics, metrics data and events, and their assembly.
+
+`OutputBuilder` holds the state of one JobMetrics output (test, batch or report
+metrics) and everything about it that does not depend on a metric's type: metrics data
+with their index chains and IDs, the generated status series, the metric protos and
+their names, events, the overall status, and turning all of it into a validated
+``metrics.binproto``. `MetricsWriter` (in `_writer`) adds one method per metric type on
+top; `all_or_nothing` is what keeps a failed metric call from leaving a trace here.
+"""
+
+from __future__ import annotations
+
+import functools
+import uuid
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Concatenate, ParamSpec, TypeVar
+
+from stook.proto import metrics_pb2 as pb
+from stook.sdk import _data
+from stook.sdk._atomic import write_atomic
+from stook.sdk._data import MetricsData, TimestampLike, UuidLike
+from stook.sdk._encode import data_to_proto, timestamp_proto, uuid_proto
+from stook.sdk._enums import MetricImportance, MetricStatus, MetricType, SeriesKind
+from stook.sdk._errors import WriterError
+from stook.sdk._handle import MetricHandle, MetricOptions, status_of
+from stook.sdk._ids import IdScheme
+
+_B = TypeVar("_B", bound="OutputBuilder")
+_P = ParamSpec("_P")
+_R = TypeVar("_R")
+
+
+def all_or_nothing(
+    method: Callable[Concatenate[_B, _P], _R],
+) -> Callable[Concatenate[_B, _P], _R]:
+    """A metric call that fails leaves the writer as it was: no half-built metric, no
+    reserved name, no data written on its behalf."""
+
+    @functools.wraps(method)
+    def wrapper(self: _B, /, *args: _P.args, **kwargs: _P.kwargs) -> _R:
+        metrics, data = len(self._metrics), len(self._data)
+        try:
+            return method(self, *args, **kwargs)
+        except BaseException:
+            self._roll_back(metrics, data)
+            raise
+
+    return wrapper
+
+
+class OutputBuilder:
+    """One output as it is being built; `MetricsWriter` adds a method per metric type."""
+
+    def __init__(self, job_id: UuidLike, *, deterministic: bool = False) -> None:
+        try:
+            self.job_id = job_id if isinstance(job_id, uuid.UUID) else uuid.UUID(str(job_id))
+        except ValueError:
+            raise WriterError(f"job ID {job_id!r} is not a UUID") from None
+        self._ids = IdScheme(self.job_id, deterministic=deterministic)
+        self._metrics: list[pb.Metric] = []
+        self._metric_names: set[str] = set()
+        self._data: dict[str, MetricsData] = {}
+        self._data_ids: dict[str, uuid.UUID] = {}
+        self._events: list[pb.Event] = []
+        self._status_override: MetricStatus | None = None
+        self._made_statuses: dict[tuple[str, MetricStatus], MetricsData] = {}
+
+    # ---- data ----
+
+    def add_data(self, *items: MetricsData) -> None:
+        """Write data (and its index chain) into the output, referenced or not."""
+        for item in items:
+            for node in item.dependencies():
+                known = self._data.get(node.name)
+                if known is node:
+                    continue
+                if known is not None:
+                    raise WriterError(f"two different metrics data are named {node.name!r}")
+                _check_not_empty(node)
+                self._data[node.name] = node
+                self._data_ids[node.name] = self._ids.data_id(node.name, node.id)
+
+    def _roll_back(self, metrics: int, data: int) -> None:
+        del self._metrics[metrics:]
+        for name in list(self._data)[data:]:
+            del self._data[name]
+            del self._data_ids[name]
+        self._metric_names = {m.name for m in self._metrics if not m.event_metric}
+        self._made_statuses = {
+            k: v for k, v in self._made_statuses.items() if self._data.get(v.name) is v
+        }
+
+    def _ref(self, item: MetricsData) -> pb.MetricsDataId:
+        self.add_data(item)
+        return pb.MetricsDataId(id=uuid_proto(self._data_ids[item.name]))
+
+    @property
+    def data(self) -> list[MetricsData]:
+        return list(self._data.values())
+
+    # ---- metrics: shared plumbing ----
+
+    def _new_metric(
+        self, name: str, metric_type: MetricType, options: MetricOptions
+    ) -> tuple[pb.Metric, MetricHandle]:
+        if not name:
+            raise WriterError("a metric needs a non-empty name")
+        event = options.get("event", False)
+        if not event:
+            if name in self._metric_names:
+                raise WriterError(f"a metric named {name!r} was already written")
+            self._metric_names.add(name)
+        proto = pb.Metric(
+            metric_id=pb.MetricId(id=uuid_proto(self._ids.metric_id(name))),
+            name=name,
+            type=pb.MetricType.ValueType(metric_type),
+            description=options.get("description", ""),
+            job_id=pb.JobId(id=uuid_proto(self.job_id)),
+        )
+        handle = MetricHandle(self, proto)
+        handle.status(status_of(options))
+        handle.importance(options.get("importance", MetricImportance.MEDIUM))
+        if "blocking" in options:
+            handle.blocking(options["blocking"])
+        if event:
+            proto.event_metric = True
+        self._metrics.append(proto)
+        return proto, handle
+
+    def _statuses_for(
+        self, values: MetricsData, statuses: MetricsData | None, status: MetricStatus
+    ) -> MetricsData:
+        if statuses is not None:
+            return statuses
+        # One generated status series per (data, status), so that two metrics over the
+        # same data share it instead of colliding on its name.
+        key = (values.name, status)
+        made = self._made_statuses.get(key)
+        if made is None:
+            made = _data.status_like(values, status, name=f"{values.name} ({status.name} status)")
+            self._made_statuses[key] = made
+        return made
+
+    # ---- events ----
+
+    def event(
+        self,
+        name: str,
+        *,
+        timestamp: TimestampLike,
+        relative: bool = False,
+        metrics: Sequence[MetricHandle] = (),
+        status: MetricStatus = MetricStatus.PASSED,
+        importance: MetricImportance = MetricImportance.MEDIUM,
+        description: str = "",
+        tags: Sequence[str] = (),
+    ) -> None:
+        """An event at a point in the test, optionally with metrics written with `event=True`.
+
+        All events of one output share one timestamp type (absolute or relative)."""
+        if not name or any(e.name == name for e in self._events):
+            raise WriterError(f"event names must be non-empty and unique: {name!r}")
+        if _data.timestamp_ns(timestamp) < 0:
+            raise WriterError(f"event {name!r}: timestamps before 1970 (or negative) are refused")
+        kind = pb.RELATIVE_TIMESTAMP if relative else pb.ABSOLUTE_TIMESTAMP
+        if self._events and self._events[0].timestamp_type != kind:
+            raise WriterError(f"event {name!r}: all events must be all absolute or all relative")
+        names = [m.name for m in metrics]
+        if len(set(names)) != len(names):
+            raise WriterError(f"event {name!r}: its metrics need unique names")
+        for m in metrics:
+            if not m.proto.event_metric:
+                raise WriterError(
+                    f"event {name!r}: metric {m.name!r} was not written with event=True"
+                )
+        self._events.append(
+            pb.Event(
+                event_id=pb.EventId(id=uuid_proto(self._ids.event_id(name))),
+                name=name,
+                description=description,
+                tags=list(tags),
+                metrics=[pb.MetricId(id=uuid_proto(m.id)) for m in metrics],
+                status=pb.MetricStatus.ValueType(MetricStatus(status)),
+                timestamp=timestamp_proto(_data.timestamp_ns(timestamp)),
+                timestamp_type=kind,
+                importance=pb.MetricImportance.ValueType(MetricImportance(importance)),
+            )
+        )
+
+    # ---- status and output ----
+
+    def override_status(self, status: MetricStatus | None) -> None:
+        """Set the output's overall status instead of computing it (None: compute again)."""
+        self._status_override = None if status is None else MetricStatus(status)
+
+    @property
+    def status(self) -> MetricStatus:
+        """The overall status: the override, else FAIL_BLOCK if any metric blocks, else
+        FAIL_WARN if any warns, else PASSED."""
+        if self._status_override is not None:
+            return self._status_override
+        statuses = {m.status for m in self._metrics}
+        if pb.FAIL_BLOCK_METRIC_STATUS in statuses:
+            return MetricStatus.FAIL_BLOCK
+        if pb.FAIL_WARN_METRIC_STATUS in statuses:
+            return MetricStatus.FAIL_WARN
+        return MetricStatus.PASSED
+
+    def has_metric(self, name: str) -> bool:
+        """Whether a (non-event) metric of this name was written."""
+        return name in self._metric_names
+
+    @property
+    def metrics(self) -> list[MetricHandle]:
+        return [MetricHandle(self, m) for m in self._metrics]
+
+    def to_proto(self) -> pb.JobMetrics:
+        """The JobMetrics message as it stands now."""
+        status = pb.MetricStatus.ValueType(self.status)
+        msg = pb.JobMetrics(
+            job_id=pb.JobId(id=uuid_proto(self.job_id)),
+            metrics_status=status,
+            events=self._events,
+        )
+        msg.job_level_metrics.metrics_status = status
+        msg.job_level_metrics.metrics.extend(self._metrics)
+        msg.metrics_data.extend(data_to_proto(d, self._data_ids) for d in self._data.values())
+        return msg
+
+    def serialize(self) -> bytes:
+        # Deterministic serialization orders map entries, so equal inputs give equal bytes.
+        return self.to_proto().SerializeToString(deterministic=True)
+
+    def write(self, path: str | Path, *, validate: bool = True) -> Path:
+        """Validate, then write metrics.binproto atomically; on an invalid output nothing
+        is written and InvalidMetricsError says which metric breaks which rule."""
+        msg = self.to_proto()
+        if validate:
+            from stook.sdk._validate import validate_job_metrics
+
+            validate_job_metrics(msg)
+        return write_atomic(path, msg.SerializeToString(deterministic=True))
+
+
+def _check_not_empty(data: MetricsData) -> None:
+    # The platform refuses a series (or a category) with no elements.
+    if data.kind is SeriesKind.EXTERNAL_FILE:
+        return
+    shape = data.shape()
+    lengths = shape.values() if isinstance(shape, dict) else [shape]
+    if any(n == 0 for n in lengths):
+        raise WriterError(f"metrics data {data.name!r} is empty; the platform refuses empty series")

@@ -1,0 +1,107 @@
+"""Helpers of the batch-aggregation tests: hand-made jobs, folding, and what was written."""
+
+from __future__ import annotations
+
+import bisect
+import math
+import uuid
+from collections.abc import Iterable, Mapping, Sequence
+
+import polars as pl
+import resim.metrics.proto.metrics_pb2 as rp
+from resim.metrics.proto.validate_metrics_proto import validate_job_metrics as resim_validate
+
+from stook.sdk import (
+    JobMetricsView,
+    MetricsWriter,
+    MetricType,
+    MetricView,
+    read_job_metrics,
+    validate_job_metrics,
+)
+from stook.sdk.aggregations import BatchAggregation, JobRecord, Scalar
+
+BATCH_ID = uuid.UUID("0b0b0b0b-1111-4222-8333-444444444444")
+
+
+def job(
+    status: str = "PASSED",
+    *,
+    scalars: Mapping[str, Scalar | float] | None = None,
+    series: Mapping[str, Sequence[float]] | None = None,
+    metric_statuses: Sequence[str] = (),
+) -> JobRecord:
+    return JobRecord(
+        job_id=uuid.uuid4(),
+        conflated_status=status,
+        scalars={
+            k: v if isinstance(v, Scalar) else Scalar(float(v)) for k, v in (scalars or {}).items()
+        },
+        series={k: pl.Series(k, list(v), dtype=pl.Float64) for k, v in (series or {}).items()},
+        metric_statuses=tuple(metric_statuses),
+    )
+
+
+def fold(aggregation: BatchAggregation, jobs: Iterable[JobRecord]) -> BatchAggregation:
+    for record in jobs:
+        aggregation.update(record)
+    return aggregation
+
+
+class Output:
+    """What a set of finished aggregations wrote, read back and validated."""
+
+    def __init__(self, *aggregations: BatchAggregation) -> None:
+        self.writer = MetricsWriter(BATCH_ID, deterministic=True)
+        for aggregation in aggregations:
+            aggregation.finish(self.writer)
+        raw = self.writer.serialize()
+        validate_job_metrics(self.writer.to_proto())
+        resim_validate(rp.JobMetrics.FromString(raw))
+        self.view: JobMetricsView = read_job_metrics(raw)
+        self.by_name = {m.name: m for m in self.view.metrics}
+
+    @property
+    def names(self) -> list[str]:
+        return [m.name for m in self.view.metrics]
+
+    def metric(self, name: str, kind: MetricType) -> MetricView:
+        m = self.by_name[name]
+        assert m.type is kind
+        return m
+
+    def histogram(self, name: str) -> tuple[list[float], list[tuple[float, float]], MetricView]:
+        m = self.metric(name, MetricType.HISTOGRAM)
+        hv = m.raw.metric_values.histogram_metric_values
+        values = self.view.data_by_id[uuid.UUID(hv.values_data_id.id.data)].series().to_list()
+        buckets = [(b.lower, b.upper) for b in hv.buckets]
+        assert hv.lower_bound == buckets[0][0]
+        assert hv.upper_bound == buckets[-1][1]
+        return values, buckets, m
+
+    def bars(self, name: str) -> dict[str, float]:
+        m = self.metric(name, MetricType.BAR_CHART)
+        bv = m.raw.metric_values.bar_chart_metric_values
+        assert len(bv.values_data_id) == 1
+        values = self.view.data_by_id[uuid.UUID(bv.values_data_id[0].id.data)]
+        assert values.index_id is not None
+        labels = self.view.data_by_id[values.index_id].series().to_list()
+        return dict(zip(labels, values.series().to_list(), strict=True))
+
+
+def reference_counts(values: Iterable[float], edges: Sequence[tuple[float, float]]) -> list[int]:
+    """Bucket i holds lower_i <= v < upper_i; values below/above the range go to the edge
+    buckets, the upper bound itself to the last one."""
+    lowers = [lo for lo, _ in edges]
+    counts = [0] * len(edges)
+    for v in values:
+        counts[min(max(bisect.bisect_right(lowers, v) - 1, 0), len(edges) - 1)] += 1
+    return counts
+
+
+def linear_quantile(values: Sequence[float], q: float) -> float:
+    s = sorted(values)
+    pos = q * (len(s) - 1)
+    lo = math.floor(pos)
+    hi = min(lo + 1, len(s) - 1)
+    return s[lo] + (s[hi] - s[lo]) * (pos - lo)

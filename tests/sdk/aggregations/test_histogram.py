@@ -1,0 +1,161 @@
+"""MergedHistogram: exact values and counts on hand-made jobs, in both modes.
+
+Every output is read back from the writer's bytes and validated twice: by stook's
+validator and by ReSim's own (the platform's oracle); see `support.Output`.
+"""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from stook.sdk import MetricStatus, MetricType, WriterError
+from stook.sdk._buckets import histogram_buckets
+from stook.sdk.aggregations import MergedHistogram
+from tests.sdk.aggregations.support import Output, fold, job, reference_counts
+
+
+def test_histogram_exact_mode_holds_exactly_the_appended_values() -> None:
+    jobs = [
+        job(series={"speed": [3.0, 1.0]}),
+        job(series={"speed": [2.5, math.nan, 0.5, 3.75]}),
+        job(series={"other": [100.0]}),  # no "speed": not counted
+        job(series={"speed": [1.0]}),
+    ]
+    agg = fold(
+        MergedHistogram(
+            name="Speed", data="speed", lower=0.0, upper=4.0, buckets=4, x_axis_name="v [m/s]"
+        ),
+        jobs,
+    )
+    assert isinstance(agg, MergedHistogram)
+    assert not agg.binned
+    assert (agg.total, agg.jobs, agg.dropped_nan) == (6, 3, 1)
+    out = Output(agg)
+    values, buckets, m = out.histogram("Speed")
+    assert values == [0.5, 1.0, 1.0, 2.5, 3.0, 3.75]
+    assert buckets == [(0.0, 1.0), (1.0, 2.0), (2.0, 3.0), (3.0, 4.0)]
+    hv = m.raw.metric_values.histogram_metric_values
+    assert hv.x_axis_name == "v [m/s]"
+    assert m.description == "Histogram of 6 values of 'speed' from 3 jobs (1 NaN values dropped)."
+    assert out.names == ["Speed"]
+    assert out.view.data_by_name["Speed values"].series().to_list() == values
+
+
+def test_histogram_exact_mode_up_to_max_values_inclusive() -> None:
+    jobs = [job(series={"d": [0.1, 0.2]}), job(series={"d": [0.3]})]
+    agg = fold(MergedHistogram(name="H", data="d", lower=0, upper=1, max_values=3), jobs)
+    assert isinstance(agg, MergedHistogram)
+    assert not agg.binned
+    out = Output(agg)
+    values, buckets, m = out.histogram("H")
+    assert values == [0.1, 0.2, 0.3]
+    assert len(buckets) == 20
+    assert "H (counts)" not in out.by_name
+    assert not m.description.startswith("Pre-binned")
+
+
+def test_histogram_above_max_values_switches_to_exact_counts() -> None:
+    per_job = [
+        [0.25, 1.5, 9.0],  # 9.0 is above the upper bound: counted in the last bucket
+        [math.nan, 2.25, 2.75, -3.0],  # -3.0 below: first bucket
+        [3.5, 3.5, 0.75, 1.25],
+        [3.9],
+    ]
+    agg = fold(
+        MergedHistogram(name="Speed", data="v", lower=0.0, upper=4.0, buckets=4, max_values=5),
+        [job(series={"v": vs}) for vs in per_job],
+    )
+    assert isinstance(agg, MergedHistogram)
+    assert agg.binned
+    finite = [v for vs in per_job for v in vs if not math.isnan(v)]
+    edges = histogram_buckets("Speed", 4, 0.0, 4.0)
+    expected = reference_counts(finite, edges)
+    assert expected == [3, 2, 2, 4]
+    assert agg.counts == expected
+    assert agg.outside == 2
+
+    out = Output(agg)
+    values, buckets, m = out.histogram("Speed")
+    assert buckets == edges
+    assert m.description.startswith(
+        "Pre-binned: 11 values of 'v' from 4 jobs (1 NaN values dropped) exceed the cap of "
+        "5 values, so each value shown stands for 3 values at its bucket's midpoint"
+    )
+    assert "exact counts are in 'Speed (counts)'" in m.description
+    assert m.description.endswith("; 2 values outside [0.0, 4.0] counted in the edge buckets.")
+    # Each value shown is a midpoint, repeated round(count / per_value) times.
+    per_value = math.ceil(len(finite) / 5)
+    shown: list[float] = []
+    for (lo, hi), c in zip(edges, expected, strict=True):
+        shown += [(lo + hi) / 2] * round(c / per_value)
+    assert values == shown == [0.5, 1.5, 2.5, 3.5]
+
+    bars = out.bars("Speed (counts)")
+    assert bars == {"[0, 1)": 3.0, "[1, 2)": 2.0, "[2, 3)": 2.0, "[3, 4)": 4.0}
+    assert out.by_name["Speed (counts)"].description == (
+        "Exact bucket counts of 11 values of 'v' from 4 jobs (1 NaN values dropped)."
+    )
+    assert out.names == ["Speed", "Speed (counts)"]
+
+
+def test_histogram_counts_match_an_independent_binning_on_many_values() -> None:
+    values = [((i * 7919) % 1000) / 37.0 - 3.0 for i in range(1000)]  # spans -3 .. 24
+    agg = fold(
+        MergedHistogram(name="H", data="d", lower=-1.0, upper=20.0, buckets=7, max_values=100),
+        [job(series={"d": values[i : i + 90]}) for i in range(0, 1000, 90)],
+    )
+    assert isinstance(agg, MergedHistogram)
+    edges = histogram_buckets("H", 7, -1.0, 20.0)
+    assert agg.counts == reference_counts(values, edges)
+    assert agg.outside == sum(1 for v in values if v < -1.0 or v > 20.0)
+    out = Output(agg)
+    assert list(out.bars("H (counts)").values()) == [
+        float(c) for c in reference_counts(values, edges)
+    ]
+
+
+@pytest.mark.parametrize(
+    ("lower", "upper", "buckets"),
+    [(-3.3, 0.0, 3), (-3.3, 0.0, 20), (-1.0, -0.3, 3), (0.0, 1.0, 10), (0.1, 3.4, 7)],
+)
+def test_histogram_counts_put_edge_values_in_the_bucket_they_start(
+    lower: float, upper: float, buckets: int
+) -> None:
+    # Values exactly on each edge: a division by the bucket width rounds some of them into
+    # the bucket below (e.g. -2.2 for [-3.3, 0] in 3 buckets).
+    edges = histogram_buckets("H", buckets, lower, upper)
+    on_edges = [lo for lo, _ in edges] + [upper]
+    agg = fold(
+        MergedHistogram(
+            name="H", data="d", lower=lower, upper=upper, buckets=buckets, max_values=1
+        ),
+        [job(series={"d": on_edges})],
+    )
+    assert isinstance(agg, MergedHistogram)
+    expected = [1] * buckets
+    expected[-1] = 2  # the upper bound belongs to the last bucket
+    assert agg.counts == reference_counts(on_edges, edges) == expected
+    assert agg.outside == 0
+
+
+def test_histogram_without_values_is_not_applicable() -> None:
+    agg = fold(
+        MergedHistogram(name="H", data="d", lower=0, upper=1),
+        [job(series={"e": [1.0]}), job(series={"d": [math.nan]})],
+    )
+    out = Output(agg)
+    m = out.metric("H", MetricType.TEXT)
+    assert m.status is MetricStatus.NOT_APPLICABLE
+    assert m.raw.metric_values.text_metric_values.text == (
+        "No job wrote values for 'd'; nothing to draw."
+    )
+
+
+def test_histogram_needs_its_data_and_checks_its_bounds() -> None:
+    assert MergedHistogram(name="H", data="d", lower=0, upper=1).needs().data == {"d"}
+    with pytest.raises(WriterError, match="lower < upper"):
+        MergedHistogram(name="H", data="d", lower=1, upper=1)
+    with pytest.raises(ValueError, match="max_values must be at least 1"):
+        MergedHistogram(name="H", data="d", lower=0, upper=1, max_values=0)

@@ -1,0 +1,166 @@
+"""The SDK's public surface, pinned: adding or removing a public name is a deliberate act.
+
+Each package's ``__all__`` is written out in full below, so that a name added to it,
+or dropped from it, by accident fails here. The other tests make sure the listed names
+resolve and that nothing public in a package is left out of its ``__all__`` (as httpx
+checks its own exports). Everything in an ``_``-module is private; the service and
+user code import from these packages only.
+"""
+
+from __future__ import annotations
+
+import importlib
+import inspect
+
+import pytest
+
+PUBLIC_API: dict[str, list[str]] = {
+    "stook.sdk": [
+        "KIND_DTYPE",
+        "STATUS_DTYPE",
+        "EventView",
+        "InvalidMetricsError",
+        "JobMetricsView",
+        "MetricHandle",
+        "MetricImportance",
+        "MetricOptions",
+        "MetricStatus",
+        "MetricType",
+        "MetricView",
+        "MetricsData",
+        "MetricsDataView",
+        "MetricsWriter",
+        "OutputWriteError",
+        "Problem",
+        "ReadError",
+        "SeriesKind",
+        "StookError",
+        "WriterError",
+        "data",
+        "find_problems",
+        "parse_job_metrics",
+        "parse_metric",
+        "parse_metrics_data",
+        "read_job_metrics",
+        "read_metric",
+        "read_metrics_data",
+        "validate_job_metrics",
+        "write_atomic",
+    ],
+    "stook.sdk.data": [
+        "MetricsData",
+        "doubles",
+        "external_file",
+        "per_category",
+        "status_like",
+        "statuses",
+        "strings",
+        "timestamps",
+        "uuids",
+    ],
+    "stook.sdk.aggregations": [
+        "JOB_STATUSES",
+        "METRIC_STATUSES",
+        "UNKNOWN_STATUS",
+        "Aggregation",
+        "AggregationConfigError",
+        "BatchAggregation",
+        "BatchRecord",
+        "JobRecord",
+        "JobStatusCounts",
+        "JobSummary",
+        "MergedHistogram",
+        "MetricStatusCounts",
+        "Needs",
+        "PassRate",
+        "ReportAggregation",
+        "Scalar",
+        "ScalarDefaults",
+        "ScalarStats",
+        "WeightedMean",
+        "build",
+        "build_all",
+        "default_batch_aggregations",
+        "default_report_aggregations",
+    ],
+    "stook.sdk.aggregations.report": [
+        "BatchMetricStatusCounts",
+        "FlakyExperiences",
+        "JobMetricStatusCounts",
+        "JobScalarDistributions",
+        "MostFailedExperiences",
+        "ScalarLines",
+        "TestStatusOverTime",
+        "Verdict",
+        "check",
+    ],
+}
+
+PACKAGES = sorted(PUBLIC_API)
+
+
+@pytest.mark.parametrize("package", PACKAGES)
+def test_all_is_exactly_the_pinned_list(package: str) -> None:
+    assert importlib.import_module(package).__all__ == PUBLIC_API[package]
+
+
+@pytest.mark.parametrize("package", PACKAGES)
+def test_every_exported_name_resolves(package: str) -> None:
+    module = importlib.import_module(package)
+    missing = [name for name in module.__all__ if not hasattr(module, name)]
+    assert missing == []
+
+
+@pytest.mark.parametrize("package", PACKAGES)
+def test_nothing_public_is_left_out_of_all(package: str) -> None:
+    module = importlib.import_module(package)
+    # Subpackages become attributes when imported (stook.sdk.aggregations, example);
+    # they are reached by their dotted name, not through __all__.
+    public = {
+        name
+        for name, value in vars(module).items()
+        if not name.startswith("_") and not (inspect.ismodule(value) and name not in module.__all__)
+    }
+    assert sorted(public) == sorted(module.__all__)
+
+
+def test_names_the_service_uses_are_public() -> None:
+    # What stook.service needs from the SDK; it must never need an _-module for these.
+    sdk = importlib.import_module("stook.sdk")
+    aggregations = importlib.import_module("stook.sdk.aggregations")
+    for name in (
+        "MetricStatus",
+        "MetricType",
+        "SeriesKind",
+        "StookError",
+        "ReadError",
+        "InvalidMetricsError",
+        "OutputWriteError",
+        "WriterError",
+        "JobMetricsView",
+        "MetricView",
+        "read_job_metrics",
+        "read_metric",
+        "read_metrics_data",
+        "find_problems",
+        "MetricsWriter",
+        "write_atomic",
+        "data",
+    ):
+        assert name in sdk.__all__, name
+    for name in (
+        "UNKNOWN_STATUS",
+        "Aggregation",
+        "AggregationConfigError",
+        "BatchAggregation",
+        "BatchRecord",
+        "JobRecord",
+        "JobSummary",
+        "Needs",
+        "ReportAggregation",
+        "Scalar",
+        "build_all",
+        "default_batch_aggregations",
+        "default_report_aggregations",
+    ):
+        assert name in aggregations.__all__, name
