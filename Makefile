@@ -13,10 +13,11 @@ $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
 
 # Re-install only when a pyproject changes; a second `make test` is fast.
-$(STAMP): $(BIN)/python pyproject.toml proto/pyproject.toml sdk/pyproject.toml service/pyproject.toml
+$(STAMP): $(BIN)/python pyproject.toml proto/pyproject.toml sdk/pyproject.toml service/pyproject.toml \
+		service/testing/pyproject.toml
 	$(BIN)/python -m pip install --quiet --disable-pip-version-check --upgrade "pip>=25.1"
 	$(BIN)/python -m pip install --quiet --disable-pip-version-check --group dev \
-		-e ./proto -e ./sdk -e ./service
+		-e ./proto -e ./sdk -e ./service -e './service/testing[pytest,bench]'
 	touch $(STAMP)
 
 setup: $(STAMP)

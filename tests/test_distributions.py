@@ -6,8 +6,13 @@ import tomllib
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
-# Each distribution, and the one it is built on (dependencies point proto <- sdk <- service).
-LAYERS = {"proto": None, "sdk": "stook-proto", "service": "stook-sdk"}
+# Each distribution, and the one it is built on: proto <- sdk <- service <- service/testing.
+LAYERS = {
+    "proto": None,
+    "sdk": "stook-proto",
+    "service": "stook-sdk",
+    "service/testing": "stook",
+}
 
 
 def _project(folder: str) -> dict[str, object]:

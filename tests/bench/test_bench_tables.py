@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from stook.service.bench._tables import sweep_tables
+from stook.bench._tables import sweep_tables
 
 
 def _row(client: str, latency: float, concurrency: int, seconds: float, **extra: Any) -> Any:

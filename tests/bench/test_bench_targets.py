@@ -4,8 +4,8 @@ from __future__ import annotations
 
 from typing import Any
 
-from stook.service.bench._suite import evaluate_targets
-from stook.service.bench._sweep import FULL
+from stook.bench._suite import evaluate_targets
+from stook.bench._sweep import FULL
 
 
 def _row(client: str, latency: float, seconds: float) -> dict[str, Any]:

@@ -21,9 +21,9 @@ import pytest
 import resim.metrics.proto.metrics_pb2 as rp
 from resim.metrics.proto.validate_metrics_proto import validate_job_metrics
 
+from stook.emulator import Emulator, EmulatorConfig
 from stook.sdk import JobMetricsView, MetricStatus, MetricView, read_job_metrics
-from stook.service.emulator import Emulator, EmulatorConfig
-from stook.service.testing import TEST_DEFAULTS
+from stook.testing import TEST_DEFAULTS
 
 OUTPUT_NAME = "metrics.binproto"
 

@@ -21,8 +21,8 @@ from pathlib import Path
 
 import pytest
 
+from stook.emulator import Emulator
 from stook.service.cli import run_cli
-from stook.service.emulator import Emulator
 from tests.e2e.support import (
     BATCH_TOML,
     OUTPUT_NAME,

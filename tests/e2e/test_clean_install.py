@@ -66,7 +66,16 @@ def test_wheels_install_into_a_fresh_venv_and_run_batch_mode(tmp_path: Path) -> 
     for package in DISTRIBUTIONS.values():
         assert f"{package}/__init__.py" in everything
         assert f"{package}/py.typed" in everything
-    assert "stook/service/emulator/__init__.py" in everything
+    # The production wheels hold only what a metrics build runs: no emulator, no test
+    # helpers, no benchmarks (those are stook-testing's), and no test module of any kind.
+    tooling = sorted(
+        name
+        for name in everything
+        if name.startswith(("stook/emulator/", "stook/testing", "stook/bench/"))
+        or "/test_" in name
+        or "pytest" in name
+    )
+    assert tooling == [], tooling
 
     venv = tmp_path / "venv"
     done = _run([sys.executable, "-m", "venv", "--without-pip", str(venv)])

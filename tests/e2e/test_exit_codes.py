@@ -18,9 +18,9 @@ from pathlib import Path
 
 import pytest
 
+from stook.emulator import Emulator, MetricsOutput
 from stook.sdk import MetricStatus, MetricType
 from stook.service.cli import run_cli
-from stook.service.emulator import Emulator, MetricsOutput
 from tests.e2e.support import (
     BATCH_TOML,
     OUTPUT_NAME,

@@ -19,8 +19,8 @@ from typing import Any
 
 import pytest
 
+from stook.emulator import Emulator, EmulatorConfig
 from stook.service.cli import run_cli
-from stook.service.emulator import Emulator, EmulatorConfig
 from tests.e2e.processes import StookProcess, catches
 from tests.e2e.support import BATCH_TOML, OUTPUT_NAME, EmulatorThread, config, outputs_left
 from tests.failures import failure_lines, traceback_text

@@ -14,8 +14,8 @@ from pathlib import Path
 
 import pytest
 
+from stook.emulator import EmulatorConfig, Origin, Outage
 from stook.service.cli import run_cli
-from stook.service.emulator import EmulatorConfig, Origin, Outage
 from tests.e2e.support import (
     BATCH_TOML,
     OUTPUT_NAME,

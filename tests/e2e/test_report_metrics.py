@@ -22,9 +22,9 @@ from pathlib import Path
 
 import pytest
 
+from stook.emulator import BatchSpec, Emulator
 from stook.sdk import JobMetricsView, MetricStatus, MetricView
 from stook.service.cli import run_cli
-from stook.service.emulator import BatchSpec, Emulator
 from tests.e2e.support import (
     OUTPUT_NAME,
     UNITS,

@@ -17,9 +17,9 @@ from pathlib import Path
 
 import pytest
 
+from stook.emulator import Emulator
 from stook.sdk import MetricsWriter
 from stook.service.cli import run_cli
-from stook.service.emulator import Emulator
 from tests.e2e.support import EmulatorThread, config, outputs_left, write_batch_inputs
 from tests.e2e.test_exit_codes import FAST_FETCH
 from tests.failures import failure_lines

@@ -16,13 +16,13 @@ from typing import Any
 
 import pytest
 
+from stook.emulator import Emulator
+from stook.emulator._quirks import FUTURE_CONFLATED_STATUS, FUTURE_METRIC_STATUS
 from stook.sdk import MetricStatus
 from stook.service._client import ApiClient
 from stook.service._run import RunOptions, run
 from stook.service.cli import run_cli
-from stook.service.emulator import Emulator
-from stook.service.emulator._quirks import FUTURE_CONFLATED_STATUS, FUTURE_METRIC_STATUS
-from stook.service.testing import emulated_batch, emulated_report
+from stook.testing import emulated_batch, emulated_report
 from tests.e2e.support import (
     BATCH_TOML,
     OUTPUT_NAME,

@@ -372,3 +372,32 @@ def test_emulate_prints_the_api_url_and_writes_the_batch_config(
     # Ctrl-C stops it.
     proc.send_signal(signal.SIGINT)
     assert proc.wait(timeout=15) == 130
+
+
+@pytest.mark.parametrize("command", [["demo"], ["emulate"], ["bench", "--quick"]])
+def test_testing_commands_say_what_to_install_without_stook_testing(
+    command: list[str], tmp_path: Path
+) -> None:
+    # As in a metrics-build image: stook installed, stook-testing not.
+    hide = (
+        "import sys\n"
+        "for name in ('stook.emulator', 'stook.testing', 'stook.bench'):\n"
+        "    sys.modules[name] = None\n"
+        "from stook.service.cli import main\n"
+        "main()\n"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", hide, *command, "--log-format", "console"]
+        if command[0] != "bench"
+        else [sys.executable, "-c", hide, *command, "--out", str(tmp_path)],
+        capture_output=True,
+        text=True,
+        timeout=60,
+        check=False,
+    )
+    assert done.returncode == 2, done.stderr
+    assert failure_lines(done.stderr) == [
+        f"stook: error: 'stook {command[0]}' needs the stook-testing distribution, which is "
+        "not installed (from a checkout: 'make setup', or 'pip install ./service/testing')"
+    ], done.stderr
+    assert list(tmp_path.iterdir()) == []

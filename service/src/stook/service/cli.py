@@ -239,6 +239,28 @@ def _is_tty(stream: Any) -> bool:
         return False
 
 
+# What `demo`, `emulate` and `bench` run lives in the stook-testing distribution, which a
+# metrics-build image does not install: the emulator and benchmarks are no part of a run.
+_TESTING_PACKAGES = ("stook.emulator", "stook.testing", "stook.bench")
+
+
+def _testing_tool(command: str, module: str) -> Any:
+    """`module` from stook-testing, or a usage error saying how to install it."""
+    import importlib
+
+    from stook.service._run import UsageError
+
+    try:
+        return importlib.import_module(module)
+    except ModuleNotFoundError as exc:
+        if exc.name is None or not exc.name.startswith(_TESTING_PACKAGES):
+            raise
+        raise UsageError(
+            f"'stook {command}' needs the stook-testing distribution, which is not installed "
+            "(from a checkout: 'make setup', or 'pip install ./service/testing')"
+        ) from None
+
+
 def _dispatch(args: argparse.Namespace, voice: Voice) -> int:
     match args.command:
         case "run":
@@ -258,19 +280,16 @@ def _dispatch(args: argparse.Namespace, voice: Voice) -> int:
         case "demo":
             from pathlib import Path
 
-            from stook.service._demo import run_demo
-
-            return run_demo(jobs=args.jobs, output=Path(args.output), seed=args.seed)
+            demo = _testing_tool("demo", "stook.testing._demo")
+            return int(demo.run_demo(jobs=args.jobs, output=Path(args.output), seed=args.seed))
         case "emulate":
-            from stook.service._emulate_cli import emulate
-
-            return _signals.run(emulate(args))
+            emulator_cli = _testing_tool("emulate", "stook.emulator._cli")
+            return int(_signals.run(emulator_cli.emulate(args)))
         case "bench":
             from pathlib import Path
 
-            from stook.service.bench import run_bench
-
-            run_bench(Path(args.out), quick=args.quick)
+            bench = _testing_tool("bench", "stook.bench")
+            bench.run_bench(Path(args.out), quick=args.quick)
             return 0
         case "validate":
             from stook.service._inspect import validate_file

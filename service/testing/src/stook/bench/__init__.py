@@ -1,0 +1,6 @@
+"""`stook bench`: measure batch-mode fetching against the emulator and the references."""
+
+from stook.bench._measure import Measurement, in_fresh_process, measure_resim, measure_stook
+from stook.bench._suite import run_bench
+
+__all__ = ["Measurement", "in_fresh_process", "measure_resim", "measure_stook", "run_bench"]

@@ -1,0 +1,66 @@
+"""An emulator of the ReSim REST API and its object storage, for tests, demos and benchmarks.
+
+Two loopback origins: the API (``emu.api_url``, bearer-token auth, paged lists, the
+endpoints batch and report modes use) and object storage serving each serialized
+``Metric`` / ``MetricsData`` at a presigned, expiring URL. Data is synthetic and
+deterministic by seed; latency, transient faults and rate limits are configurable::
+
+    from stook.emulator import Emulator, EmulatorConfig
+
+    async with Emulator(EmulatorConfig(jobs_per_batch=200, fault_5xx=0.05)) as emu:
+        emu.write_batch_config(inputs_dir)
+        ...
+        truth = emu.dataset.scalar_values(emu.batch_id)
+"""
+
+from stook.emulator._config import EmulatorConfig, Origin, Outage
+from stook.emulator._dataset import (
+    BatchKind,
+    BatchSpec,
+    Dataset,
+    Experience,
+    JobSpec,
+    MetricsOutput,
+    ReportSpec,
+    StoredData,
+    StoredMetric,
+    Truth,
+)
+from stook.emulator._faults import FaultKind
+from stook.emulator._server import (
+    BATCH_CONFIG,
+    REPORT_CONFIG,
+    Emulator,
+    EmulatorInfo,
+    EmulatorProcess,
+    main,
+    serve,
+    serve_with_inputs,
+)
+from stook.emulator._stats import EmulatorStats
+
+__all__ = [
+    "BATCH_CONFIG",
+    "REPORT_CONFIG",
+    "BatchKind",
+    "BatchSpec",
+    "Dataset",
+    "Emulator",
+    "EmulatorConfig",
+    "EmulatorInfo",
+    "EmulatorProcess",
+    "EmulatorStats",
+    "Experience",
+    "FaultKind",
+    "JobSpec",
+    "MetricsOutput",
+    "Origin",
+    "Outage",
+    "ReportSpec",
+    "StoredData",
+    "StoredMetric",
+    "Truth",
+    "main",
+    "serve",
+    "serve_with_inputs",
+]

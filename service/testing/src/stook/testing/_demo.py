@@ -1,0 +1,140 @@
+"""`stook demo`: the metrics build end to end on an embedded default, no ReSim account needed.
+
+1. Test mode: the SDK example writes every metric type for one synthetic test.
+2. Batch mode: the emulator (in its own process, with latency and transient faults)
+   serves a batch; stook fetches and aggregates it with an example config.
+3. Report mode: the same emulator serves a test suite's batches over two weeks;
+   stook draws them over time and says what regressed.
+Each output is validated and summarised; the batch summary adds jobs, requests,
+retries and seconds.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import time
+import tomllib
+from pathlib import Path
+
+from stook.emulator import EmulatorConfig, EmulatorProcess
+from stook.sdk._reader import read_job_metrics
+from stook.sdk._validate import find_problems
+from stook.service._batch import run_batch
+from stook.service._config import StookConfig, parse
+from stook.service._inputs import BatchInputs, ReportInputs, TestInputs, detect
+from stook.service._inspect import summary_lines
+from stook.service._progress import for_stream
+from stook.service._report import run_report
+from stook.service._test_mode import run_test_mode
+
+REPORT_BATCHES = 14
+
+EXAMPLE_CONFIG = """\
+# The example stook.toml the demo runs with.
+[fetch]
+concurrency = 64
+
+[test]
+metrics = "stook.sdk.example:every_metric_type"
+
+[[batch.weighted_mean]]
+name = "Distance-weighted localization error"
+metric = "Localization error"
+weight = "Distance driven"
+
+[[batch.histogram]]
+name = "Speed distribution"
+data = "speeds"
+lower = 0.0
+upper = 40.0
+buckets = 20
+
+[[batch.scalar_stats]]
+metric = "Max speed"
+stats = ["min", "p50", "p95", "max"]
+
+[report]
+top_n = 8
+regression_window = 10
+regression_threshold = 3.5
+"""
+
+
+def _print_output(path: Path) -> int:
+    view = read_job_metrics(path.read_bytes(), source=str(path))
+    problems = find_problems(view.raw)
+    for line in summary_lines(view):
+        print("  " + line)
+    verdict = "valid" if not problems else f"INVALID: {problems[0]}"
+    print(f"  {path}: {path.stat().st_size:,} bytes, {verdict}")
+    return len(problems)
+
+
+def run_demo(*, jobs: int, output: Path, seed: int) -> int:
+    output.mkdir(parents=True, exist_ok=True)
+    config_path = output / "stook.toml"
+    config_path.write_text(EXAMPLE_CONFIG, encoding="utf-8")
+    config: StookConfig = parse(tomllib.loads(EXAMPLE_CONFIG), source=str(config_path))
+    invalid = 0
+
+    print("== test mode: one test, every metric type (stook.sdk.example) ==")
+    test_inputs = output / "test-inputs"
+    for folder in ("experience", "logs"):
+        (test_inputs / folder).mkdir(parents=True, exist_ok=True)
+    mode = detect(test_inputs)
+    assert isinstance(mode, TestInputs)
+    test_output = asyncio.run(
+        run_test_mode(mode, config, output / "test-mode" / "metrics.binproto")
+    )
+    invalid += _print_output(test_output)
+
+    print(f"\n== batch mode: {jobs} jobs from the emulated ReSim API ==")
+    emulator_config = EmulatorConfig(
+        seed=seed,
+        jobs_per_batch=jobs,
+        report_batches=REPORT_BATCHES,
+        report_jobs_per_batch=40,
+        cache_jobs=max(jobs, 1) + REPORT_BATCHES * 40,
+        latency_ms=10.0,
+        fault_5xx=0.03,
+        fault_429=0.01,
+        retry_after_max_s=0,
+    )
+    inputs = output / "inputs"
+    report_inputs = output / "report-inputs"
+    with EmulatorProcess(emulator_config) as emulator:
+        emulator.write_batch_config(inputs)
+        batch = detect(inputs)
+        assert isinstance(batch, BatchInputs)
+        started = time.perf_counter()
+        result = asyncio.run(run_batch(batch, config, output, progress=for_stream(label="jobs")))
+        seconds = time.perf_counter() - started
+        stats = emulator.stats()
+        invalid += _print_output(result.output)
+        faults = sum(stats.faults.values())
+        print(
+            f"  {result.outcome.jobs_listed} jobs ({len(result.outcome.missing)} missing), "
+            f"{result.requests:,} requests, {result.retries} retries after {faults} injected "
+            f"faults, {result.bytes_received / 1e6:.1f} MB, {seconds:.2f} s"
+        )
+
+        print(f"\n== report mode: {REPORT_BATCHES} batches of a test suite over time ==")
+        emulator.write_report_config(report_inputs)
+        report_mode = detect(report_inputs)
+        assert isinstance(report_mode, ReportInputs)
+        started = time.perf_counter()
+        report = asyncio.run(
+            run_report(report_mode, config, output / "report", progress=for_stream(label="jobs"))
+        )
+        seconds = time.perf_counter() - started
+    invalid += _print_output(report.output)
+    print(
+        f"  {report.outcome.batches} batches, {report.outcome.jobs} jobs, "
+        f"{report.requests:,} requests, {report.retries} retries, {seconds:.2f} s"
+    )
+    print("  Regressions: " + report.regressions.replace("\n", "\n    "))
+    print(
+        f"\nConfig used: {config_path}. Run it yourself: stook run --inputs {inputs} "
+        f"--outputs {output} --config {config_path} (with `stook emulate` serving)."
+    )
+    return 0 if invalid == 0 else 4
