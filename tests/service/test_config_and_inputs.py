@@ -14,7 +14,6 @@ import structlog.testing
 from stook.sdk._errors import InvalidMetricsError, Problem, ReadError, StookError, WriterError
 from stook.sdk.aggregations import JobStatusCounts, MergedHistogram, ScalarStats, WeightedMean
 from stook.service import _config, _inputs
-from stook.service._batch import MissingJobsError
 from stook.service._config import (
     ConfigError,
     FetchSettings,
@@ -25,6 +24,7 @@ from stook.service._config import (
 )
 from stook.service._errors import ApiError, AuthError, RetriesExhaustedError
 from stook.service._inputs import ApiAccess, BatchInputs, InputsError, ReportInputs, detect
+from stook.service._pipeline import MissingJobsError
 from stook.service._run import (
     DEFAULT_INPUTS,
     DEFAULT_OUTPUTS,

@@ -1,55 +1,29 @@
-"""Batch mode: fetch every job of the batch, fold it into the aggregations, write the output."""
+"""Batch mode: every job of one batch, folded into the batch aggregations (see _pipeline)."""
 
 from __future__ import annotations
 
-import asyncio
 import difflib
-from collections.abc import Iterable
-from dataclasses import dataclass
+import uuid
+from collections.abc import Callable
+from dataclasses import dataclass, field
 from pathlib import Path
 
-import structlog
-
-from stook.sdk._enums import MetricStatus
-from stook.sdk._writer import MetricsWriter
-from stook.sdk.aggregations import BatchAggregation, JobRecord, Needs, default_batch_aggregations
-from stook.service._batch_fetch import BatchFetcher, FetchOutcome, FetchPlan, MissingJob
+from stook.sdk import MetricStatus, MetricsWriter
+from stook.sdk.aggregations import BatchAggregation, Needs, default_batch_aggregations
+from stook.service._batch_fetch import BatchFetcher, FetchOutcome, MissingJob
+from stook.service._client import ApiClient
 from stook.service._config import ConfigError, StookConfig
-from stook.service._deadline import fetch_deadline
-from stook.service._errors import ApiError
 from stook.service._inputs import BatchInputs
-from stook.service._progress import NoProgress, Progress
+from stook.service._pipeline import RunResult, run_pipeline
+from stook.service._progress import Progress
 from stook.service._retry import RetryPolicy
-from stook.service._session import HasTraffic, Traffic, open_api
 
-log = structlog.get_logger("stook.batch")
-
-OUTPUT_NAME = "metrics.binproto"
-
-
-class MissingJobsError(ApiError):
-    """More jobs stayed unavailable than --allow-missing-jobs allows (exit code 3)."""
-
-
-@dataclass(frozen=True, slots=True)
-class BatchResult(HasTraffic):
-    output: Path
-    outcome: FetchOutcome
-    metrics_written: list[str]
-    status: MetricStatus
-    traffic: Traffic
+BatchResult = RunResult[FetchOutcome]
 
 
 def aggregations_for(config: StookConfig) -> list[BatchAggregation]:
     defaults = default_batch_aggregations() if config.batch_defaults else []
     return defaults + config.batch_aggregations()
-
-
-def plan_for(aggregations: Iterable[BatchAggregation]) -> tuple[Needs, FetchPlan]:
-    needs = Needs()
-    for aggregation in aggregations:
-        needs = needs | aggregation.needs()
-    return needs, FetchPlan(data=needs.data, scalars=needs.scalars, every_scalar=needs.every_scalar)
 
 
 def check_names(needs: Needs, outcome: FetchOutcome, source: str) -> None:
@@ -66,6 +40,60 @@ def check_names(needs: Needs, outcome: FetchOutcome, source: str) -> None:
             raise ConfigError(f"{source}: no job in the batch has a {kind} named {name!r}{hint}")
 
 
+@dataclass(slots=True)
+class BatchMode:
+    """The batch-mode pieces of the pipeline."""
+
+    inputs: BatchInputs
+    config: StookConfig
+    aggregations: list[BatchAggregation] = field(init=False)
+    kind: str = "batch"
+
+    def __post_init__(self) -> None:
+        self.aggregations = aggregations_for(self.config)
+
+    @property
+    def output_id(self) -> uuid.UUID:
+        return self.inputs.batch_id
+
+    def fetcher(
+        self, api: ApiClient, needs: Needs, on_progress: Callable[[FetchOutcome], None]
+    ) -> BatchFetcher:
+        return BatchFetcher(
+            api,
+            self.inputs.access.project_id,
+            self.inputs.batch_id,
+            needs,
+            workers=self.config.fetch.concurrency,
+            on_progress=on_progress,
+        )
+
+    def progress(self, outcome: FetchOutcome) -> tuple[int, int]:
+        return outcome.jobs_done + len(outcome.missing), outcome.jobs_listed
+
+    def how_far(self, outcome: FetchOutcome, folded: int) -> str:
+        done, listed = self.progress(outcome)
+        return f"{done:,} of {listed:,} jobs"
+
+    def counts(self, outcome: FetchOutcome) -> dict[str, int]:
+        return {"jobs": outcome.jobs_listed, "jobs_missing": len(outcome.missing)}
+
+    def missing(self, outcome: FetchOutcome) -> tuple[list[MissingJob], int]:
+        return outcome.missing, outcome.jobs_listed
+
+    def check(self, needs: Needs, outcome: FetchOutcome) -> None:
+        check_names(needs, outcome, self.config.source)
+
+    def preface(self, writer: MetricsWriter, outcome: FetchOutcome) -> None:
+        if outcome.jobs_listed == 0:
+            writer.text(
+                "Batch summary",
+                "The batch has no jobs, so there is nothing to aggregate.",
+                status=MetricStatus.NOT_APPLICABLE,
+            )
+            writer.override_status(MetricStatus.NOT_APPLICABLE)
+
+
 async def run_batch(
     inputs: BatchInputs,
     config: StookConfig,
@@ -75,96 +103,13 @@ async def run_batch(
     retry: RetryPolicy | None = None,
     progress: Progress | None = None,
 ) -> BatchResult:
-    started = asyncio.get_running_loop().time()
-    aggregations = aggregations_for(config)
-    needs, plan = plan_for(aggregations)
-    settings = config.fetch
-
-    def fold(record: JobRecord) -> None:
-        for aggregation in aggregations:
-            aggregation.update(record)
-
-    log.info(
-        "batch fetch starting",
-        batch_id=str(inputs.batch_id),
-        concurrency=settings.concurrency,
-        data=sorted(plan.data),
-    )
-    async with open_api(inputs.access, settings, retry) as api:
-        shown = progress or NoProgress()
-
-        def report(o: FetchOutcome) -> None:
-            traffic = Traffic.of(api)
-            shown.update(
-                done=o.jobs_done + len(o.missing),
-                listed=o.jobs_listed,
-                requests=traffic.requests,
-                retries=traffic.retries,
-            )
-
-        fetcher = BatchFetcher(
-            api,
-            inputs.access.project_id,
-            inputs.batch_id,
-            plan,
-            workers=settings.concurrency,
-            on_progress=report,
-        )
-
-        def how_far() -> str:
-            o = fetcher.outcome
-            return f"{o.jobs_done + len(o.missing):,} of {o.jobs_listed:,} jobs"
-
-        try:
-            async with fetch_deadline(settings.deadline, started=started, progress=how_far):
-                outcome = await fetcher.run(fold)
-        finally:
-            shown.close()
-        traffic = Traffic.of(api)
-
-    check_names(needs, outcome, config.source)
-    writer = MetricsWriter(inputs.batch_id, deterministic=True)
-    write_missing_jobs(writer, outcome.missing, outcome.jobs_listed, allow_missing_jobs)
-    if outcome.jobs_listed == 0:
-        writer.text(
-            "Batch summary",
-            "The batch has no jobs, so there is nothing to aggregate.",
-            status=MetricStatus.NOT_APPLICABLE,
-        )
-        writer.override_status(MetricStatus.NOT_APPLICABLE)
-    for aggregation in aggregations:
-        aggregation.finish(writer)
-    output = writer.write(outputs_dir / OUTPUT_NAME)
-    return BatchResult(
-        output=output,
-        outcome=outcome,
-        metrics_written=[m.name for m in writer.metrics],
-        status=writer.status,
-        traffic=traffic,
-    )
-
-
-def write_missing_jobs(
-    writer: MetricsWriter, missing: list[MissingJob], jobs: int, allowed: float
-) -> None:
-    """Fail naming the first missing job, or, within the allowed share, say which are missing."""
-    if not missing:
-        return
-    share = len(missing) / max(jobs, 1)
-    first = missing[0]
-    if share > allowed:
-        more = f" and {len(missing) - 1} more" if len(missing) > 1 else ""
-        # A summary: each job's reason was said once already, in its "unavailable" warning.
-        raise MissingJobsError(
-            f"job {first.job_id}{more} could not be fetched (see the warnings above); "
-            f"{len(missing)} of {jobs} jobs missing, allowed share {allowed:g}"
-        )
-    lines = [
-        f"- {m.job_id} ({m.experience_name or 'unknown experience'}): {m.reason}" for m in missing
-    ]
-    writer.text(
-        "Missing jobs",
-        f"{len(missing)} of {jobs} jobs could not be fetched and are left out "
-        "of every batch metric:\n" + "\n".join(lines),
-        status=MetricStatus.FAIL_WARN,
+    """Fetch every job of the batch, fold it into the aggregations, write the output."""
+    return await run_pipeline(
+        BatchMode(inputs, config),
+        inputs.access,
+        config.fetch,
+        outputs_dir,
+        allow_missing_jobs=allow_missing_jobs,
+        retry=retry,
+        progress=progress,
     )

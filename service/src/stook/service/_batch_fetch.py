@@ -2,8 +2,8 @@
 
 Jobs are listed page by page into a bounded queue; a fixed pool of workers takes
 each job as soon as its page arrives, lists its metrics (scalars come with the
-listing, so they cost no download), downloads only the metrics data the plan
-names, and hands the record to `on_job`. At most `workers + queue size` jobs are
+listing, so they cost no download), downloads only the metrics data the aggregations'
+`Needs` name, and hands the record to `on_job`. At most `workers + queue size` jobs are
 in memory at once, whatever the batch size.
 """
 
@@ -20,7 +20,7 @@ import structlog
 
 from stook.sdk._errors import ReadError
 from stook.sdk._reader import read_metrics_data
-from stook.sdk.aggregations import UNKNOWN_STATUS, JobRecord
+from stook.sdk.aggregations import UNKNOWN_STATUS, JobRecord, Needs
 from stook.service._client import ApiClient
 from stook.service._errors import (
     ApiError,
@@ -39,19 +39,6 @@ _MAX_RELISTS = 2
 
 class InvalidDataError(ReadError):
     """A job's metrics data could not be decoded (exit code 4)."""
-
-
-@dataclass(frozen=True, slots=True)
-class FetchPlan:
-    """What to fetch per job beyond its metric listing: the metrics data named here, and
-    the scalars read (downloaded only when the API lists them without a value)."""
-
-    data: frozenset[str] = frozenset()
-    scalars: frozenset[str] = frozenset()
-    every_scalar: bool = True
-
-    def wants_scalar(self, name: str) -> bool:
-        return self.every_scalar or name in self.scalars
 
 
 @dataclass(frozen=True, slots=True)
@@ -87,7 +74,7 @@ class BatchFetcher:
         api: ApiClient,
         project_id: uuid.UUID,
         batch_id: uuid.UUID,
-        plan: FetchPlan,
+        needs: Needs,
         *,
         workers: int = 64,
         on_progress: ProgressCallback | None = None,
@@ -97,7 +84,7 @@ class BatchFetcher:
         self._api = api
         self._project_id = project_id
         self._batch_id = batch_id
-        self._plan = plan
+        self._needs = needs
         self._workers = workers
         self._on_progress = on_progress
         self.outcome = FetchOutcome()
@@ -149,7 +136,7 @@ class BatchFetcher:
 
     async def _fetch_job(self, job: Job) -> JobRecord:
         data_items: list[JobMetricsData] = []
-        if self._plan.data:
+        if self._needs.data:
             metrics, data_items = await asyncio.gather(
                 self._list_metrics(job), self._list_data(job)
             )
@@ -160,7 +147,7 @@ class BatchFetcher:
         scalars = await read_scalars(
             self._api.storage,
             metrics,
-            self._plan.wants_scalar,
+            self._needs.wants_scalar,
             source=f"job {job.job_id}",
             relist=lambda: self._list_metrics(job),
         )
@@ -171,7 +158,7 @@ class BatchFetcher:
             self.outcome.unnamed_data += unnamed
             log.debug("unnamed metrics data skipped", job_id=str(job.job_id), count=unnamed)
         self.outcome.data_names.update(d.name for d in data_items if d.name)
-        wanted = [d for d in data_items if d.name in self._plan.data and d.is_standard]
+        wanted = [d for d in data_items if d.name in self._needs.data and d.is_standard]
         if len(wanted) == 1:
             # The common plan (one series per job) needs no task to gather.
             series = {wanted[0].name: await self._download(job, wanted[0])}

@@ -1,43 +1,33 @@
-"""Report mode: fold a report's batches into the report aggregations and write the output."""
+"""Report mode: a report's batches, folded into the report aggregations (see _pipeline)."""
 
 from __future__ import annotations
 
-import asyncio
+import dataclasses
 import difflib
-from dataclasses import dataclass
+import uuid
+from collections.abc import Callable
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-import structlog
-
-from stook.sdk._enums import MetricStatus
-from stook.sdk._writer import MetricsWriter
-from stook.sdk.aggregations import (
-    Aggregation,
-    BatchRecord,
-    Needs,
-    default_report_aggregations,
-)
-from stook.service._batch import OUTPUT_NAME, write_missing_jobs
+from stook.sdk import MetricStatus, MetricsWriter
+from stook.sdk.aggregations import Aggregation, Needs, default_report_aggregations
+from stook.sdk.aggregations.report import RegressionSummary, ScalarLines
+from stook.service._batch_fetch import MissingJob
+from stook.service._client import ApiClient
 from stook.service._config import ConfigError, StookConfig
-from stook.service._deadline import fetch_deadline
 from stook.service._inputs import ReportInputs
-from stook.service._progress import NoProgress, Progress
+from stook.service._pipeline import RunResult, run_pipeline
+from stook.service._progress import Progress
 from stook.service._report_fetch import ReportFetcher, ReportOutcome
 from stook.service._retry import RetryPolicy
-from stook.service._session import HasTraffic, Traffic, open_api
-
-log = structlog.get_logger("stook.report")
 
 
 @dataclass(frozen=True, slots=True)
-class ReportResult(HasTraffic):
-    output: Path
-    outcome: ReportOutcome
-    metrics_written: list[str]
-    status: MetricStatus
-    regressions: str
-    traffic: Traffic
+class ReportResult(RunResult[ReportOutcome]):
+    """A report run's result, with what its regression check found (None without one)."""
+
+    regressions: RegressionSummary | None = None
 
 
 def report_aggregations_for(config: StookConfig, project_id: str) -> list[Aggregation[Any]]:
@@ -54,7 +44,7 @@ def report_aggregations_for(config: StookConfig, project_id: str) -> list[Aggreg
     return defaults + config.report_aggregations()
 
 
-def _check_job_metric_names(config: StookConfig, outcome: ReportOutcome) -> None:
+def check_job_metric_names(config: StookConfig, outcome: ReportOutcome) -> None:
     wanted = config.report.job_metrics
     if not wanted or outcome.jobs_with_metrics == 0:
         return
@@ -68,6 +58,62 @@ def _check_job_metric_names(config: StookConfig, outcome: ReportOutcome) -> None
             )
 
 
+@dataclass(slots=True)
+class ReportMode:
+    """The report-mode pieces of the pipeline."""
+
+    inputs: ReportInputs
+    config: StookConfig
+    aggregations: list[Aggregation[Any]] = field(init=False)
+    kind: str = "report"
+
+    def __post_init__(self) -> None:
+        self.aggregations = report_aggregations_for(self.config, str(self.inputs.access.project_id))
+
+    @property
+    def output_id(self) -> uuid.UUID:
+        return self.inputs.report_id
+
+    def fetcher(
+        self, api: ApiClient, needs: Needs, on_progress: Callable[[ReportOutcome], None]
+    ) -> ReportFetcher:
+        return ReportFetcher(
+            api,
+            self.inputs.access.project_id,
+            self.inputs.report_id,
+            needs,
+            workers=self.config.fetch.concurrency,
+            on_progress=on_progress,
+        )
+
+    def progress(self, outcome: ReportOutcome) -> tuple[int, int]:
+        return outcome.jobs, outcome.jobs
+
+    def how_far(self, outcome: ReportOutcome, folded: int) -> str:
+        return f"{folded:,} of {outcome.batches:,} batches"
+
+    def counts(self, outcome: ReportOutcome) -> dict[str, int]:
+        return {
+            "batches": outcome.batches,
+            "jobs": outcome.jobs,
+            "jobs_missing": len(outcome.missing),
+        }
+
+    def missing(self, outcome: ReportOutcome) -> tuple[list[MissingJob], int]:
+        return outcome.missing, outcome.jobs
+
+    def check(self, needs: Needs, outcome: ReportOutcome) -> None:
+        check_job_metric_names(self.config, outcome)
+
+    def preface(self, writer: MetricsWriter, outcome: ReportOutcome) -> None:
+        write_summary(writer, outcome)
+
+    def regressions(self) -> RegressionSummary | None:
+        """What the default regression check found, read from the aggregation itself."""
+        lines = [a for a in self.aggregations if isinstance(a, ScalarLines)]
+        return lines[0].regressions() if lines else None
+
+
 async def run_report(
     inputs: ReportInputs,
     config: StookConfig,
@@ -77,74 +123,22 @@ async def run_report(
     retry: RetryPolicy | None = None,
     progress: Progress | None = None,
 ) -> ReportResult:
-    started = asyncio.get_running_loop().time()
-    aggregations = report_aggregations_for(config, str(inputs.access.project_id))
-    needs = Needs()
-    for aggregation in aggregations:
-        needs = needs | aggregation.needs()
-    settings = config.fetch
-    folded = 0
-
-    def fold(record: BatchRecord) -> None:
-        nonlocal folded
-        folded += 1
-        for aggregation in aggregations:
-            aggregation.update(record)
-
-    async with open_api(inputs.access, settings, retry) as api:
-        shown = progress or NoProgress()
-
-        def report(o: ReportOutcome) -> None:
-            traffic = Traffic.of(api)
-            shown.update(
-                done=o.jobs, listed=o.jobs, requests=traffic.requests, retries=traffic.retries
-            )
-
-        fetcher = ReportFetcher(
-            api,
-            inputs.access.project_id,
-            inputs.report_id,
-            needs,
-            workers=settings.concurrency,
-            on_progress=report,
-        )
-
-        def how_far() -> str:
-            return f"{folded:,} of {fetcher.outcome.batches:,} batches"
-
-        try:
-            async with fetch_deadline(settings.deadline, started=started, progress=how_far):
-                outcome = await fetcher.run(fold)
-        finally:
-            shown.close()
-        traffic = Traffic.of(api)
-
-    _check_job_metric_names(config, outcome)
-    writer = MetricsWriter(inputs.report_id, deterministic=True)
-    write_missing_jobs(writer, outcome.missing, outcome.jobs, allow_missing_jobs)
-    _write_summary(writer, outcome)
-    for aggregation in aggregations:
-        aggregation.finish(writer)
-    output = writer.write(outputs_dir / OUTPUT_NAME)
-    regressions = next(
-        (
-            m.proto.metric_values.text_metric_values.text
-            for m in writer.metrics
-            if m.name == "Regressions"
-        ),
-        "",
+    """Fetch the report's batches, fold them into the aggregations, write the output."""
+    mode = ReportMode(inputs, config)
+    result = await run_pipeline(
+        mode,
+        inputs.access,
+        config.fetch,
+        outputs_dir,
+        allow_missing_jobs=allow_missing_jobs,
+        retry=retry,
+        progress=progress,
     )
-    return ReportResult(
-        output=output,
-        outcome=outcome,
-        metrics_written=[m.name for m in writer.metrics],
-        status=writer.status,
-        regressions=regressions,
-        traffic=traffic,
-    )
+    parts = {f.name: getattr(result, f.name) for f in dataclasses.fields(RunResult)}
+    return ReportResult(**parts, regressions=mode.regressions())
 
 
-def _write_summary(writer: MetricsWriter, outcome: ReportOutcome) -> None:
+def write_summary(writer: MetricsWriter, outcome: ReportOutcome) -> None:
     report = outcome.report
     if report is None:  # the fetcher sets it first thing; without it there is no window
         raise RuntimeError("report mode finished without the report")

@@ -24,26 +24,26 @@ import os
 import uuid
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import structlog
 
-from stook.sdk._atomic import remove_stale_temp_files
-from stook.sdk._enums import MetricStatus
-from stook.sdk._errors import (
+from stook.sdk import (
     InvalidMetricsError,
     OutputWriteError,
     ReadError,
     StookError,
     WriterError,
+    remove_stale_temp_files,
 )
-from stook.service._batch import OUTPUT_NAME, run_batch
+from stook.service._batch import BatchMode
 from stook.service._config import ConfigError, StookConfig, load
 from stook.service._errors import ApiError, AuthError
-from stook.service._inputs import BatchInputs, InputsError, ReportInputs, TestInputs, detect
+from stook.service._inputs import BatchInputs, InputsError, TestInputs, detect
 from stook.service._outputs import OutputsError, check_outputs_folder
+from stook.service._pipeline import OUTPUT_NAME, RunResult, run_pipeline
 from stook.service._progress import Progress, for_stream
-from stook.service._report import run_report
-from stook.service._session import Traffic
+from stook.service._report import ReportMode
 from stook.service._test_mode import UserFunctionError, run_test_mode
 
 log = structlog.get_logger("stook.run")
@@ -125,52 +125,25 @@ async def run(options: RunOptions, *, progress: Progress | None = None) -> Path:
     check_outputs_folder(options.outputs)  # before the first request, not after the fetch
     output = options.outputs / OUTPUT_NAME
     _remove_stale_temp_files(output)
-    shown = progress or for_stream(label="jobs")
-    match mode:
-        case ReportInputs():
-            log.info("report mode", report_id=str(mode.report_id), config=config.source)
-            report = await run_report(
-                mode,
-                config,
-                options.outputs,
-                allow_missing_jobs=options.allow_missing_jobs,
-                progress=shown,
-            )
-            _log_written(
-                "report metrics written",
-                report.output,
-                report.status,
-                report.metrics_written,
-                report.traffic,
-                report.outcome.seconds,
-                batches=report.outcome.batches,
-                jobs=report.outcome.jobs,
-                jobs_missing=len(report.outcome.missing),
-            )
-            return report.output
-        case BatchInputs():
-            log.info("batch mode", batch_id=str(mode.batch_id), config=config.source)
-            result = await run_batch(
-                mode,
-                config,
-                options.outputs,
-                allow_missing_jobs=options.allow_missing_jobs,
-                progress=shown,
-            )
-            _log_written(
-                "batch metrics written",
-                result.output,
-                result.status,
-                result.metrics_written,
-                result.traffic,
-                result.outcome.seconds,
-                jobs=result.outcome.jobs_listed,
-                jobs_missing=len(result.outcome.missing),
-            )
-            return result.output
-        case TestInputs():
-            log.info("test mode", config=config.source)
-            return await run_test_mode(mode, config, output)
+    if isinstance(mode, TestInputs):
+        log.info("test mode", config=config.source)
+        return await run_test_mode(mode, config, output)
+    pieces: BatchMode | ReportMode = (
+        BatchMode(mode, config) if isinstance(mode, BatchInputs) else ReportMode(mode, config)
+    )
+    log.info(
+        f"{pieces.kind} mode", **{f"{pieces.kind}_id": str(pieces.output_id)}, config=config.source
+    )
+    result: RunResult[Any] = await run_pipeline(
+        pieces,
+        mode.access,
+        config.fetch,
+        options.outputs,
+        allow_missing_jobs=options.allow_missing_jobs,
+        progress=progress or for_stream(label="jobs"),
+    )
+    _log_written(result)
+    return result.output
 
 
 def _remove_stale_temp_files(output: Path) -> None:
@@ -180,26 +153,19 @@ def _remove_stale_temp_files(output: Path) -> None:
         log.info("removed stale temporary files", files=[str(p) for p in removed])
 
 
-def _log_written(
-    event: str,
-    output: Path,
-    status: MetricStatus,
-    metrics: list[str],
-    traffic: Traffic,
-    seconds: float,
-    **counts: int,
-) -> None:
+def _log_written(result: RunResult[Any]) -> None:
     """The run's final summary event."""
+    traffic = result.traffic
     log.info(
-        event,
-        output=str(output),
-        status=status.name,
-        **counts,
-        metrics=len(metrics),
+        f"{result.kind} metrics written",
+        output=str(result.output),
+        status=result.status.name,
+        **result.counts,
+        metrics=len(result.metrics_written),
         requests=traffic.requests,
         retries=traffic.retries,
         bytes=traffic.bytes_received,
-        seconds=round(seconds, 3),
+        seconds=round(result.seconds, 3),
     )
 
 

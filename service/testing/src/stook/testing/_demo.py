@@ -132,7 +132,8 @@ def run_demo(*, jobs: int, output: Path, seed: int) -> int:
         f"  {report.outcome.batches} batches, {report.outcome.jobs} jobs, "
         f"{report.requests:,} requests, {report.retries} retries, {seconds:.2f} s"
     )
-    print("  Regressions: " + report.regressions.replace("\n", "\n    "))
+    if report.regressions is not None:
+        print("  Regressions: " + report.regressions.text.replace("\n", "\n    "))
     print(
         f"\nConfig used: {config_path}. Run it yourself: stook run --inputs {inputs} "
         f"--outputs {output} --config {config_path} (with `stook emulate` serving)."

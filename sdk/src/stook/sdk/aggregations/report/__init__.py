@@ -5,7 +5,7 @@ Each folds in one `BatchRecord` at a time, like batch aggregations fold in jobs.
 
 from stook.sdk.aggregations.report._experiences import FlakyExperiences, MostFailedExperiences
 from stook.sdk.aggregations.report._job_distributions import JobScalarDistributions
-from stook.sdk.aggregations.report._lines import ScalarLines
+from stook.sdk.aggregations.report._lines import RegressionSummary, ScalarLines
 from stook.sdk.aggregations.report._regression import Verdict, check
 from stook.sdk.aggregations.report._statuses import (
     BatchMetricStatusCounts,
@@ -19,6 +19,7 @@ __all__ = [
     "JobMetricStatusCounts",
     "JobScalarDistributions",
     "MostFailedExperiences",
+    "RegressionSummary",
     "ScalarLines",
     "TestStatusOverTime",
     "Verdict",

@@ -24,6 +24,18 @@ class _Value:
     status: str
 
 
+@dataclass(frozen=True, slots=True)
+class RegressionSummary:
+    """The verdict on the latest batch, as the ``Regressions`` text metric says it.
+
+    `moved` names the batch metrics that moved, in name order; empty when none did.
+    """
+
+    status: MetricStatus
+    text: str
+    moved: tuple[str, ...] = ()
+
+
 @dataclass
 class ScalarLines(Aggregation[BatchRecord]):
     """A LINE_PLOT ``N over time`` per SCALAR batch metric ``N``: its value in each batch
@@ -108,43 +120,43 @@ class ScalarLines(Aggregation[BatchRecord]):
                 status=MetricStatus.FAIL_WARN if verdict.regressed else MetricStatus.PASSED,
                 description=_describe(metric, verdict, series, unit),
             )
-        self._write_summary(writer, verdicts)
+        summary = self.regressions()
+        if summary is not None:
+            writer.text(self.name, summary.text, status=summary.status)
 
-    def _write_summary(
-        self, writer: MetricsWriter, verdicts: dict[str, tuple[Verdict, list[_Value]]]
-    ) -> None:
+    def regressions(self) -> RegressionSummary | None:
+        """What the latest batch did against its baseline; None before any batch."""
+        if not self.batches:
+            return None
         latest = max(self.batches)
         if len(self.batches) == 1:
-            writer.text(
-                self.name,
+            return RegressionSummary(
+                MetricStatus.NOT_APPLICABLE,
                 f"Only one batch in the report ({latest.name}): no regression verdict.",
-                status=MetricStatus.NOT_APPLICABLE,
             )
-            return
-        moved = [
-            _describe(m, v, s, pick_unit(self.units[m]))
+        verdicts = self.verdicts()
+        moved = {
+            m: _describe(m, v, s, pick_unit(self.units[m]))
             for m, (v, s) in verdicts.items()
             if v.regressed
-        ]
+        }
         judged = sum(v.regressed is not None for v, _ in verdicts.values())
         if moved:
-            text = (
+            return RegressionSummary(
+                MetricStatus.FAIL_WARN,
                 f"{len(moved)} of {judged} batch metrics moved in the latest batch "
                 f"({latest.name}, {latest.created:%Y-%m-%d %H:%M} UTC):\n"
-                + "\n".join(f"- {line}" for line in moved)
+                + "\n".join(f"- {line}" for line in moved.values()),
+                moved=tuple(moved),
             )
-            writer.text(self.name, text, status=MetricStatus.FAIL_WARN)
-            return
         if judged == 0:
-            writer.text(
-                self.name,
+            return RegressionSummary(
+                MetricStatus.NOT_APPLICABLE,
                 f"No regression verdict: no batch metric has {MIN_BASELINE} or more earlier "
                 "batches to compare the latest one with.",
-                status=MetricStatus.NOT_APPLICABLE,
             )
-            return
-        writer.text(
-            self.name,
+        return RegressionSummary(
+            MetricStatus.PASSED,
             f"No regression: in the latest batch ({latest.name}) all {judged} judged batch "
             f"metrics are within {self.threshold:g} robust deviations of the median of "
             f"up to {self.window} earlier batches.",
