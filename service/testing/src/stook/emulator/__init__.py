@@ -14,8 +14,9 @@ deterministic by seed; latency, transient faults and rate limits are configurabl
 """
 
 from stook.emulator._config import EmulatorConfig, Origin, Outage
-from stook.emulator._dataset import Dataset, MetricsOutput, StoredData, StoredMetric, Truth
+from stook.emulator._dataset import Dataset, MetricsOutput, StoredData, StoredMetric
 from stook.emulator._faults import FaultKind
+from stook.emulator._generate import Truth
 from stook.emulator._server import (
     BATCH_CONFIG,
     REPORT_CONFIG,
