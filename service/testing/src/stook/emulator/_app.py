@@ -15,7 +15,7 @@ from aiohttp import web
 
 from stook.emulator import _json
 from stook.emulator._config import EmulatorConfig, Origin
-from stook.emulator._dataset import Dataset, MetricsOutput
+from stook.emulator._dataset import Dataset
 from stook.emulator._faults import (
     Fault,
     FaultInjector,
@@ -29,6 +29,7 @@ from stook.emulator._quirks import SpecQuirks
 from stook.emulator._search import SearchError, parse_search
 from stook.emulator._signing import UrlSigner
 from stook.emulator._stats import EmulatorStats
+from stook.emulator._store import MetricsOutput
 from stook.emulator._world import BatchKind
 
 API_PREFIX = "/v1"

@@ -6,7 +6,8 @@ from collections import Counter
 from datetime import datetime, timedelta
 from typing import Any
 
-from stook.emulator._dataset import Dataset, StoredData, StoredMetric
+from stook.emulator._dataset import Dataset
+from stook.emulator._store import StoredData, StoredMetric
 from stook.emulator._world import BatchSpec, Build, ExperienceTag, JobSpec, ReportSpec
 
 Json = dict[str, Any]
