@@ -29,7 +29,7 @@ def test_any_batch_size_is_quick_to_list(jobs: int) -> None:
     # Only the LRU holds generated outputs, however large the batch.
     for job in listed[:40]:
         ds.job_output(ds.main_batch_id, job.id)
-    assert len(ds._outputs) <= 16
+    assert ds.cached_outputs <= 16
 
 
 async def test_an_empty_batch_lists_nothing() -> None:

@@ -14,19 +14,9 @@ deterministic by seed; latency, transient faults and rate limits are configurabl
 """
 
 from stook.emulator._config import EmulatorConfig, Origin, Outage
-from stook.emulator._dataset import (
-    BatchKind,
-    BatchSpec,
-    Dataset,
-    Experience,
-    JobSpec,
-    MetricsOutput,
-    ReportSpec,
-    StoredData,
-    StoredMetric,
-    Truth,
-)
+from stook.emulator._dataset import Dataset
 from stook.emulator._faults import FaultKind
+from stook.emulator._generate import Truth
 from stook.emulator._server import (
     BATCH_CONFIG,
     REPORT_CONFIG,
@@ -38,6 +28,8 @@ from stook.emulator._server import (
     serve_with_inputs,
 )
 from stook.emulator._stats import EmulatorStats
+from stook.emulator._store import MetricsOutput, StoredData, StoredMetric
+from stook.emulator._world import BatchKind, BatchSpec, Experience, JobSpec, ReportSpec
 
 __all__ = [
     "BATCH_CONFIG",

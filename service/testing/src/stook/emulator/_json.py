@@ -6,16 +6,9 @@ from collections import Counter
 from datetime import datetime, timedelta
 from typing import Any
 
-from stook.emulator._dataset import (
-    BatchSpec,
-    Build,
-    Dataset,
-    ExperienceTag,
-    JobSpec,
-    ReportSpec,
-    StoredData,
-    StoredMetric,
-)
+from stook.emulator._dataset import Dataset
+from stook.emulator._store import StoredData, StoredMetric
+from stook.emulator._world import BatchSpec, Build, ExperienceTag, JobSpec, ReportSpec
 
 Json = dict[str, Any]
 

@@ -27,7 +27,8 @@ from datetime import datetime
 from typing import Any
 
 from stook.emulator._config import EmulatorConfig
-from stook.emulator._dataset import JobSpec, MetricsOutput, StoredData, StoredMetric
+from stook.emulator._store import MetricsOutput, StoredData, StoredMetric
+from stook.emulator._world import JobSpec
 from stook.proto import metrics_pb2 as pb
 
 Json = dict[str, Any]

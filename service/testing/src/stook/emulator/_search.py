@@ -7,7 +7,7 @@ import uuid
 from collections.abc import Callable
 from datetime import UTC, datetime
 
-from stook.emulator._dataset import BatchSpec
+from stook.emulator._world import BatchSpec
 
 BatchFilter = Callable[[BatchSpec], bool]
 

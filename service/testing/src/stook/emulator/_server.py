@@ -18,15 +18,12 @@ from typing import Any, Self
 
 from aiohttp import web
 
-from stook.emulator._app import (
-    API_PREFIX,
-    EmulatorState,
-    build_api_app,
-    build_storage_app,
-)
+from stook.emulator._api import API_PREFIX, build_api_app
 from stook.emulator._config import EmulatorConfig
 from stook.emulator._dataset import Dataset
+from stook.emulator._state import EmulatorState
 from stook.emulator._stats import EmulatorStats
+from stook.emulator._storage import build_storage_app
 
 log = logging.getLogger("stook.emulator")
 

@@ -1,0 +1,117 @@
+"""The steps of a request that both origins share, around their own checks and handlers.
+
+`admit` (outage, latency, rate limit) comes before an origin's own checks (token,
+signature); then the handler runs, through `apply_fault` when a fault is due; and
+`record_response` counts what the client sees last. JSON answers live here too: an
+outage or a rate limit answers in JSON on either origin.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import math
+import time
+from collections.abc import Awaitable, Callable
+from typing import Any
+
+from aiohttp import web
+
+from stook.emulator import _json
+from stook.emulator._config import Origin
+from stook.emulator._faults import Fault, FaultKind
+from stook.emulator._state import EmulatorState
+from stook.emulator._stats import EmulatorStats
+
+Handler = Callable[[web.Request], Awaitable[web.StreamResponse]]
+
+
+def json_response(
+    body: Any, status: int = 200, headers: dict[str, str] | None = None
+) -> web.Response:
+    return web.Response(
+        body=json.dumps(body, separators=(",", ":")).encode(),
+        status=status,
+        content_type="application/json",
+        headers=headers,
+    )
+
+
+def error_response(
+    status: int, message: str, headers: dict[str, str] | None = None
+) -> web.Response:
+    return json_response(_json.error(status, message), status, headers)
+
+
+async def apply_fault(
+    request: web.Request, fault: Fault, handler: Handler, stats: EmulatorStats, origin: str
+) -> web.StreamResponse:
+    """The answer a request meets under `fault`, the handler's only if it is truncated."""
+    stats.faults[f"{origin}:{fault.kind.value}"] += 1
+    if fault.kind is FaultKind.SERVER_ERROR:
+        return error_response(fault.status, "injected transient server error")
+    if fault.kind is FaultKind.RATE_LIMITED:
+        return error_response(429, "injected rate limit", {"Retry-After": str(fault.retry_after_s)})
+    if fault.kind is FaultKind.RESET:
+        if request.transport is not None:
+            request.transport.abort()
+        # Nothing reaches the client any more; this only ends the handler.
+        return web.Response(status=500)
+    # Truncated: promise the whole body, send half of it, then drop the connection.
+    full = await handler(request)
+    body = full.body if isinstance(full, web.Response) and isinstance(full.body, bytes) else b""
+    if full.status != 200 or not body:
+        return full
+    partial = web.StreamResponse(status=200, headers={"Content-Type": full.content_type})
+    partial.content_length = len(body)
+    await partial.prepare(request)
+    await partial.write(body[: len(body) // 2])
+    stats.bytes_served[origin] += len(body) // 2
+    if request.transport is not None:
+        request.transport.close()
+    return partial
+
+
+def route_name(request: web.Request) -> str:
+    route = request.match_info.route
+    return route.name or ("unknown" if route.resource is None else route.resource.canonical)
+
+
+async def admit(state: EmulatorState, request: web.Request, origin: Origin) -> web.Response | None:
+    """Outages, latency and rate limits, common to both origins; an answer if refused."""
+    stats = state.stats
+    stats.requests[origin] += 1
+    stats.endpoints[f"{origin}:{route_name(request)}"] += 1
+    now = time.monotonic()
+    window = state.outages.refuses(origin, stats.requests[origin] - 1, now)
+    if window is not None:
+        # Before the latency: a load balancer with nothing behind it answers at once.
+        stats.outage_refusals[origin] += 1
+        if window not in stats.outage_windows:
+            stats.outage_windows.append(window)
+        return error_response(503, "service unavailable (emulated outage)")
+    delay = state.latency.next_delay()
+    if delay > 0:
+        await asyncio.sleep(delay)
+    bucket = state.buckets.get(origin)
+    if bucket is not None:
+        wait = bucket.take(state.now())
+        if wait > 0:
+            stats.rate_limited[origin] += 1
+            return error_response(429, "rate limit exceeded", {"Retry-After": str(math.ceil(wait))})
+    return None
+
+
+def record_response(
+    stats: EmulatorStats, origin: str, response: web.StreamResponse, fault: Fault | None = None
+) -> web.StreamResponse:
+    """Counts `response` in the origin's statistics and returns it."""
+    # A reset or truncated answer never arrives whole; count it as what the client sees.
+    broken = fault is not None and fault.kind in (FaultKind.RESET, FaultKind.TRUNCATED)
+    label = fault.kind.value if broken and fault is not None else str(response.status)
+    stats.statuses[f"{origin}:{label}"] += 1
+    if broken:
+        return response
+    if isinstance(response, web.Response) and isinstance(response.body, bytes):
+        stats.bytes_served[origin] += len(response.body)
+    return response
