@@ -12,7 +12,7 @@ in ``_modules`` is private.
 """
 
 from stook.sdk import data
-from stook.sdk._atomic import write_atomic
+from stook.sdk._atomic import remove_stale_temp_files, write_atomic
 from stook.sdk._data import MetricsData
 from stook.sdk._enums import MetricImportance, MetricStatus, MetricType, SeriesKind
 from stook.sdk._errors import (
@@ -66,6 +66,7 @@ __all__ = [
     "read_job_metrics",
     "read_metric",
     "read_metrics_data",
+    "remove_stale_temp_files",
     "validate_job_metrics",
     "write_atomic",
 ]

@@ -10,8 +10,7 @@ from pathlib import Path
 
 import structlog
 
-from stook.sdk._enums import MetricStatus
-from stook.sdk._writer import MetricsWriter
+from stook.sdk import MetricStatus, MetricsWriter
 from stook.sdk.aggregations import BatchAggregation, JobRecord, Needs, default_batch_aggregations
 from stook.service._batch_fetch import BatchFetcher, FetchOutcome, FetchPlan, MissingJob
 from stook.service._config import ConfigError, StookConfig

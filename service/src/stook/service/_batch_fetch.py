@@ -18,8 +18,7 @@ from dataclasses import dataclass, field
 import polars as pl
 import structlog
 
-from stook.sdk._errors import ReadError
-from stook.sdk._reader import read_metrics_data
+from stook.sdk import ReadError, read_metrics_data
 from stook.sdk.aggregations import UNKNOWN_STATUS, JobRecord
 from stook.service._client import ApiClient
 from stook.service._errors import (

@@ -32,7 +32,7 @@ from typing import Any
 
 import structlog
 
-from stook.sdk._errors import StookError
+from stook.sdk import StookError
 from stook.sdk.aggregations import (
     AggregationConfigError,
     BatchAggregation,

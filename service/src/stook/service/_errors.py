@@ -14,7 +14,7 @@ from typing import Final
 
 from yarl import URL
 
-from stook.sdk._errors import StookError
+from stook.sdk import StookError
 from stook.service._redact import redact_text, redact_url
 
 __all__ = [

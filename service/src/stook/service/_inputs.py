@@ -15,7 +15,7 @@ from pathlib import Path
 from typing import Any
 from urllib.parse import urlsplit
 
-from stook.sdk._errors import StookError
+from stook.sdk import StookError
 
 REPORT_CONFIG = "report_config.json"
 BATCH_CONFIG = "batch_metrics_config.json"

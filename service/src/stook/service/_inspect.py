@@ -7,10 +7,16 @@ import sys
 from pathlib import Path
 from typing import TextIO
 
-from stook.sdk._enums import MetricType, SeriesKind
-from stook.sdk._errors import InvalidMetricsError, ReadError
-from stook.sdk._reader import JobMetricsView, MetricView, read_job_metrics
-from stook.sdk._validate import find_problems
+from stook.sdk import (
+    InvalidMetricsError,
+    JobMetricsView,
+    MetricType,
+    MetricView,
+    ReadError,
+    SeriesKind,
+    find_problems,
+    read_job_metrics,
+)
 
 EXIT_INVALID = 4
 

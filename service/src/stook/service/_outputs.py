@@ -12,7 +12,7 @@ import os
 import tempfile
 from pathlib import Path
 
-from stook.sdk._errors import StookError
+from stook.sdk import StookError
 
 # Not the output's own temporary-file prefix, so a clean-up of those never meets a probe.
 _PROBE_PREFIX = ".stook-write-probe-"

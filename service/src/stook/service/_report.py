@@ -10,8 +10,7 @@ from typing import Any
 
 import structlog
 
-from stook.sdk._enums import MetricStatus
-from stook.sdk._writer import MetricsWriter
+from stook.sdk import MetricStatus, MetricsWriter
 from stook.sdk.aggregations import (
     Aggregation,
     BatchRecord,

@@ -27,14 +27,14 @@ from pathlib import Path
 
 import structlog
 
-from stook.sdk._atomic import remove_stale_temp_files
-from stook.sdk._enums import MetricStatus
-from stook.sdk._errors import (
+from stook.sdk import (
     InvalidMetricsError,
+    MetricStatus,
     OutputWriteError,
     ReadError,
     StookError,
     WriterError,
+    remove_stale_temp_files,
 )
 from stook.service._batch import OUTPUT_NAME, run_batch
 from stook.service._config import ConfigError, StookConfig, load

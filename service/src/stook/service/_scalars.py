@@ -15,7 +15,7 @@ from collections.abc import Awaitable, Callable, Sequence
 
 import structlog
 
-from stook.sdk._reader import read_metric
+from stook.sdk import read_metric
 from stook.sdk.aggregations import Scalar
 from stook.service._client import StorageClient
 from stook.service._errors import PresignedUrlExpiredError

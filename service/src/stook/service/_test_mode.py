@@ -11,7 +11,7 @@ from typing import Any
 
 import structlog
 
-from stook.sdk._writer import MetricsWriter
+from stook.sdk import MetricsWriter
 from stook.service._config import ConfigError, StookConfig
 from stook.service._inputs import TestInputs
 from stook.service._user_code import add_import_folders, describe_search

@@ -21,9 +21,7 @@ from google.protobuf.message import Message
 
 from stook.emulator._config import EmulatorConfig
 from stook.proto import metrics_pb2 as pb
-from stook.sdk import data
-from stook.sdk._enums import MetricStatus, MetricType
-from stook.sdk._writer import MetricsWriter
+from stook.sdk import MetricStatus, MetricsWriter, MetricType, data
 
 _NAMESPACE = uuid.UUID("0b6f0c55-3a5e-4d0e-8c77-6f1d2b9e4a10")
 # Data is anchored to a fixed instant so that equal seeds give equal timestamps.

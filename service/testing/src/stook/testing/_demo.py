@@ -17,8 +17,7 @@ import tomllib
 from pathlib import Path
 
 from stook.emulator import EmulatorConfig, EmulatorProcess
-from stook.sdk._reader import read_job_metrics
-from stook.sdk._validate import find_problems
+from stook.sdk import find_problems, read_job_metrics
 from stook.service._batch import run_batch
 from stook.service._config import StookConfig, parse
 from stook.service._inputs import BatchInputs, ReportInputs, TestInputs, detect
