@@ -11,10 +11,10 @@ import pytest
 import tenacity
 
 from stook.emulator import Emulator
-from stook.service._batch import BatchResult, run_batch
-from stook.service._config import parse
-from stook.service._inputs import BatchInputs, detect
-from stook.service._retry import RetryPolicy
+from stook.service.api._retry import RetryPolicy
+from stook.service.modes._batch import BatchResult, run_batch
+from stook.service.modes._config import parse
+from stook.service.modes._inputs import BatchInputs, detect
 from stook.testing import emulated_batch
 from tests.e2e.support import BATCH_TOML, assert_matches_truth, expected_from_truth, read_output
 

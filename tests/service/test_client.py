@@ -11,8 +11,8 @@ import pytest
 from tenacity import wait_none
 from yarl import URL
 
-from stook.service._client import ApiClient, StorageClient
-from stook.service._errors import (
+from stook.service.api._client import ApiClient, StorageClient
+from stook.service.api._errors import (
     ApiResponseError,
     ApiStatusError,
     AuthError,
@@ -23,9 +23,9 @@ from stook.service._errors import (
     RetryAfterTooLongError,
     StorageError,
 )
-from stook.service._http import HttpTransport
-from stook.service._models import ConflatedJobStatus, Job
-from stook.service._retry import RetryPolicy, TransferStats
+from stook.service.api._models import ConflatedJobStatus, Job
+from stook.service.api._retry import RetryPolicy, TransferStats
+from stook.service.api._transport import HttpTransport
 from tests.service.conftest import RecordingSleep
 from tests.service.scripted_server import (
     ScriptedServer,

@@ -13,19 +13,8 @@ import structlog.testing
 
 from stook.sdk._errors import InvalidMetricsError, Problem, ReadError, StookError, WriterError
 from stook.sdk.aggregations import JobStatusCounts, MergedHistogram, ScalarStats, WeightedMean
-from stook.service import _config, _inputs
-from stook.service._batch import MissingJobsError
-from stook.service._config import (
-    ConfigError,
-    FetchSettings,
-    ReportSettings,
-    StookConfig,
-    load,
-    parse,
-)
-from stook.service._errors import ApiError, AuthError, RetriesExhaustedError
-from stook.service._inputs import ApiAccess, BatchInputs, InputsError, ReportInputs, detect
-from stook.service._run import (
+from stook.service.api._errors import ApiError, AuthError, RetriesExhaustedError
+from stook.service.cli._run import (
     DEFAULT_INPUTS,
     DEFAULT_OUTPUTS,
     ExitCode,
@@ -33,7 +22,18 @@ from stook.service._run import (
     exit_code_for,
     resolve_options,
 )
-from stook.service._test_mode import UserFunctionError
+from stook.service.modes import _config, _inputs
+from stook.service.modes._batch import MissingJobsError
+from stook.service.modes._config import (
+    ConfigError,
+    FetchSettings,
+    ReportSettings,
+    StookConfig,
+    load,
+    parse,
+)
+from stook.service.modes._inputs import ApiAccess, BatchInputs, InputsError, ReportInputs, detect
+from stook.service.modes._test_mode import UserFunctionError
 
 # ================================================================ stook.toml
 

@@ -9,9 +9,9 @@ import uuid
 import pytest
 from aiohttp import web
 
-from stook.service._client import ApiClient
-from stook.service._gate import OriginGate, Passage
-from stook.service._retry import RetryPolicy
+from stook.service.api._client import ApiClient
+from stook.service.api._gate import OriginGate, Passage
+from stook.service.api._retry import RetryPolicy
 from tests.service.conftest import RecordingSleep
 from tests.service.scripted_server import ScriptedServer, answer_json
 

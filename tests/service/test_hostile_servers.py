@@ -20,15 +20,15 @@ import pytest
 from aiohttp import web
 from aiohttp.test_utils import TestServer
 
-from stook.service._client import ApiClient, StorageClient, body_cap_mb
-from stook.service._errors import (
+from stook.service.api._client import ApiClient, StorageClient, body_cap_mb
+from stook.service.api._errors import (
     ApiResponseError,
     AuthError,
     BodyTooLargeError,
     RedirectedRefusalError,
 )
-from stook.service._retry import RetryPolicy
-from stook.service._run import exit_code_for, explain
+from stook.service.api._retry import RetryPolicy
+from stook.service.cli._run import exit_code_for, explain
 from tests.failures import failure_lines
 from tests.service.scripted_server import (
     Responder,

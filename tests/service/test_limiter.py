@@ -9,9 +9,9 @@ from collections.abc import Callable
 
 import pytest
 
-from stook.service._client import ApiClient
-from stook.service._config import ConfigError, parse
-from stook.service._limiter import AimdLimiter, FixedLimit, NestedLimit
+from stook.service.api._client import ApiClient
+from stook.service.api._limits import AimdLimiter, FixedLimit, NestedLimit
+from stook.service.modes._config import ConfigError, parse
 
 
 class Clock:

@@ -45,8 +45,8 @@ from resim.sdk.client.models.metric_type import MetricType as ResimMetricType
 from resim.sdk.client.models.metrics_data_type import MetricsDataType as ResimMetricsDataType
 from resim.sdk.client.models.report_status import ReportStatus as ResimReportStatus
 
-from stook.service._errors import ApiResponseError
-from stook.service._models import (
+from stook.service.api._errors import ApiResponseError
+from stook.service.api._models import (
     ApiMetricStatus,
     ApiMetricType,
     Batch,

@@ -12,8 +12,8 @@ from structlog.testing import capture_logs
 from tenacity import wait_none
 from yarl import URL
 
-from stook.service._client import ApiClient
-from stook.service._errors import (
+from stook.service.api._client import ApiClient
+from stook.service.api._errors import (
     ApiStatusError,
     AuthError,
     RetriesExhaustedError,
@@ -22,9 +22,9 @@ from stook.service._errors import (
     body_excerpt,
     redact_url,
 )
-from stook.service._logging import configure_logging, get_logger, redact_event, register_secret
-from stook.service._redact import redact_text
-from stook.service._retry import RetryPolicy
+from stook.service.api._logging import configure_logging, get_logger, redact_event, register_secret
+from stook.service.api._redact import redact_text
+from stook.service.api._retry import RetryPolicy
 from tests.service.conftest import RecordingSleep
 from tests.service.scripted_server import ScriptedServer, answer, answer_json
 

@@ -10,7 +10,7 @@ import aiohttp
 import pytest
 from tenacity import wait_none
 
-from stook.service._errors import (
+from stook.service.api._errors import (
     ApiStatusError,
     AuthError,
     IncompleteBodyError,
@@ -21,7 +21,7 @@ from stook.service._errors import (
     StorageError,
     TransportError,
 )
-from stook.service._retry import (
+from stook.service.api._retry import (
     RetryPolicy,
     TransferStats,
     call_with_retries,

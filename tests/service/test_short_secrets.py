@@ -8,13 +8,13 @@ import uuid
 
 import pytest
 
-from stook.service import _redact
-from stook.service._client import ApiClient
-from stook.service._errors import AuthError
-from stook.service._logging import configure_logging, get_logger
-from stook.service._redact import MASK, redact_text, redact_url, register_secret
-from stook.service._retry import RetryPolicy
-from stook.service._run import explain
+from stook.service.api import _redact
+from stook.service.api._client import ApiClient
+from stook.service.api._errors import AuthError
+from stook.service.api._logging import configure_logging, get_logger
+from stook.service.api._redact import MASK, redact_text, redact_url, register_secret
+from stook.service.api._retry import RetryPolicy
+from stook.service.cli._run import explain
 from tests.service.scripted_server import ScriptedServer, answer
 
 PROJECT = uuid.UUID(int=1)

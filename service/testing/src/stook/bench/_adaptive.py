@@ -46,7 +46,7 @@ def measure_run(info: EmulatorInfo, concurrency: int, adaptive: bool) -> dict[st
     keep the adaptive limiters' counters (API first, then storage). A run that gives up is
     a result, not a crash.
     """
-    from stook.service import _limiter
+    from stook.service.api import _limits as _limiter
 
     refusals: list[float] = []
     paces: list[_limiter.AimdLimiter] = []

@@ -108,10 +108,10 @@ def measure_stook(
     info: EmulatorInfo, config_toml: str, concurrency: int, adaptive: bool = False
 ) -> Measurement:
     """Batch mode as `stook run` does it, minus the process start-up."""
-    from stook.service._batch import run_batch
-    from stook.service._config import parse
-    from stook.service._inputs import BatchInputs, detect
-    from stook.service._logging import configure_logging
+    from stook.service.api._logging import configure_logging
+    from stook.service.modes._batch import run_batch
+    from stook.service.modes._config import parse
+    from stook.service.modes._inputs import BatchInputs, detect
 
     configure_logging(json=True, level="error")
     doc = tomllib.loads(config_toml)

@@ -18,13 +18,13 @@ from pathlib import Path
 
 from stook.emulator import EmulatorConfig, EmulatorProcess
 from stook.sdk import find_problems, read_job_metrics
-from stook.service._batch import run_batch
-from stook.service._config import StookConfig, parse
-from stook.service._inputs import BatchInputs, ReportInputs, TestInputs, detect
-from stook.service._inspect import summary_lines
-from stook.service._progress import for_stream
-from stook.service._report import run_report
-from stook.service._test_mode import run_test_mode
+from stook.service.cli._inspect import summary_lines
+from stook.service.modes._batch import run_batch
+from stook.service.modes._config import StookConfig, parse
+from stook.service.modes._inputs import BatchInputs, ReportInputs, TestInputs, detect
+from stook.service.modes._progress import for_stream
+from stook.service.modes._report import run_report
+from stook.service.modes._test_mode import run_test_mode
 
 REPORT_BATCHES = 14
 

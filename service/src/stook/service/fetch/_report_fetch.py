@@ -22,11 +22,11 @@ from typing import TypeVar
 import structlog
 
 from stook.sdk.aggregations import UNKNOWN_STATUS, BatchRecord, JobSummary, Needs, Scalar
-from stook.service._batch_fetch import MissingJob
-from stook.service._client import ApiClient
-from stook.service._errors import ApiError, AuthError, NotFoundError, OriginUnavailableError
-from stook.service._models import Batch, Job, JobMetric, Report
-from stook.service._scalars import is_scalar, read_scalars
+from stook.service.api._client import ApiClient
+from stook.service.api._errors import ApiError, AuthError, NotFoundError, OriginUnavailableError
+from stook.service.api._models import Batch, Job, JobMetric, Report
+from stook.service.fetch._batch_fetch import MissingJob
+from stook.service.fetch._scalars import is_scalar, read_scalars
 
 log = structlog.get_logger("stook.report")
 _T = TypeVar("_T")

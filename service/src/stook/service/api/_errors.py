@@ -15,7 +15,7 @@ from typing import Final
 from yarl import URL
 
 from stook.sdk import StookError
-from stook.service._redact import redact_text, redact_url
+from stook.service.api._redact import redact_text, redact_url
 
 __all__ = [
     "ApiError",

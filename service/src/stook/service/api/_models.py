@@ -28,7 +28,7 @@ from dataclasses import dataclass, field
 from datetime import UTC, datetime, timedelta, timezone
 from typing import Any, Self, TypeVar
 
-from stook.service._errors import ApiResponseError
+from stook.service.api._errors import ApiResponseError
 
 __all__ = [
     "ApiMetricStatus",

@@ -10,8 +10,8 @@ from __future__ import annotations
 import os
 import sys
 
-from stook.service import _signals
-from stook.service._signals import Interrupted
+from stook.service.cli import _signals
+from stook.service.cli._signals import Interrupted
 
 # typing.TYPE_CHECKING without importing typing, which alone costs milliseconds before the
 # handlers are in place; mypy and ruff read this constant the same way.
@@ -21,7 +21,7 @@ if TYPE_CHECKING:
     from collections.abc import Sequence
     from typing import Any
 
-    from stook.service._progress import Tally
+    from stook.service.modes._progress import Tally
 
 
 def _add_logging(parser: argparse.ArgumentParser, *, default_level: str = "info") -> None:
@@ -133,8 +133,8 @@ class Voice:
 
     def failed(self, error: Exception) -> int:
         try:
-            from stook.service._run import ExitCode, exit_code_for, explain
-            from stook.service._test_mode import UserFunctionError
+            from stook.service.cli._run import ExitCode, exit_code_for, explain
+            from stook.service.modes._test_mode import UserFunctionError
         except ImportError:  # a broken installation: the error is what failed to import
             self._say("stook failed", f"error: {error}", error, error=str(error), exit_code=1)
             return 1
@@ -217,7 +217,7 @@ def run_cli(argv: Sequence[str] | None = None, *, voice: Voice | None = None) ->
 
 def _run_cli(argv: Sequence[str] | None, voice: Voice) -> int:
     args = build_parser().parse_args(argv)
-    from stook.service._logging import configure_logging
+    from stook.service.api._logging import configure_logging
 
     if hasattr(args, "log_format"):
         json_logs = None if args.log_format == "auto" else args.log_format == "json"
@@ -248,7 +248,7 @@ def _testing_tool(command: str, module: str) -> Any:
     """`module` from stook-testing, or a usage error saying how to install it."""
     import importlib
 
-    from stook.service._run import UsageError
+    from stook.service.cli._run import UsageError
 
     try:
         return importlib.import_module(module)
@@ -264,8 +264,8 @@ def _testing_tool(command: str, module: str) -> Any:
 def _dispatch(args: argparse.Namespace, voice: Voice) -> int:
     match args.command:
         case "run":
-            from stook.service._progress import Tally, for_stream
-            from stook.service._run import resolve_options, run
+            from stook.service.cli._run import resolve_options, run
+            from stook.service.modes._progress import Tally, for_stream
 
             options = resolve_options(
                 inputs=args.inputs,
@@ -292,11 +292,11 @@ def _dispatch(args: argparse.Namespace, voice: Voice) -> int:
             bench.run_bench(Path(args.out), quick=args.quick)
             return 0
         case "validate":
-            from stook.service._inspect import validate_file
+            from stook.service.cli._inspect import validate_file
 
             return validate_file(args.file)
         case "show":
-            from stook.service._inspect import show_file
+            from stook.service.cli._inspect import show_file
 
             return show_file(args.file)
     raise AssertionError(f"unhandled command {args.command!r}")  # argparse restricts it

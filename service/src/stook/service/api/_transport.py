@@ -1,7 +1,7 @@
 """The transport layer: one aiohttp session that sends a GET and returns the whole answer.
 
 It knows nothing of JSON, paging, retries or what a status code means; the clients in
-:mod:`stook.service._client` build those on top. What it does guarantee:
+:mod:`stook.service.api._client` build those on top. What it does guarantee:
 
 * at most ``concurrency`` requests in flight (or what a shared limiter allows), and the
   per-attempt timeout starts only once a request holds one of those slots, so thousands of
@@ -30,11 +30,11 @@ from aiohttp import hdrs
 from multidict import CIMultiDictProxy
 from yarl import URL
 
-from stook.service._errors import BodyTooLargeError, IncompleteBodyError, TransportError
-from stook.service._limiter import ConcurrencyLimit, FixedLimit
-from stook.service._logging import get_logger
-from stook.service._redact import redact_text, redact_url
-from stook.service._retry import TransferStats, is_transient_transport_failure
+from stook.service.api._errors import BodyTooLargeError, IncompleteBodyError, TransportError
+from stook.service.api._limits import ConcurrencyLimit, FixedLimit
+from stook.service.api._logging import get_logger
+from stook.service.api._redact import redact_text, redact_url
+from stook.service.api._retry import TransferStats, is_transient_transport_failure
 
 __all__ = ["BodyCap", "HttpTransport", "Response"]
 

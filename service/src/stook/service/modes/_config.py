@@ -39,7 +39,7 @@ from stook.sdk.aggregations import (
     ReportAggregation,
     build_all,
 )
-from stook.service._user_code import add_import_folders
+from stook.service.modes._user_code import add_import_folders
 
 log = structlog.get_logger("stook.config")
 

@@ -21,7 +21,7 @@ import structlog
 from structlog.typing import EventDict, FilteringBoundLogger, Processor, WrappedLogger
 from yarl import URL
 
-from stook.service._redact import redact_text, redact_url, register_secret
+from stook.service.api._redact import redact_text, redact_url, register_secret
 
 __all__ = ["configure_logging", "get_logger", "redact_event", "register_secret"]
 

@@ -12,9 +12,9 @@ from typing import Any
 import structlog
 
 from stook.sdk import MetricsWriter
-from stook.service._config import ConfigError, StookConfig
-from stook.service._inputs import TestInputs
-from stook.service._user_code import add_import_folders, describe_search
+from stook.service.modes._config import ConfigError, StookConfig
+from stook.service.modes._inputs import TestInputs
+from stook.service.modes._user_code import add_import_folders, describe_search
 
 log = structlog.get_logger("stook.test")
 

@@ -20,15 +20,15 @@ import structlog
 
 from stook.sdk import ReadError, read_metrics_data
 from stook.sdk.aggregations import UNKNOWN_STATUS, JobRecord
-from stook.service._client import ApiClient
-from stook.service._errors import (
+from stook.service.api._client import ApiClient
+from stook.service.api._errors import (
     ApiError,
     AuthError,
     OriginUnavailableError,
     PresignedUrlExpiredError,
 )
-from stook.service._models import Job, JobMetric, JobMetricsData
-from stook.service._scalars import is_scalar, read_scalars
+from stook.service.api._models import Job, JobMetric, JobMetricsData
+from stook.service.fetch._scalars import is_scalar, read_scalars
 
 log = structlog.get_logger("stook.fetch")
 

@@ -10,7 +10,7 @@ pauses between attempts grow exponentially with full jitter from ``initial_backo
 ``max_backoff``, and are cut short rather than sleep past the budget. A ``Retry-After`` is
 honoured up to ``max_retry_after``; a longer one, or one longer than what is left of the
 budget, ends the request at once with an error naming it. When an origin fails as a whole,
-its :class:`~stook.service._gate.OriginGate` makes the requests wait together.
+its :class:`~stook.service.api._gate.OriginGate` makes the requests wait together.
 """
 
 from __future__ import annotations
@@ -36,7 +36,7 @@ from tenacity.stop import stop_base
 from tenacity.wait import wait_base
 from yarl import URL
 
-from stook.service._errors import (
+from stook.service.api._errors import (
     ApiStatusError,
     OriginUnavailableError,
     RetriesExhaustedError,
@@ -44,9 +44,9 @@ from stook.service._errors import (
     StorageError,
     TransportError,
 )
-from stook.service._gate import OriginGate, Passage
-from stook.service._logging import get_logger
-from stook.service._redact import redact_text, redact_url
+from stook.service.api._gate import OriginGate, Passage
+from stook.service.api._logging import get_logger
+from stook.service.api._redact import redact_text, redact_url
 
 __all__ = [
     "RetryPolicy",

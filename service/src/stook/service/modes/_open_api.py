@@ -6,10 +6,10 @@ import contextlib
 from collections.abc import AsyncIterator
 from dataclasses import dataclass
 
-from stook.service._client import ApiClient, body_cap_mb
-from stook.service._config import FetchSettings
-from stook.service._inputs import ApiAccess
-from stook.service._retry import RetryPolicy
+from stook.service.api._client import ApiClient, body_cap_mb
+from stook.service.api._retry import RetryPolicy
+from stook.service.modes._config import FetchSettings
+from stook.service.modes._inputs import ApiAccess
 
 
 @contextlib.asynccontextmanager

@@ -18,7 +18,7 @@ from typing import Any, Final, NoReturn, Self, TypeVar
 from aiohttp import hdrs
 from yarl import URL
 
-from stook.service._errors import (
+from stook.service.api._errors import (
     ApiError,
     ApiResponseError,
     ApiStatusError,
@@ -28,10 +28,9 @@ from stook.service._errors import (
     RedirectedRefusalError,
     StorageError,
 )
-from stook.service._http import BodyCap, HttpTransport, Response
-from stook.service._limiter import AimdLimiter, ConcurrencyLimit, FixedLimit, NestedLimit
-from stook.service._logging import get_logger
-from stook.service._models import (
+from stook.service.api._limits import AimdLimiter, ConcurrencyLimit, FixedLimit, NestedLimit
+from stook.service.api._logging import get_logger
+from stook.service.api._models import (
     Batch,
     BatchMetric,
     BatchMetricsData,
@@ -41,8 +40,8 @@ from stook.service._models import (
     JobMetricsData,
     Report,
 )
-from stook.service._redact import redact_url, register_secret
-from stook.service._retry import (
+from stook.service.api._redact import redact_url, register_secret
+from stook.service.api._retry import (
     RETRYABLE_STATUSES,
     RetryPolicy,
     TransferStats,
@@ -50,6 +49,7 @@ from stook.service._retry import (
     new_gate,
     parse_retry_after,
 )
+from stook.service.api._transport import BodyCap, HttpTransport, Response
 
 __all__ = ["ApiClient", "IdLike", "StorageClient"]
 
@@ -167,7 +167,7 @@ class ApiClient:
     ``storage_concurrency`` storage fetches get a bound of their own instead. Callers may
     start as many tasks as they like: they queue for a slot, without that queueing
     counting against the request timeout. With ``adaptive=True`` each origin (API, storage)
-    also gets an :class:`~stook.service._limiter.AimdLimiter` that finds that server's pace
+    also gets an :class:`~stook.service.api._limits.AimdLimiter` that finds that server's pace
     below ``concurrency`` (backing off on 429s and on growing latency); ``self.paces``
     shows them, ``self.limiter`` the shared bound.
     """

@@ -12,7 +12,7 @@ Exit codes (also in the README):
   4  invalid metrics data: a downloaded item could not be decoded, or the output
      would not validate
   5  the output could not be written (disk full, file-size limit, I/O error)
-  130, 143  interrupted by SIGINT or SIGTERM (stook.service._signals)
+  130, 143  interrupted by SIGINT or SIGTERM (stook.service.cli._signals)
 
 Whatever the failure, metrics.binproto is written atomically or not at all.
 """
@@ -36,15 +36,15 @@ from stook.sdk import (
     WriterError,
     remove_stale_temp_files,
 )
-from stook.service._batch import OUTPUT_NAME, run_batch
-from stook.service._config import ConfigError, StookConfig, load
-from stook.service._errors import ApiError, AuthError
-from stook.service._inputs import BatchInputs, InputsError, ReportInputs, TestInputs, detect
-from stook.service._outputs import OutputsError, check_outputs_folder
-from stook.service._progress import Progress, for_stream
-from stook.service._report import run_report
-from stook.service._session import Traffic
-from stook.service._test_mode import UserFunctionError, run_test_mode
+from stook.service.api._errors import ApiError, AuthError
+from stook.service.modes._batch import OUTPUT_NAME, run_batch
+from stook.service.modes._config import ConfigError, StookConfig, load
+from stook.service.modes._inputs import BatchInputs, InputsError, ReportInputs, TestInputs, detect
+from stook.service.modes._open_api import Traffic
+from stook.service.modes._outputs import OutputsError, check_outputs_folder
+from stook.service.modes._progress import Progress, for_stream
+from stook.service.modes._report import run_report
+from stook.service.modes._test_mode import UserFunctionError, run_test_mode
 
 log = structlog.get_logger("stook.run")
 

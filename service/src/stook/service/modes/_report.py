@@ -17,14 +17,14 @@ from stook.sdk.aggregations import (
     Needs,
     default_report_aggregations,
 )
-from stook.service._batch import OUTPUT_NAME, write_missing_jobs
-from stook.service._config import ConfigError, StookConfig
-from stook.service._deadline import fetch_deadline
-from stook.service._inputs import ReportInputs
-from stook.service._progress import NoProgress, Progress
-from stook.service._report_fetch import ReportFetcher, ReportOutcome
-from stook.service._retry import RetryPolicy
-from stook.service._session import HasTraffic, Traffic, open_api
+from stook.service.api._retry import RetryPolicy
+from stook.service.fetch._deadline import fetch_deadline
+from stook.service.fetch._report_fetch import ReportFetcher, ReportOutcome
+from stook.service.modes._batch import OUTPUT_NAME, write_missing_jobs
+from stook.service.modes._config import ConfigError, StookConfig
+from stook.service.modes._inputs import ReportInputs
+from stook.service.modes._open_api import HasTraffic, Traffic, open_api
+from stook.service.modes._progress import NoProgress, Progress
 
 log = structlog.get_logger("stook.report")
 

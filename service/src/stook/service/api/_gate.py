@@ -30,7 +30,7 @@ from collections.abc import Awaitable, Callable
 from dataclasses import dataclass
 from typing import Final
 
-from stook.service._logging import get_logger
+from stook.service.api._logging import get_logger
 
 __all__ = ["GateStats", "OriginGate", "Passage"]
 

@@ -1,0 +1,1 @@
+"""The API layer: transport, retry policy, limits, clients, models, errors and redaction."""

@@ -1,0 +1,1 @@
+"""The modes: test, batch and report mode, and the settings and inputs they run on."""
