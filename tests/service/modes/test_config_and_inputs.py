@@ -672,3 +672,10 @@ def test_exit_code_values_are_the_documented_ones() -> None:
         "INVALID_DATA",
         "OUTPUT",
     ]
+
+
+def test_fetch_adaptive_is_read_from_the_config() -> None:
+    assert parse({}).fetch.adaptive is False
+    assert parse({"fetch": {"adaptive": True}}).fetch.adaptive is True
+    with pytest.raises(ConfigError, match="adaptive must be true or false"):
+        parse({"fetch": {"adaptive": "yes"}})

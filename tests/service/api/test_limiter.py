@@ -11,7 +11,6 @@ import pytest
 
 from stook.service.api._client import ApiClient
 from stook.service.api._limits import AimdLimiter, FixedLimit, NestedLimit
-from stook.service.modes._config import ConfigError, parse
 
 
 class Clock:
@@ -340,10 +339,3 @@ async def test_nested_limit_gives_back_the_inner_slot_when_cancelled() -> None:
     with pytest.raises(asyncio.CancelledError):
         await waiting
     await asyncio.wait_for(inner.acquire(), 1)  # its inner slot was given back
-
-
-def test_fetch_adaptive_is_read_from_the_config() -> None:
-    assert parse({}).fetch.adaptive is False
-    assert parse({"fetch": {"adaptive": True}}).fetch.adaptive is True
-    with pytest.raises(ConfigError, match="adaptive must be true or false"):
-        parse({"fetch": {"adaptive": "yes"}})
