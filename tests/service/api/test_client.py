@@ -24,7 +24,8 @@ from stook.service.api._errors import (
     StorageError,
 )
 from stook.service.api._models import ConflatedJobStatus, Job
-from stook.service.api._retry import RetryPolicy, TransferStats
+from stook.service.api._retry import RetryPolicy
+from stook.service.api._stats import TransferStats
 from stook.service.api._transport import HttpTransport
 from tests.service.conftest import RecordingSleep
 from tests.service.scripted_server import (

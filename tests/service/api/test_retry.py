@@ -21,13 +21,9 @@ from stook.service.api._errors import (
     StorageError,
     TransportError,
 )
-from stook.service.api._retry import (
-    RetryPolicy,
-    TransferStats,
-    call_with_retries,
-    is_retryable,
-    parse_retry_after,
-)
+from stook.service.api._retry import RetryPolicy, is_retryable, parse_retry_after
+from stook.service.api._retrying import call_with_retries
+from stook.service.api._stats import TransferStats
 from tests.service.conftest import RecordingSleep
 
 URL = "https://api.example.com/v1/x"

@@ -44,11 +44,11 @@ from stook.service.api._redact import redact_url, register_secret
 from stook.service.api._retry import (
     RETRYABLE_STATUSES,
     RetryPolicy,
-    TransferStats,
-    call_with_retries,
     new_gate,
     parse_retry_after,
 )
+from stook.service.api._retrying import call_with_retries
+from stook.service.api._stats import TransferStats
 from stook.service.api._transport import BodyCap, HttpTransport, Response
 
 __all__ = ["ApiClient", "IdLike", "StorageClient"]

@@ -10,7 +10,9 @@ It knows nothing of JSON, paging, retries or what a status code means; the clien
 * a body longer than the transport's :class:`BodyCap` (counted after decompression) is an
   error as soon as the cap is passed, so a hostile or broken server cannot fill memory;
 * every failure leaves as a :class:`TransportError` with a redacted message, never as an
-  aiohttp exception whose text could hold a presigned URL;
+  aiohttp exception whose text could hold a presigned URL, and with ``retryable`` saying
+  whether it may heal (:func:`is_transient_transport_failure`): the retry policy above
+  asks the error, it does not classify aiohttp's exceptions itself;
 * a transport built with ``credentials_allowed=False`` (object storage) refuses to send any
   ``Authorization`` header, URL user info, or ``.netrc`` credentials.
 """
@@ -34,9 +36,9 @@ from stook.service.api._errors import BodyTooLargeError, IncompleteBodyError, Tr
 from stook.service.api._limits import ConcurrencyLimit, FixedLimit
 from stook.service.api._logging import get_logger
 from stook.service.api._redact import redact_text, redact_url
-from stook.service.api._retry import TransferStats, is_transient_transport_failure
+from stook.service.api._stats import TransferStats
 
-__all__ = ["BodyCap", "HttpTransport", "Response"]
+__all__ = ["BodyCap", "HttpTransport", "Response", "is_transient_transport_failure"]
 
 _log = get_logger("stook.service.http")
 
@@ -301,3 +303,14 @@ def _has_header(headers: Mapping[str, str], name: str) -> bool:
 def _describe(exc: BaseException) -> str:
     text = redact_text(str(exc))
     return f"{type(exc).__name__}: {text}" if text else type(exc).__name__
+
+
+def is_transient_transport_failure(exc: BaseException) -> bool:
+    """Whether an aiohttp or socket failure is the kind that heals: reset, refused, timeout."""
+    if isinstance(exc, aiohttp.ClientSSLError | aiohttp.InvalidURL | aiohttp.TooManyRedirects):
+        # A certificate, URL or redirect-loop problem does not heal between attempts.
+        return False
+    return isinstance(
+        exc,
+        aiohttp.ClientConnectionError | aiohttp.ClientPayloadError | ConnectionError | TimeoutError,
+    )
