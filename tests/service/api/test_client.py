@@ -11,7 +11,7 @@ import pytest
 from tenacity import wait_none
 from yarl import URL
 
-from stook.service.api._client import ApiClient, StorageClient
+from stook.service.api._client import ApiClient
 from stook.service.api._errors import (
     ApiResponseError,
     ApiStatusError,
@@ -26,6 +26,7 @@ from stook.service.api._errors import (
 from stook.service.api._models import ConflatedJobStatus, Job
 from stook.service.api._retry import RetryPolicy
 from stook.service.api._stats import TransferStats
+from stook.service.api._storage import StorageClient
 from stook.service.api._transport import HttpTransport
 from tests.service.conftest import RecordingSleep
 from tests.service.scripted_server import (

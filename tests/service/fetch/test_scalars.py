@@ -13,9 +13,9 @@ from structlog.testing import capture_logs
 from stook.proto import metrics_pb2 as pb
 from stook.sdk._errors import ReadError
 from stook.sdk.aggregations import Needs, Scalar
-from stook.service.api._client import StorageClient
 from stook.service.api._models import JobMetric
 from stook.service.api._retry import RetryPolicy
+from stook.service.api._storage import StorageClient
 from stook.service.fetch._scalars import read_scalars
 from tests.service.scripted_server import ScriptedServer, answer
 

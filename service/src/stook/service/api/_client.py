@@ -1,19 +1,17 @@
-"""The clients: the ReSim API (JSON, bearer token, paging) and object storage (presigned URLs).
+"""The ReSim API client: JSON over a bearer-token session, paging, typed endpoints.
 
 Two sessions, on purpose. The API session carries ``Authorization: Bearer <token>`` on every
-request; the storage session is built without it, does not read ``.netrc``, follows
-redirects itself so that each hop is checked, and so cannot hand the token to whichever host
-a presigned URL (or a redirect from it) names.
+request; the storage client's (:mod:`stook.service.api._storage`) is built without it, so the
+token cannot follow a presigned URL (or a redirect from one) to another host.
 """
 
 from __future__ import annotations
 
 import json
-import re
 import uuid
 from collections.abc import AsyncIterator, Callable, Mapping
 from types import TracebackType
-from typing import Any, Final, NoReturn, Self, TypeVar
+from typing import Any, Final, Self, TypeVar
 
 from aiohttp import hdrs
 from yarl import URL
@@ -24,12 +22,9 @@ from stook.service.api._errors import (
     ApiStatusError,
     AuthError,
     NotFoundError,
-    PresignedUrlExpiredError,
     RedirectedRefusalError,
-    StorageError,
 )
 from stook.service.api._limits import AimdLimiter, ConcurrencyLimit, FixedLimit, NestedLimit
-from stook.service.api._logging import get_logger
 from stook.service.api._models import (
     Batch,
     BatchMetric,
@@ -40,117 +35,23 @@ from stook.service.api._models import (
     JobMetricsData,
     Report,
 )
+from stook.service.api._paging import ListingGuard
 from stook.service.api._redact import redact_url, register_secret
-from stook.service.api._retry import (
-    RETRYABLE_STATUSES,
-    RetryPolicy,
-    new_gate,
-    parse_retry_after,
-)
+from stook.service.api._retry import RetryPolicy, new_gate
 from stook.service.api._retrying import call_with_retries
 from stook.service.api._stats import TransferStats
-from stook.service.api._transport import BodyCap, HttpTransport, Response
+from stook.service.api._storage import DEFAULT_CONCURRENCY, StorageClient, answer_retry_after
+from stook.service.api._transport import USER_AGENT, BodyCap, HttpTransport, Response, body_cap_mb
 
-__all__ = ["ApiClient", "IdLike", "StorageClient"]
-
-_log = get_logger("stook.service.client")
+__all__ = ["ApiClient", "IdLike"]
 
 IdLike = uuid.UUID | str
 _Model = TypeVar("_Model")
 
-DEFAULT_CONCURRENCY: Final = 64
 # The API caps pages; 100 is the largest size ReSim's own tools ask for.
 DEFAULT_PAGE_SIZE: Final = 100
-# What one answer may hold, decompressed: generous for metrics data, small for JSON. A
-# real answer never comes near; a hostile or broken one is stopped at the cap.
-DEFAULT_MAX_BODY_MB: Final = 256.0
+# What one API answer (a JSON page) may hold, decompressed.
 DEFAULT_MAX_API_BODY_MB: Final = 16.0
-_USER_AGENT: Final = "stook/0.1 (+aiohttp)"
-_REDIRECT_STATUSES: Final = frozenset({301, 302, 303, 307, 308})
-_MAX_STORAGE_REDIRECTS: Final = 5
-_STORAGE_ERROR_CODE: Final = re.compile(rb"<Code>\s*([A-Za-z0-9_.-]{1,64})\s*</Code>")
-_EXPIRED_CODES: Final = frozenset({b"ExpiredToken", b"AccessDenied", b"RequestExpired"})
-
-
-class StorageClient:
-    """Fetches presigned object-storage URLs, with retries and without any credentials.
-
-    Usually owned by an :class:`ApiClient` (``api.storage``); it can also be used alone::
-
-        async with StorageClient() as storage:
-            payload = await storage.fetch_bytes(url)
-    """
-
-    def __init__(
-        self,
-        *,
-        concurrency: int = DEFAULT_CONCURRENCY,
-        retry: RetryPolicy | None = None,
-        limiter: ConcurrencyLimit | None = None,
-        body_cap: BodyCap | None = None,
-    ) -> None:
-        self._policy = retry or RetryPolicy()
-        self.stats = TransferStats()
-        # Shared by every storage request: when storage fails, they wait together.
-        self.gate = new_gate("object storage", self._policy)
-        self._transport = HttpTransport(
-            name="storage",
-            body_cap=body_cap or body_cap_mb(DEFAULT_MAX_BODY_MB, "max_body_mb"),
-            concurrency=concurrency,
-            request_timeout=self._policy.request_timeout,
-            stats=self.stats,
-            headers={hdrs.USER_AGENT: _USER_AGENT},
-            follow_redirects=False,
-            credentials_allowed=False,
-            limiter=limiter,
-        )
-
-    async def __aenter__(self) -> Self:
-        await self._transport.__aenter__()
-        return self
-
-    async def __aexit__(
-        self,
-        exc_type: type[BaseException] | None,
-        exc: BaseException | None,
-        tb: TracebackType | None,
-    ) -> None:
-        await self._transport.close()
-
-    async def fetch_bytes(self, url: str) -> bytes:
-        """The whole object behind a presigned URL.
-
-        Raises :class:`PresignedUrlExpiredError` when storage refuses the signature (list
-        again for a fresh URL), :class:`StorageError` for other refusals, and
-        :class:`RetriesExhaustedError` when transient failures outlast the retry policy
-        (:class:`OriginUnavailableError` when storage as a whole is failing).
-        """
-        # encoded=True: re-quoting would alter the signed query string and void the signature.
-        target = URL(url, encoded=True)
-        if target.scheme not in ("http", "https") or not target.host:
-            raise StorageError("not an http(s) URL", url=url)
-        return await call_with_retries(
-            lambda: self._fetch_once(target),
-            self._policy,
-            stats=self.stats,
-            method="GET",
-            url=url,
-            gate=self.gate,
-        )
-
-    async def _fetch_once(self, url: URL) -> bytes:
-        for _hop in range(_MAX_STORAGE_REDIRECTS + 1):
-            response = await self._transport.get(url)
-            location = response.headers.get(hdrs.LOCATION)
-            if response.status in _REDIRECT_STATUSES and location:
-                url = url.join(URL(location, encoded=True))
-                continue
-            if response.ok:
-                return response.body
-            raise _storage_error(response)
-        raise StorageError(
-            f"more than {_MAX_STORAGE_REDIRECTS} redirects from object storage", url=url
-        )
 
 
 class ApiClient:
@@ -229,7 +130,7 @@ class ApiClient:
             headers={
                 hdrs.AUTHORIZATION: f"Bearer {token}",
                 hdrs.ACCEPT: "application/json",
-                hdrs.USER_AGENT: _USER_AGENT,
+                hdrs.USER_AGENT: USER_AGENT,
             },
         )
         self.storage = StorageClient(
@@ -298,12 +199,12 @@ class ApiClient:
     ) -> AsyncIterator[dict[str, Any]]:
         """Every item of a list endpoint, page after page, until ``nextPageToken`` is empty.
 
-        A listing that cannot end (see :class:`_ListingGuard`) is an ApiResponseError.
+        A listing that cannot end (see :class:`ListingGuard`) is an ApiResponseError.
         """
         query: dict[str, str | int] = dict(params or {})
         query["pageSize"] = page_size or self._page_size
         listing = f"GET {redact_url(self._url(path))}"
-        guard = _ListingGuard(listing, items_key, int(query["pageSize"]))
+        guard = ListingGuard(listing, items_key, int(query["pageSize"]))
         while True:
             page = await self.get_json(path, query)
             items = page.get(items_key)
@@ -408,11 +309,6 @@ class ApiClient:
         raise _api_error(response, self._base.origin())
 
 
-def body_cap_mb(megabytes: float, setting: str) -> BodyCap:
-    """The cap of a ``[fetch]`` setting given in megabytes (MiB)."""
-    return BodyCap(max(1, int(megabytes * 2**20)), f"[fetch] {setting}")
-
-
 def _id(value: IdLike) -> str:
     """An ID for a URL path; parsing it also keeps anything but a UUID out of the path."""
     if isinstance(value, uuid.UUID):
@@ -421,12 +317,6 @@ def _id(value: IdLike) -> str:
         return str(uuid.UUID(value))
     except (ValueError, AttributeError, TypeError):
         raise ValueError(f"not a UUID: {value!r}") from None
-
-
-def _retry_after(response: Response) -> float | None:
-    if response.status not in RETRYABLE_STATUSES:
-        return None
-    return parse_retry_after(response.headers.get(hdrs.RETRY_AFTER))
 
 
 def _api_error(response: Response, api_origin: URL) -> ApiError:
@@ -444,103 +334,4 @@ def _api_error(response: Response, api_origin: URL) -> ApiError:
         return AuthError(**common)
     if response.status == 404:
         return NotFoundError(**common)
-    return ApiStatusError(**common, retry_after=_retry_after(response))
-
-
-def _storage_error(response: Response) -> StorageError:
-    """Map a storage refusal; only the error code is kept (S3 bodies echo the signature)."""
-    match = _STORAGE_ERROR_CODE.search(response.body[:4096])
-    code = match.group(1) if match else None
-    code_text = f" ({code.decode()})" if code else ""
-    status = response.status
-    if status == 403 or (status == 400 and code in _EXPIRED_CODES):
-        return PresignedUrlExpiredError(
-            f"GET {redact_url(response.url)} answered HTTP {status}{code_text}: the presigned "
-            "URL has expired or its signature is invalid; list again for a fresh URL",
-            url=response.url,
-            status=status,
-        )
-    if status == 404:
-        message = "no such object"
-    elif status in RETRYABLE_STATUSES:
-        message = "object storage is unavailable or throttling"
-    else:
-        message = "object storage refused the request"
-    return StorageError(
-        f"GET {redact_url(response.url)} answered HTTP {status}{code_text}: {message}",
-        url=response.url,
-        status=status,
-        retry_after=_retry_after(response),
-    )
-
-
-# The field that identifies an item of each listing, for telling repeats from new items.
-_ITEM_ID_KEYS: Final = {
-    "jobs": "jobID",
-    "batches": "batchID",
-    "metrics": "metricID",
-    "batchMetrics": "metricID",
-    "metricsData": "dataID",
-    "batchMetricsData": "dataID",
-}
-# Empty pages that each hand out a new token: a server may skip ahead over a few, never
-# over this many (156,000 a minute were seen from a server that never stopped).
-_MAX_EMPTY_PAGES: Final = 50
-
-
-class _ListingGuard:
-    """Stops a listing whose pages prove it will not end, instead of following it for ever.
-
-    Only what the answers themselves prove counts: a page token seen before; a page of
-    nothing but items listed already (the same jobs again and again); an empty page with a
-    further token once the listing's own ``total`` has been delivered, or more items than
-    that total by a whole page; and a long run of empty pages that each carry a new token.
-    """
-
-    def __init__(self, listing: str, items_key: str, page_size: int) -> None:
-        self._listing = listing
-        self._id_key = _ITEM_ID_KEYS.get(items_key)
-        self._page_size = page_size
-        self._tokens: set[str] = set()
-        self._seen: set[str] = set()
-        self._pages = 0
-        self._empty_run = 0
-
-    def check(self, items: list[dict[str, Any]], token: str | None, total: object) -> None:
-        self._pages += 1
-        new = 0
-        for item in items:
-            identity = self._identity(item)
-            if identity not in self._seen:
-                self._seen.add(identity)
-                new += 1
-        if token is None:
-            return  # the last page: nothing more will be asked for
-        if token in self._tokens:
-            self._stop("the API repeated a page token")
-        self._tokens.add(token)
-        if items and new == 0:
-            self._stop(f"page {self._pages} holds only items listed on earlier pages")
-        self._empty_run = 0 if items else self._empty_run + 1
-        if isinstance(total, int) and not isinstance(total, bool):
-            if not items and len(self._seen) >= total:
-                self._stop(
-                    f"page {self._pages} is empty and all {total} items of the listing's "
-                    "total have been listed, yet it hands out another page token"
-                )
-            if len(self._seen) > total + self._page_size:
-                self._stop(
-                    f"{len(self._seen)} items listed, more than the listing's total of {total}"
-                )
-        if self._empty_run >= _MAX_EMPTY_PAGES:
-            self._stop(f"{self._empty_run} empty pages in a row, each with a new page token")
-
-    def _identity(self, item: dict[str, Any]) -> str:
-        value = item.get(self._id_key) if self._id_key else None
-        if isinstance(value, str) and value:
-            return value
-        # An item without its ID is told apart by its whole content.
-        return json.dumps(item, sort_keys=True, default=str)
-
-    def _stop(self, why: str) -> NoReturn:
-        raise ApiResponseError(f"{self._listing}: the listing does not end ({why})")
+    return ApiStatusError(**common, retry_after=answer_retry_after(response))

@@ -38,9 +38,18 @@ from stook.service.api._logging import get_logger
 from stook.service.api._redact import redact_text, redact_url
 from stook.service.api._stats import TransferStats
 
-__all__ = ["BodyCap", "HttpTransport", "Response", "is_transient_transport_failure"]
+__all__ = [
+    "USER_AGENT",
+    "BodyCap",
+    "HttpTransport",
+    "Response",
+    "body_cap_mb",
+    "is_transient_transport_failure",
+]
 
 _log = get_logger("stook.service.http")
+
+USER_AGENT: Final = "stook/0.1 (+aiohttp)"
 
 _KEEPALIVE_S: Final = 30.0
 _DNS_CACHE_S: Final = 300
@@ -59,6 +68,11 @@ class BodyCap:
     def __post_init__(self) -> None:
         if self.max_bytes < 1:
             raise ValueError(f"a body cap must be at least 1 byte, got {self.max_bytes}")
+
+
+def body_cap_mb(megabytes: float, setting: str) -> BodyCap:
+    """The cap of a ``[fetch]`` setting given in megabytes (MiB)."""
+    return BodyCap(max(1, int(megabytes * 2**20)), f"[fetch] {setting}")
 
 
 @dataclass(frozen=True, slots=True)

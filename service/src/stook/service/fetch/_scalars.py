@@ -17,9 +17,9 @@ import structlog
 
 from stook.sdk import read_metric
 from stook.sdk.aggregations import Scalar
-from stook.service.api._client import StorageClient
 from stook.service.api._errors import PresignedUrlExpiredError
 from stook.service.api._models import ApiMetricType, BatchMetric, JobMetric
+from stook.service.api._storage import StorageClient
 
 __all__ = ["is_scalar", "read_scalars"]
 

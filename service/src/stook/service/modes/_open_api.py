@@ -6,8 +6,9 @@ import contextlib
 from collections.abc import AsyncIterator
 from dataclasses import dataclass
 
-from stook.service.api._client import ApiClient, body_cap_mb
+from stook.service.api._client import ApiClient
 from stook.service.api._retry import RetryPolicy
+from stook.service.api._transport import body_cap_mb
 from stook.service.modes._config import FetchSettings
 from stook.service.modes._inputs import ApiAccess
 
