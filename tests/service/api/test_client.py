@@ -3,11 +3,14 @@
 from __future__ import annotations
 
 import asyncio
+import json
 import time
 import uuid
+from collections.abc import Mapping
 from typing import Any
 
 import pytest
+from multidict import CIMultiDict, CIMultiDictProxy
 from tenacity import wait_none
 from yarl import URL
 
@@ -23,11 +26,12 @@ from stook.service.api._errors import (
     RetryAfterTooLongError,
     StorageError,
 )
+from stook.service.api._limits import FixedLimit
 from stook.service.api._models import ConflatedJobStatus, Job
 from stook.service.api._retry import RetryPolicy
 from stook.service.api._stats import TransferStats
 from stook.service.api._storage import StorageClient
-from stook.service.api._transport import HttpTransport
+from stook.service.api._transport import HttpTransport, Response
 from tests.service.conftest import RecordingSleep
 from tests.service.scripted_server import (
     ScriptedServer,
@@ -348,6 +352,89 @@ async def test_requests_in_flight_are_bounded_by_concurrency(
         await asyncio.gather(*(api.get_batch(PROJECT, BATCH) for _ in range(12)))
     assert server.max_in_flight <= 3
     assert len(server.hits(BATCH_PATH)) == 12
+
+
+async def test_a_limiter_passed_in_bounds_and_counts_every_request(
+    server: ScriptedServer, fast_policy: RetryPolicy
+) -> None:
+    server.script(BATCH_PATH, answer(200, b'{"batchID": "%s"}' % str(BATCH).encode(), delay=0.02))
+    server.script("/obj", answer(429, b"slow down"), answer(200, b"payload"))
+    shared = FixedLimit(3)
+    async with client(server, fast_policy, limiter=shared) as api:
+        await asyncio.gather(*(api.get_batch(PROJECT, BATCH) for _ in range(12)))
+        assert await api.storage.fetch_bytes(server.url("/obj")) == b"payload"
+    assert api.limiter is shared
+    assert api.limiters == {"shared": shared}
+    assert server.max_in_flight <= 3
+    # Every request, API and storage alike, took a slot of the shared bound; the 429 came
+    # back through it. Twelve requests for three slots: some of them waited.
+    assert shared.stats.acquisitions == api.stats.requests + api.storage.stats.requests == 14
+    assert shared.stats.in_flight == 0
+    assert shared.stats.waits >= 9
+    assert (shared.stats.throttled, shared.stats.trips) == (1, 1)
+
+
+class PagesTransport:
+    """A transport without a network: each GET is answered from `pages`, in order."""
+
+    def __init__(self, pages: list[dict[str, object]]) -> None:
+        self.stats = TransferStats()
+        self.pages = pages
+        self.sent: list[tuple[URL, dict[str, str | int]]] = []
+        self.opened = self.closed = False
+
+    async def open(self) -> None:
+        self.opened = True
+
+    async def close(self) -> None:
+        self.closed = True
+
+    async def get(
+        self,
+        url: URL,
+        *,
+        params: Mapping[str, str | int] | None = None,
+        headers: Mapping[str, str] | None = None,
+    ) -> Response:
+        self.stats.requests += 1
+        self.sent.append((url, dict(params or {})))
+        body = json.dumps(self.pages.pop(0)).encode()
+        return Response(status=200, headers=CIMultiDictProxy(CIMultiDict()), body=body, url=url)
+
+
+async def test_a_transport_passed_in_carries_every_api_request(fast_policy: RetryPolicy) -> None:
+    transport = PagesTransport(
+        [
+            {"jobs": [job_json(1)], "nextPageToken": "p2"},
+            {"jobs": [job_json(2)], "nextPageToken": ""},
+        ]
+    )
+    api = ApiClient("https://api.example.com/v1", TOKEN, retry=fast_policy, transport=transport)
+    async with api:
+        jobs = [job async for job in api.list_jobs(PROJECT, BATCH)]
+        assert transport.opened
+    assert transport.closed
+    assert [job.job_id for job in jobs] == [uuid.UUID(int=1), uuid.UUID(int=2)]
+    assert [str(url) for url, _ in transport.sent] == [f"https://api.example.com{JOBS_PATH}"] * 2
+    assert [query.get("pageToken") for _, query in transport.sent] == [None, "p2"]
+    assert api.stats is transport.stats
+    assert api.stats.requests == 2
+
+
+async def test_a_storage_transport_passed_in_carries_every_storage_request(
+    fast_policy: RetryPolicy,
+) -> None:
+    pages = PagesTransport([{"any": "document"}])
+    storage = StorageClient(retry=fast_policy, transport=pages)
+    async with storage:
+        assert await storage.fetch_bytes("https://bucket.example.com/o?sig=x") == (
+            b'{"any": "document"}'
+        )
+    assert storage.stats is pages.stats
+    api = ApiClient("https://api.example.com/v1", TOKEN, adaptive=True, storage_transport=pages)
+    # A transport passed in paces itself: only the API, built here, gets a pace.
+    assert sorted(api.paces) == ["api"]
+    assert api.storage.stats is pages.stats
 
 
 # -- storage ------------------------------------------------------------------------------

@@ -87,6 +87,43 @@ async def test_fixed_limit_bounds_requests_in_flight() -> None:
     await third
 
 
+async def test_a_fixed_limit_counts_slots_waits_and_throttle_trips() -> None:
+    clock = Clock()
+    limit = FixedLimit(1, clock=clock)
+    await limit.acquire()
+    second = asyncio.ensure_future(limit.acquire())
+    await asyncio.sleep(0)
+    assert (limit.stats.in_flight, limit.stats.waits) == (1, 1)
+    # Two throttling answers within `hold` (1 s) of each other are one trip; a third two
+    # seconds later is a trip of its own. A 500 is a failure, not a throttle.
+    limit.release(429, 0.01)
+    await second
+    for status, at in ((503, 0.5), (500, 1.0), (429, 2.5)):
+        clock.now = at
+        limit.release(status, 0.01)
+        await limit.acquire()
+    stats = limit.stats
+    assert (stats.acquisitions, stats.waits, stats.in_flight) == (5, 1, 1)
+    assert (stats.throttled, stats.trips) == (3, 2)
+    assert stats.limit == stats.ceiling == stats.peak_limit == 1
+    assert stats.increases == stats.throttle_decreases == stats.latency_decreases == 0
+
+
+async def test_an_adaptive_limit_counts_slots_and_waits() -> None:
+    limiter = AimdLimiter(maximum=8, initial=2)
+    await limiter.acquire()
+    await limiter.acquire()
+    third = asyncio.ensure_future(limiter.acquire())
+    await asyncio.sleep(0)
+    assert (limiter.stats.acquisitions, limiter.stats.waits) == (2, 1)
+    limiter.release(200, 0.01)
+    await third
+    assert (limiter.stats.acquisitions, limiter.stats.in_flight) == (3, 2)
+    assert limiter.stats.slow_start
+    # A nested limit shows its inner (per-origin) limit's counters.
+    assert NestedLimit(limiter, FixedLimit(4)).stats == limiter.stats
+
+
 def test_an_unthrottled_limit_climbs_to_the_maximum() -> None:
     clock = Clock()
     limiter = aimd(clock)
@@ -133,7 +170,7 @@ def test_a_429_cuts_the_limit_to_what_got_through_and_ends_slow_start() -> None:
     )
     assert limiter.stats.throttle_decreases >= 1
     assert limiter.limit <= reached * 0.7
-    assert not limiter._slow_start
+    assert not limiter.stats.slow_start
 
 
 def test_a_gateway_bucket_is_tripped_a_few_times_and_its_rate_kept_busy() -> None:
@@ -176,25 +213,30 @@ def test_after_a_trip_the_limit_regains_its_ceiling_quickly_and_probes_beyond_sl
     simulate(limiter, clock, lambda now, n: (200, 0.02), until=0.1)
     # Half of the answers refused for a while: the limit drops to what got through.
     simulate(limiter, clock, lambda now, n: (200 if int(now * 1000) % 2 else 429, 0.02), until=0.3)
-    low = limiter._limit
-    ceiling = limiter._ceiling
+    low = limiter.stats.limit
+    ceiling = limiter.stats.ceiling
     assert low < ceiling / 2
     simulate(limiter, clock, lambda now, n: (200, 0.02), until=5.0)
     # Within a few seconds, most of the way back: a quarter of the gap closes per second.
-    assert limiter._limit >= low + 0.5 * (ceiling - low)
+    assert limiter.stats.limit >= low + 0.5 * (ceiling - low)
     simulate(limiter, clock, lambda now, n: (200, 0.02), until=25.0)
-    probed = limiter._limit
+    probed = limiter.stats.limit
     assert probed > ceiling
     # Beyond the ceiling it grows by `probe` (5%) a second: a bucket's burst lasts.
     simulate(limiter, clock, lambda now, n: (200, 0.02), until=26.0)
-    assert probed < limiter._limit <= probed * 1.06
+    assert probed < limiter.stats.limit <= probed * 1.06
 
 
 def test_a_fractional_limit_grants_its_last_slot_part_of_the_time() -> None:
     clock = Clock()
-    limiter = aimd(clock, initial=6)
-    limiter._limit = 6.4  # as a cut or a probe leaves it
-    limiter._best_rtt = 1.0  # on this frozen clock no window closes: the limit stays put
+    limiter = aimd(clock, initial=6.4)  # as a cut or a probe leaves it
+    # One window of answers, none of them waiting for a slot, gives the limiter its round
+    # trip without growing the limit; on this frozen clock no later window closes, so the
+    # limit stays put.
+    for _ in range(6):
+        assert limiter.try_acquire()
+        limiter.release(200, 0.01)
+    assert limiter.stats.limit == 6.4
     assert limiter.limit == 6
     granted = []
     for _ in range(1000):

@@ -41,7 +41,14 @@ from stook.service.api._retry import RetryPolicy, new_gate
 from stook.service.api._retrying import call_with_retries
 from stook.service.api._stats import TransferStats
 from stook.service.api._storage import DEFAULT_CONCURRENCY, StorageClient, answer_retry_after
-from stook.service.api._transport import USER_AGENT, BodyCap, HttpTransport, Response, body_cap_mb
+from stook.service.api._transport import (
+    USER_AGENT,
+    BodyCap,
+    HttpTransport,
+    Response,
+    Transport,
+    body_cap_mb,
+)
 
 __all__ = ["ApiClient", "IdLike"]
 
@@ -70,7 +77,15 @@ class ApiClient:
     counting against the request timeout. With ``adaptive=True`` each origin (API, storage)
     also gets an :class:`~stook.service.api._limits.AimdLimiter` that finds that server's pace
     below ``concurrency`` (backing off on 429s and on growing latency); ``self.paces``
-    shows them, ``self.limiter`` the shared bound.
+    shows them, ``self.limiter`` the shared bound, and ``self.limiters`` all of them by
+    name, for their ``stats``.
+
+    What is built from these settings can be passed in instead, as httpx takes
+    ``transport=`` and aiohttp ``connector=``: ``limiter`` is the shared bound (a
+    :class:`~stook.service.api._limits.FixedLimit` of ``concurrency`` by default), and
+    ``transport`` sends the API's requests (an HTTP transport carrying the token, under the
+    shared bound and the API's pace); one passed in brings its own headers, limiter, timeout
+    and body cap. ``storage_transport`` does the same for the storage client.
     """
 
     def __init__(
@@ -85,6 +100,9 @@ class ApiClient:
         adaptive: bool = False,
         body_cap: BodyCap | None = None,
         storage_body_cap: BodyCap | None = None,
+        limiter: ConcurrencyLimit | None = None,
+        transport: Transport | None = None,
+        storage_transport: Transport | None = None,
     ) -> None:
         base = URL(base_url)
         if base.scheme not in ("http", "https") or not base.host:
@@ -98,53 +116,60 @@ class ApiClient:
         self._base = base.with_query(None).with_fragment(None)
         self._policy = retry or RetryPolicy()
         self._page_size = page_size
-        self.stats = TransferStats()
         # Shared by every API request: when the API fails, they wait together.
         self.gate = new_gate("the API", self._policy)
         if concurrency < 1:
             raise ValueError(f"concurrency must be at least 1, got {concurrency}")
-        self.limiter = FixedLimit(concurrency)
+        self.limiter: ConcurrencyLimit = limiter or FixedLimit(concurrency)
         # Adaptive: each origin finds its own pace, inside the shared bound. A rate limit
         # on the API says nothing about storage, and one shared pace cut by the API's 429s
-        # would hold storage back too.
+        # would hold storage back too. A transport passed in paces itself.
         self.paces: dict[str, AimdLimiter] = {}
         api_limit: ConcurrencyLimit = self.limiter
         storage_limit: ConcurrencyLimit | None = None if storage_concurrency else self.limiter
         if adaptive:
-            self.paces["api"] = AimdLimiter(maximum=concurrency)
-            self.paces["storage"] = AimdLimiter(maximum=storage_concurrency or concurrency)
-            api_limit = NestedLimit(self.paces["api"], self.limiter)
-            storage_limit = (
-                self.paces["storage"]
-                if storage_concurrency
-                else NestedLimit(self.paces["storage"], self.limiter)
+            if transport is None:
+                self.paces["api"] = AimdLimiter(maximum=concurrency)
+                api_limit = NestedLimit(self.paces["api"], self.limiter)
+            if storage_transport is None:
+                self.paces["storage"] = AimdLimiter(maximum=storage_concurrency or concurrency)
+                storage_limit = (
+                    self.paces["storage"]
+                    if storage_concurrency
+                    else NestedLimit(self.paces["storage"], self.limiter)
+                )
+        # The bounds on requests in flight by name, for their stats: the shared one (the
+        # API's alone when storage has a concurrency of its own) and each origin's pace.
+        self.limiters: dict[str, ConcurrencyLimit] = {"shared": self.limiter, **self.paces}
+        if transport is None:
+            transport = HttpTransport(
+                name="api",
+                body_cap=body_cap or body_cap_mb(DEFAULT_MAX_API_BODY_MB, "max_api_body_mb"),
+                concurrency=concurrency,
+                limiter=api_limit,
+                proxy_for=self._base,
+                request_timeout=self._policy.request_timeout,
+                headers={
+                    hdrs.AUTHORIZATION: f"Bearer {token}",
+                    hdrs.ACCEPT: "application/json",
+                    hdrs.USER_AGENT: USER_AGENT,
+                },
             )
-        self._transport = HttpTransport(
-            name="api",
-            body_cap=body_cap or body_cap_mb(DEFAULT_MAX_API_BODY_MB, "max_api_body_mb"),
-            concurrency=concurrency,
-            limiter=api_limit,
-            proxy_for=self._base,
-            request_timeout=self._policy.request_timeout,
-            stats=self.stats,
-            headers={
-                hdrs.AUTHORIZATION: f"Bearer {token}",
-                hdrs.ACCEPT: "application/json",
-                hdrs.USER_AGENT: USER_AGENT,
-            },
-        )
+        self._transport = transport
+        self.stats: TransferStats = transport.stats
         self.storage = StorageClient(
             concurrency=storage_concurrency or concurrency,
             retry=self._policy,
             limiter=storage_limit,
             body_cap=storage_body_cap,
+            transport=storage_transport,
         )
 
     def __repr__(self) -> str:
         return f"ApiClient({redact_url(self._base)!r})"
 
     async def __aenter__(self) -> Self:
-        await self._transport.__aenter__()
+        await self._transport.open()
         try:
             await self.storage.__aenter__()
         except BaseException:

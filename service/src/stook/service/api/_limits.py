@@ -52,33 +52,115 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Final, Protocol
 
-__all__ = ["AimdLimiter", "ConcurrencyLimit", "FixedLimit", "LimiterStats", "NestedLimit"]
+__all__ = [
+    "THROTTLE_STATUSES",
+    "AimdLimiter",
+    "ConcurrencyLimit",
+    "FixedLimit",
+    "LimitStats",
+    "NestedLimit",
+]
 
 THROTTLE_STATUSES: Final = frozenset({429, 503})
 
 
+@dataclass(frozen=True, slots=True)
+class LimitStats:
+    """What a limiter did, at one moment (its ``stats``): for logs, tests and benchmarks.
+
+    ``limit`` is the bound now; an adaptive limit's may be fractional (its last slot is
+    granted part of the time). ``trips`` counts throttle episodes: for a fixed limit,
+    throttling answers (429, 503) more than ``hold`` seconds after the one before; for an
+    adaptive limit, cuts for throttling more than ``hold`` after the one before.
+    """
+
+    limit: float
+    in_flight: int = 0
+    acquisitions: int = 0  # slots granted
+    waits: int = 0  # requests that had to wait for a slot
+    throttled: int = 0  # throttling answers (429, 503) that came back
+    trips: int = 0
+    # Adaptive only (a fixed limit's ceiling and peak are its limit):
+    ceiling: float = 0.0  # the limit at the last trip (the maximum before the first)
+    peak_limit: int = 0
+    increases: int = 0
+    throttle_decreases: int = 0
+    latency_decreases: int = 0
+    slow_start: bool = False  # still doubling: no sign of trouble yet
+
+
 class ConcurrencyLimit(Protocol):
-    """What a transport needs from a bound on requests in flight."""
+    """What a transport needs from a bound on requests in flight, and what it tells."""
 
     async def acquire(self) -> None: ...
 
     def release(self, status: int | None, seconds: float) -> None: ...
 
+    @property
+    def stats(self) -> LimitStats: ...
+
+
+@dataclass(slots=True)
+class _Counters:
+    """A limiter's running counts; :class:`LimitStats` is their snapshot."""
+
+    acquisitions: int = 0
+    waits: int = 0
+    throttled: int = 0
+    trips: int = 0
+    increases: int = 0
+    throttle_decreases: int = 0
+    latency_decreases: int = 0
+    peak_limit: int = 0
+
 
 class FixedLimit:
-    """At most `limit` requests in flight; outcomes are ignored."""
+    """At most `limit` requests in flight; outcomes are counted (``stats``), not acted on."""
 
-    def __init__(self, limit: int) -> None:
+    def __init__(
+        self, limit: int, *, hold: float = 1.0, clock: Callable[[], float] = time.monotonic
+    ) -> None:
         if limit < 1:
             raise ValueError(f"concurrency must be at least 1, got {limit}")
         self.limit = limit
+        self.in_flight = 0
         self._slots = asyncio.Semaphore(limit)
+        self._counts = _Counters(peak_limit=limit)
+        self._hold = hold
+        self._clock = clock
+        self._last_throttle = -math.inf
+
+    @property
+    def stats(self) -> LimitStats:
+        counts = self._counts
+        return LimitStats(
+            limit=float(self.limit),
+            in_flight=self.in_flight,
+            acquisitions=counts.acquisitions,
+            waits=counts.waits,
+            throttled=counts.throttled,
+            trips=counts.trips,
+            ceiling=float(self.limit),
+            peak_limit=self.limit,
+        )
 
     async def acquire(self) -> None:
+        if self._slots.locked():
+            self._counts.waits += 1
         await self._slots.acquire()
+        self.in_flight += 1
+        self._counts.acquisitions += 1
 
     def release(self, status: int | None, seconds: float) -> None:
+        self.in_flight -= 1
         self._slots.release()
+        if status is not None and status in THROTTLE_STATUSES:
+            counts = self._counts
+            counts.throttled += 1
+            now = self._clock()
+            if now - self._last_throttle > self._hold:
+                counts.trips += 1
+            self._last_throttle = now
 
 
 class NestedLimit:
@@ -86,12 +168,17 @@ class NestedLimit:
     with other origins); both learn from the outcome.
 
     The inner slot comes first so that a request held back by its own origin's pace does
-    not sit on a shared slot that a request to the other origin could use.
+    not sit on a shared slot that a request to the other origin could use. Its ``stats``
+    are the inner limit's: what the nesting adds to the shared bound.
     """
 
     def __init__(self, inner: ConcurrencyLimit, outer: ConcurrencyLimit) -> None:
         self.inner = inner
         self.outer = outer
+
+    @property
+    def stats(self) -> LimitStats:
+        return self.inner.stats
 
     async def acquire(self) -> None:
         await self.inner.acquire()
@@ -104,19 +191,6 @@ class NestedLimit:
     def release(self, status: int | None, seconds: float) -> None:
         self.outer.release(status, seconds)
         self.inner.release(status, seconds)
-
-
-@dataclass(slots=True)
-class LimiterStats:
-    """What the adaptive limiter did, for logs and benchmarks."""
-
-    increases: int = 0
-    throttle_decreases: int = 0
-    latency_decreases: int = 0
-    peak_limit: int = 0
-    throttled: int = 0  # throttling answers (429, 503) seen
-    # Throttle episodes: decreases more than `hold` seconds after the previous one.
-    trips: int = 0
 
 
 # How far back the rate the server let through is measured, in seconds.
@@ -134,7 +208,7 @@ class AimdLimiter:
         self,
         *,
         maximum: int,
-        initial: int = 4,
+        initial: float = 4,
         minimum: int = 1,
         backoff: float = 0.9,
         latency_backoff: float = 0.8,
@@ -165,7 +239,7 @@ class AimdLimiter:
         self._slow_start_until = slow_start_until
         self._probe = probe
         self.in_flight = 0
-        self.stats = LimiterStats(peak_limit=self.limit)
+        self._counts = _Counters(peak_limit=self.limit)
         self._waiters: deque[asyncio.Future[None]] = deque()
         self._slow_start = True
         self._phase = 0.0
@@ -196,6 +270,24 @@ class AimdLimiter:
         """Whole slots; a fractional part of the limit is granted part of the time."""
         return max(self.minimum, int(self._limit))
 
+    @property
+    def stats(self) -> LimitStats:
+        counts = self._counts
+        return LimitStats(
+            limit=self._limit,
+            in_flight=self.in_flight,
+            acquisitions=counts.acquisitions,
+            waits=counts.waits,
+            throttled=counts.throttled,
+            trips=counts.trips,
+            ceiling=self._ceiling,
+            peak_limit=counts.peak_limit,
+            increases=counts.increases,
+            throttle_decreases=counts.throttle_decreases,
+            latency_decreases=counts.latency_decreases,
+            slow_start=self._slow_start,
+        )
+
     def _has_room(self) -> bool:
         """Whether one more request fits; the slot a fractional limit adds, part-time."""
         whole = self.limit
@@ -211,6 +303,7 @@ class AimdLimiter:
         """Take a slot if one is free now; a refusal marks the limit as the bottleneck."""
         if not self._waiters and self._has_room():
             self.in_flight += 1
+            self._counts.acquisitions += 1
             return True
         self._limited = True
         return False
@@ -218,6 +311,7 @@ class AimdLimiter:
     async def acquire(self) -> None:
         if self.try_acquire():
             return
+        self._counts.waits += 1
         waiter: asyncio.Future[None] = asyncio.get_running_loop().create_future()
         self._waiters.append(waiter)
         try:
@@ -226,6 +320,7 @@ class AimdLimiter:
             # Cancelled after being handed a slot: pass it on rather than leak it.
             if waiter.done() and not waiter.cancelled():
                 self.in_flight -= 1
+                self._counts.acquisitions -= 1
                 self._wake()
             else:
                 self._waiters.remove(waiter)
@@ -239,7 +334,7 @@ class AimdLimiter:
         if self._evidence_from == math.inf and self.in_flight <= self.limit:
             self._evidence_from = now
         if status is not None and status in THROTTLE_STATUSES:
-            self.stats.throttled += 1
+            self._counts.throttled += 1
             # Only a request sent after the last decrease took hold tells us the new limit
             # is still too high; the others were part of the overload we backed off from.
             if now - seconds >= self._evidence_from:
@@ -284,7 +379,7 @@ class AimdLimiter:
             and rate <= self._last_rate * 1.05
         ):
             self._decrease(self._limit * self._latency_backoff, now, self._limit)
-            self.stats.latency_decreases += 1
+            self._counts.latency_decreases += 1
         elif (
             # Grow only a limit that was the bottleneck; an idle one proves nothing.
             self._limited
@@ -318,12 +413,12 @@ class AimdLimiter:
         # Further cuts within `hold` belong to the same trip and keep its ceiling.
         ceiling = self._limit
         if now > self._last_trip + self._hold:
-            self.stats.trips += 1
+            self._counts.trips += 1
         else:
             ceiling = max(ceiling, self._ceiling)
         self._last_trip = now
         self._decrease(target, now, ceiling)
-        self.stats.throttle_decreases += 1
+        self._counts.throttle_decreases += 1
 
     def _grow(self, elapsed: float) -> None:
         if self._slow_start:
@@ -337,8 +432,8 @@ class AimdLimiter:
             step = max(0.25 * (self._ceiling - self._limit), self._probe * self._limit)
             grown = self._limit + step * min(elapsed, 1.0)
         self._limit = min(float(self.maximum), grown)
-        self.stats.increases += 1
-        self.stats.peak_limit = max(self.stats.peak_limit, self.limit)
+        self._counts.increases += 1
+        self._counts.peak_limit = max(self._counts.peak_limit, self.limit)
 
     def _decrease(self, target: float, now: float, ceiling: float) -> None:
         self._slow_start = False
@@ -352,4 +447,5 @@ class AimdLimiter:
             waiter = self._waiters.popleft()
             if not waiter.done():
                 self.in_flight += 1
+                self._counts.acquisitions += 1
                 waiter.set_result(None)

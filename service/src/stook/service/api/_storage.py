@@ -20,7 +20,14 @@ from stook.service.api._redact import redact_url
 from stook.service.api._retry import RETRYABLE_STATUSES, RetryPolicy, new_gate, parse_retry_after
 from stook.service.api._retrying import call_with_retries
 from stook.service.api._stats import TransferStats
-from stook.service.api._transport import USER_AGENT, BodyCap, HttpTransport, Response, body_cap_mb
+from stook.service.api._transport import (
+    USER_AGENT,
+    BodyCap,
+    HttpTransport,
+    Response,
+    Transport,
+    body_cap_mb,
+)
 
 __all__ = ["DEFAULT_CONCURRENCY", "DEFAULT_MAX_BODY_MB", "StorageClient", "answer_retry_after"]
 
@@ -41,6 +48,10 @@ class StorageClient:
 
         async with StorageClient() as storage:
             payload = await storage.fetch_bytes(url)
+
+    ``limiter`` bounds the fetches in flight (a fixed bound of ``concurrency`` by default).
+    ``transport`` replaces the HTTP transport built from these settings: one passed in
+    brings its own limiter, timeout and body cap, and must carry no credentials.
     """
 
     def __init__(
@@ -50,25 +61,27 @@ class StorageClient:
         retry: RetryPolicy | None = None,
         limiter: ConcurrencyLimit | None = None,
         body_cap: BodyCap | None = None,
+        transport: Transport | None = None,
     ) -> None:
         self._policy = retry or RetryPolicy()
-        self.stats = TransferStats()
         # Shared by every storage request: when storage fails, they wait together.
         self.gate = new_gate("object storage", self._policy)
-        self._transport = HttpTransport(
-            name="storage",
-            body_cap=body_cap or body_cap_mb(DEFAULT_MAX_BODY_MB, "max_body_mb"),
-            concurrency=concurrency,
-            request_timeout=self._policy.request_timeout,
-            stats=self.stats,
-            headers={hdrs.USER_AGENT: USER_AGENT},
-            follow_redirects=False,
-            credentials_allowed=False,
-            limiter=limiter,
-        )
+        if transport is None:
+            transport = HttpTransport(
+                name="storage",
+                body_cap=body_cap or body_cap_mb(DEFAULT_MAX_BODY_MB, "max_body_mb"),
+                concurrency=concurrency,
+                request_timeout=self._policy.request_timeout,
+                headers={hdrs.USER_AGENT: USER_AGENT},
+                follow_redirects=False,
+                credentials_allowed=False,
+                limiter=limiter,
+            )
+        self._transport = transport
+        self.stats: TransferStats = transport.stats
 
     async def __aenter__(self) -> Self:
-        await self._transport.__aenter__()
+        await self._transport.open()
         return self
 
     async def __aexit__(

@@ -25,7 +25,7 @@ import time
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from types import TracebackType
-from typing import Final, Self
+from typing import Final, Protocol, Self
 
 import aiohttp
 from aiohttp import hdrs
@@ -43,6 +43,7 @@ __all__ = [
     "BodyCap",
     "HttpTransport",
     "Response",
+    "Transport",
     "body_cap_mb",
     "is_transient_transport_failure",
 ]
@@ -90,8 +91,35 @@ class Response:
         return 200 <= self.status < 300
 
 
+class Transport(Protocol):
+    """What a client needs from its transport: :class:`HttpTransport`, or a stand-in.
+
+    A client takes one as ``transport=`` (as httpx takes ``transport=`` and aiohttp
+    ``connector=``); it opens it, sends its GETs through it and closes it. ``stats`` are
+    the counters the client reports (the retry loop adds its retries there).
+    """
+
+    stats: TransferStats
+
+    async def open(self) -> None: ...
+
+    async def close(self) -> None: ...
+
+    async def get(
+        self,
+        url: URL,
+        *,
+        params: Mapping[str, str | int] | None = None,
+        headers: Mapping[str, str] | None = None,
+    ) -> Response: ...
+
+
 class HttpTransport:
-    """An aiohttp session sized for ``concurrency`` parallel GETs, opened as a context manager."""
+    """An aiohttp session sized for ``concurrency`` parallel GETs, opened as a context manager.
+
+    ``limiter`` bounds the requests in flight (a :class:`FixedLimit` of ``concurrency`` by
+    default); one shared with another transport makes one bound for both.
+    """
 
     def __init__(
         self,
@@ -99,7 +127,7 @@ class HttpTransport:
         name: str,
         concurrency: int,
         request_timeout: float,
-        stats: TransferStats,
+        stats: TransferStats | None = None,
         headers: Mapping[str, str] | None = None,
         follow_redirects: bool = True,
         credentials_allowed: bool = True,
@@ -115,7 +143,7 @@ class HttpTransport:
         ):
             raise ValueError(f"{name} transport must not carry credential headers")
         self.name = name
-        self.stats = stats
+        self.stats = TransferStats() if stats is None else stats
         self._concurrency = concurrency
         self._timeout = request_timeout
         self._follow_redirects = follow_redirects
@@ -127,7 +155,17 @@ class HttpTransport:
         self._proxy = _env_proxy(proxy_for) if proxy_for is not None else None
         self._body_cap = body_cap
 
+    @property
+    def limiter(self) -> ConcurrencyLimit:
+        """The bound on this transport's requests in flight; its ``stats`` say what it did."""
+        return self._limiter
+
     async def __aenter__(self) -> Self:
+        await self.open()
+        return self
+
+    async def open(self) -> None:
+        """Open the session; `get` needs it open. ``async with`` opens and closes it."""
         # Asked once per session, not per request: structlog's lazy logger binds a new
         # logger on every call (2% of the client's CPU at 0 ms), and debug logging costs a
         # redact_url per request. The log level does not change during a run.
@@ -155,7 +193,6 @@ class HttpTransport:
             proxy=self._proxy,
             auto_decompress=True,
         )
-        return self
 
     async def __aexit__(
         self,

@@ -3,10 +3,11 @@
 from __future__ import annotations
 
 import contextlib
-from collections.abc import AsyncIterator
-from dataclasses import dataclass
+from collections.abc import AsyncIterator, Mapping
+from dataclasses import dataclass, field
 
 from stook.service.api._client import ApiClient
+from stook.service.api._limits import ConcurrencyLimit, LimitStats
 from stook.service.api._retry import RetryPolicy
 from stook.service.api._transport import body_cap_mb
 from stook.service.modes._config import FetchSettings
@@ -34,11 +35,17 @@ async def open_api(
 
 @dataclass(frozen=True, slots=True)
 class Traffic:
-    """Requests, retries and bytes of a client, API and storage together."""
+    """Requests, retries and bytes of a client, API and storage together, and its limiters.
+
+    The limiters are the client's own (``ApiClient.limiters``), not copies: taking a
+    Traffic after every job costs nothing, and ``limit_stats`` reads what they did when
+    asked, at the end of a run what they did in all.
+    """
 
     requests: int = 0
     retries: int = 0
     bytes_received: int = 0
+    limiters: Mapping[str, ConcurrencyLimit] = field(default_factory=dict, compare=False)
 
     @classmethod
     def of(cls, api: ApiClient) -> Traffic:
@@ -46,7 +53,13 @@ class Traffic:
             requests=api.stats.requests + api.storage.stats.requests,
             retries=api.stats.retries + api.storage.stats.retries,
             bytes_received=api.stats.bytes_received + api.storage.stats.bytes_received,
+            limiters=api.limiters,
         )
+
+    @property
+    def limit_stats(self) -> dict[str, LimitStats]:
+        """What each limiter did, by name ("shared", and "api" and "storage" when adaptive)."""
+        return {name: limiter.stats for name, limiter in self.limiters.items()}
 
 
 class HasTraffic:

@@ -17,9 +17,12 @@ from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 from multiprocessing import get_context
 from pathlib import Path
-from typing import Any, Final, ParamSpec, TypeVar
+from typing import TYPE_CHECKING, Any, Final, ParamSpec, TypeVar
 
 from stook.emulator import EmulatorInfo
+
+if TYPE_CHECKING:
+    from stook.service.modes._open_api import Traffic
 
 _P = ParamSpec("_P")
 _T = TypeVar("_T")
@@ -108,6 +111,13 @@ def measure_stook(
     info: EmulatorInfo, config_toml: str, concurrency: int, adaptive: bool = False
 ) -> Measurement:
     """Batch mode as `stook run` does it, minus the process start-up."""
+    return run_stook(info, config_toml, concurrency, adaptive)[0]
+
+
+def run_stook(
+    info: EmulatorInfo, config_toml: str, concurrency: int, adaptive: bool = False
+) -> tuple[Measurement, Traffic]:
+    """`measure_stook`, with the run's traffic: its limiters' stats among it."""
     from stook.service.api._logging import configure_logging
     from stook.service.modes._batch import run_batch
     from stook.service.modes._config import parse
@@ -129,7 +139,7 @@ def measure_stook(
         result = asyncio.run(run_batch(batch, config, Path(tmp) / "outputs"))
         seconds = time.perf_counter() - started
         cpu = cpu_seconds() - cpu_before
-    return Measurement(
+    measurement = Measurement(
         client=STOOK,
         jobs=result.outcome.jobs_listed,
         seconds=seconds,
@@ -139,6 +149,7 @@ def measure_stook(
         peak_rss_mb=peak_rss_mb(),
         cpu_seconds=cpu,
     )
+    return measurement, result.traffic
 
 
 def measure_resim(info: EmulatorInfo) -> Measurement:
