@@ -7,6 +7,7 @@ import json
 import math
 import time
 import uuid
+from collections import Counter
 from collections.abc import Awaitable, Callable
 from datetime import timedelta
 from typing import Any
@@ -56,6 +57,7 @@ class EmulatorState:
         self.latency = Latency(config)
         self.quirks = SpecQuirks(config)
         self.outages = OutageSchedule(config.outages, time.monotonic())
+        self.in_latency: Counter[str] = Counter()  # requests waiting out their latency now
         self.clock_offset = 0.0
         self.storage_url = ""  # known once the storage site is bound
         # The secret only has to be unguessable by clients, not secret across runs.
@@ -144,7 +146,12 @@ async def _admit(state: EmulatorState, request: web.Request, origin: Origin) -> 
         return _error(503, "service unavailable (emulated outage)")
     delay = state.latency.next_delay()
     if delay > 0:
-        await asyncio.sleep(delay)
+        state.in_latency[origin] += 1
+        stats.peak_in_latency[origin] = max(stats.peak_in_latency[origin], state.in_latency[origin])
+        try:
+            await asyncio.sleep(delay)
+        finally:
+            state.in_latency[origin] -= 1
     bucket = state.buckets.get(origin)
     if bucket is not None:
         wait = bucket.take(state.now())

@@ -432,6 +432,11 @@ class Dataset:
             batch.build_id,
         )
 
+    @property
+    def cached_outputs(self) -> int:
+        """How many job outputs the LRU holds now (at most ``config.cache_jobs``)."""
+        return len(self._outputs)
+
     def job_output(self, batch_id: uuid.UUID, job_id: uuid.UUID) -> MetricsOutput | None:
         """A job's metrics split per object; regenerated when not in the LRU."""
         cached = self._outputs.get(job_id)
