@@ -47,19 +47,18 @@ from resim.sdk.client.models.report_status import ReportStatus as ResimReportSta
 
 from stook.service.api._errors import ApiResponseError
 from stook.service.api._models import (
+    ApiMetric,
+    ApiMetricsData,
     ApiMetricStatus,
     ApiMetricType,
     Batch,
-    BatchMetric,
-    BatchMetricsData,
     BatchStatus,
     Build,
     ConflatedBatchStatus,
     ConflatedJobStatus,
     Job,
-    JobMetric,
-    JobMetricsData,
     JobStatus,
+    MetricOwner,
     MetricsDataStorageType,
     Report,
 )
@@ -136,7 +135,9 @@ def test_job_metric_and_batch_metric_from_resim_json() -> None:
         "creation_timestamp": NOW,
         "batch_id": str(IDS[3]),
     }
-    job_metric = JobMetric.from_json(as_wire(ResimJobMetric(**common, job_id=str(IDS[4]))))
+    job_metric = ApiMetric.from_json(
+        as_wire(ResimJobMetric(**common, job_id=str(IDS[4]))), owner=MetricOwner.JOB
+    )
     assert job_metric.metric_id == IDS[0]
     assert job_metric.type is ApiMetricType.SCALAR
     assert job_metric.status is ApiMetricStatus.PASSED
@@ -148,20 +149,21 @@ def test_job_metric_and_batch_metric_from_resim_json() -> None:
     assert job_metric.metric_url is not None
     assert "X-Amz-Signature" not in repr(job_metric)
 
-    batch_metric = BatchMetric.from_json(as_wire(ResimBatchMetric(**common)))
+    batch_metric = ApiMetric.from_json(as_wire(ResimBatchMetric(**common)), owner=MetricOwner.BATCH)
     assert batch_metric.batch_id == IDS[3]
     assert batch_metric.value == 12.5
 
 
 def test_composite_metric_without_value() -> None:
-    metric = JobMetric.from_json(
+    metric = ApiMetric.from_json(
         {
             "metricID": str(IDS[0]),
             "name": "plot",
             "type": "COMPOSITE",
             "status": "RAW",
             "value": None,
-        }
+        },
+        owner=MetricOwner.JOB,
     )
     assert metric.value is None
     assert metric.metric_url is None
@@ -178,19 +180,22 @@ def test_metrics_data_from_resim_json() -> None:
         "filename": "speeds.binproto",
         "creation_timestamp": NOW,
     }
-    job_data = JobMetricsData.from_json(as_wire(ResimJobMetricsData(**common, job_id=str(IDS[1]))))
+    job_data = ApiMetricsData.from_json(
+        as_wire(ResimJobMetricsData(**common, job_id=str(IDS[1]))), owner=MetricOwner.JOB
+    )
     assert job_data.is_standard
     assert job_data.job_id == IDS[1]
     assert job_data.filename == "speeds.binproto"
     assert "sig=1" not in repr(job_data)
 
-    video = BatchMetricsData.from_json(
+    video = ApiMetricsData.from_json(
         as_wire(
             ResimBatchMetricsData(
                 **(common | {"metrics_data_type": ResimMetricsDataType.VIDEO}),
                 batch_id=str(IDS[2]),
             )
-        )
+        ),
+        owner=MetricOwner.BATCH,
     )
     assert not video.is_standard
     assert video.batch_id == IDS[2]
@@ -324,20 +329,27 @@ def test_absent_optional_fields_have_their_documented_meaning() -> None:
     """The spec's job, metric and metricsData schemas require nothing: absent is not an error."""
     job = Job.from_json({"jobID": str(IDS[0])})
     assert job.conflated_status is None  # counted as UNKNOWN by the aggregations
-    metric = JobMetric.from_json({"metricID": str(IDS[1])})
+    metric = ApiMetric.from_json({"metricID": str(IDS[1])}, owner=MetricOwner.JOB)
     assert metric.name == ""
     assert metric.type is None
     assert metric.status is ApiMetricStatus.NO_STATUS_REPORTED
     assert (metric.value, metric.unit, metric.metric_url) == (None, None, None)
     assert (metric.data_ids, metric.event_metric) == ((), False)
-    data = JobMetricsData.from_json({"dataID": str(IDS[2])})
+    data = ApiMetricsData.from_json({"dataID": str(IDS[2])}, owner=MetricOwner.JOB)
     assert data.name == ""
     assert data.metrics_data_type is MetricsDataStorageType.STANDARD
     assert data.is_standard
-    batch_metric = BatchMetric.from_json({"metricID": str(IDS[1]), "name": "", "status": ""})
+    batch_metric = ApiMetric.from_json(
+        {"metricID": str(IDS[1]), "name": "", "status": ""}, owner=MetricOwner.BATCH
+    )
     assert batch_metric.name == ""
     assert batch_metric.status is ApiMetricStatus.NO_STATUS_REPORTED
-    assert BatchMetricsData.from_json({"dataID": str(IDS[2]), "name": None}).name == ""
+    assert (
+        ApiMetricsData.from_json(
+            {"dataID": str(IDS[2]), "name": None}, owner=MetricOwner.BATCH
+        ).name
+        == ""
+    )
 
 
 def test_unknown_enum_values_are_kept_by_name() -> None:
@@ -356,13 +368,15 @@ def test_unknown_enum_values_are_kept_by_name() -> None:
         "FAIL_SOFT",
     )
     assert not isinstance(job.conflated_status, ConflatedJobStatus)
-    metric = JobMetric.from_json(
-        {"metricID": str(IDS[1]), "name": "m", "type": "HISTOGRAM", "status": "FAIL_SOFT"}
+    metric = ApiMetric.from_json(
+        {"metricID": str(IDS[1]), "name": "m", "type": "HISTOGRAM", "status": "FAIL_SOFT"},
+        owner=MetricOwner.JOB,
     )
     assert (metric.type, metric.status) == ("HISTOGRAM", "FAIL_SOFT")
     assert metric.type is not ApiMetricType.SCALAR
-    data = JobMetricsData.from_json(
-        {"dataID": str(IDS[2]), "name": "lidar", "metricsDataType": "POINT_CLOUD"}
+    data = ApiMetricsData.from_json(
+        {"dataID": str(IDS[2]), "name": "lidar", "metricsDataType": "POINT_CLOUD"},
+        owner=MetricOwner.JOB,
     )
     assert data.metrics_data_type == "POINT_CLOUD"
     assert not data.is_standard  # not a MetricsData message: never downloaded
@@ -371,7 +385,9 @@ def test_unknown_enum_values_are_kept_by_name() -> None:
     )
     assert (batch.status, batch.conflated_status) == ("ARCHIVED", "ARCHIVED")
     # Known values stay members.
-    known = JobMetric.from_json({"metricID": str(IDS[1]), "type": "SCALAR", "status": "RAW"})
+    known = ApiMetric.from_json(
+        {"metricID": str(IDS[1]), "type": "SCALAR", "status": "RAW"}, owner=MetricOwner.JOB
+    )
     assert (known.type, known.status) == (ApiMetricType.SCALAR, ApiMetricStatus.RAW)
 
 
@@ -433,7 +449,7 @@ def test_job_errors_name_object_and_field(data: Any, message: str) -> None:
 def test_metric_field_errors(field: str, value: Any, problem: str) -> None:
     data = {"metricID": str(IDS[0]), "name": "m", "type": "SCALAR", "status": "PASSED"}
     with pytest.raises(ApiResponseError) as caught:
-        BatchMetric.from_json(data | {field: value})
+        ApiMetric.from_json(data | {field: value}, owner=MetricOwner.BATCH)
     assert str(caught.value) == f"BatchMetric {IDS[0]}: field '{field}' {problem}"
 
 
@@ -462,3 +478,24 @@ def test_models_are_frozen_and_slotted() -> None:
     with pytest.raises(AttributeError):
         job.job_id = IDS[1]  # type: ignore[misc]
     assert not hasattr(job, "__dict__")
+
+
+def test_one_metric_model_and_one_data_model_say_their_owner() -> None:
+    metric = {"metricID": str(IDS[0]), "jobID": str(IDS[1]), "batchID": str(IDS[2])}
+    of_job = ApiMetric.from_json(metric, owner=MetricOwner.JOB)
+    of_batch = ApiMetric.from_json(metric, owner=MetricOwner.BATCH)
+    assert (of_job.owner, of_job.job_id, of_job.batch_id) == (MetricOwner.JOB, IDS[1], IDS[2])
+    # A batch's own metric belongs to no job, whatever the answer carries.
+    assert (of_batch.owner, of_batch.job_id, of_batch.batch_id) == (MetricOwner.BATCH, None, IDS[2])
+    data = {"dataID": str(IDS[3]), "jobID": str(IDS[1]), "batchID": str(IDS[2])}
+    job_data = ApiMetricsData.from_json(data, owner=MetricOwner.JOB)
+    batch_data = ApiMetricsData.from_json(data, owner=MetricOwner.BATCH)
+    assert (job_data.owner, job_data.job_id, job_data.batch_id) == (MetricOwner.JOB, IDS[1], None)
+    assert (batch_data.owner, batch_data.job_id, batch_data.batch_id) == (
+        MetricOwner.BATCH,
+        None,
+        IDS[2],
+    )
+    # Errors name the API's schema of the owner's listing.
+    with pytest.raises(ApiResponseError, match=f"^JobMetricsData {IDS[3]}: field 'jobID'"):
+        ApiMetricsData.from_json(data | {"jobID": "nope"}, owner=MetricOwner.JOB)

@@ -13,7 +13,7 @@ from structlog.testing import capture_logs
 from stook.proto import metrics_pb2 as pb
 from stook.sdk._errors import ReadError
 from stook.sdk.aggregations import Needs, Scalar
-from stook.service.api._models import JobMetric
+from stook.service.api._models import ApiMetric, MetricOwner
 from stook.service.api._retry import RetryPolicy
 from stook.service.api._storage import StorageClient
 from stook.service.fetch._scalars import read_scalars
@@ -32,21 +32,21 @@ def _message(value: float | None, unit: str | None = None) -> bytes:
     return msg.SerializeToString()
 
 
-def _listed(name: str, server: ScriptedServer | None, **fields: Any) -> JobMetric:
+def _listed(name: str, server: ScriptedServer | None, **fields: Any) -> ApiMetric:
     metric_id = fields.pop("metric_id", uuid.uuid4())
     body: dict[str, Any] = {"metricID": str(metric_id), "name": name, "type": "SCALAR"}
     if server is not None:
         body["metricURL"] = server.url(f"/bucket/{metric_id}")
-    return JobMetric.from_json(body | fields)
+    return ApiMetric.from_json(body | fields, owner=MetricOwner.JOB)
 
 
 async def _read(
     policy: RetryPolicy,
-    metrics: Sequence[JobMetric],
+    metrics: Sequence[ApiMetric],
     needs: Needs = EVERY,
-    relisted: Sequence[JobMetric] = (),
+    relisted: Sequence[ApiMetric] = (),
 ) -> dict[str, Scalar]:
-    async def relist() -> Sequence[JobMetric]:
+    async def relist() -> Sequence[ApiMetric]:
         return relisted
 
     async with StorageClient(retry=policy) as storage:

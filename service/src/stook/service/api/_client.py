@@ -7,6 +7,7 @@ token cannot follow a presigned URL (or a redirect from one) to another host.
 
 from __future__ import annotations
 
+import functools
 import json
 import uuid
 from collections.abc import AsyncIterator, Callable, Mapping
@@ -26,13 +27,12 @@ from stook.service.api._errors import (
 )
 from stook.service.api._limits import AimdLimiter, ConcurrencyLimit, FixedLimit, NestedLimit
 from stook.service.api._models import (
+    ApiMetric,
+    ApiMetricsData,
     Batch,
-    BatchMetric,
-    BatchMetricsData,
     Build,
     Job,
-    JobMetric,
-    JobMetricsData,
+    MetricOwner,
     Report,
 )
 from stook.service.api._paging import ListingGuard
@@ -54,6 +54,12 @@ __all__ = ["ApiClient", "IdLike"]
 
 IdLike = uuid.UUID | str
 _Model = TypeVar("_Model")
+
+# Each listing's parser, made once: a listing parses thousands of items.
+_JOB_METRIC = functools.partial(ApiMetric.from_json, owner=MetricOwner.JOB)
+_BATCH_METRIC = functools.partial(ApiMetric.from_json, owner=MetricOwner.BATCH)
+_JOB_DATA = functools.partial(ApiMetricsData.from_json, owner=MetricOwner.JOB)
+_BATCH_DATA = functools.partial(ApiMetricsData.from_json, owner=MetricOwner.BATCH)
 
 # The API caps pages; 100 is the largest size ReSim's own tools ask for.
 DEFAULT_PAGE_SIZE: Final = 100
@@ -266,17 +272,17 @@ class ApiClient:
 
     def list_job_metrics(
         self, project_id: IdLike, batch_id: IdLike, job_id: IdLike
-    ) -> AsyncIterator[JobMetric]:
+    ) -> AsyncIterator[ApiMetric]:
         """The metrics a job's metrics build produced."""
         path = f"/projects/{_id(project_id)}/batches/{_id(batch_id)}/jobs/{_id(job_id)}/metrics"
-        return self._list(path, "metrics", JobMetric.from_json)
+        return self._list(path, "metrics", _JOB_METRIC)
 
     def list_job_metrics_data(
         self, project_id: IdLike, batch_id: IdLike, job_id: IdLike
-    ) -> AsyncIterator[JobMetricsData]:
+    ) -> AsyncIterator[ApiMetricsData]:
         """The metrics-data files of a job (all storage types; filter on ``is_standard``)."""
         path = f"/projects/{_id(project_id)}/batches/{_id(batch_id)}/jobs/{_id(job_id)}/metricsData"
-        return self._list(path, "metricsData", JobMetricsData.from_json)
+        return self._list(path, "metricsData", _JOB_DATA)
 
     async def get_batch(self, project_id: IdLike, batch_id: IdLike) -> Batch:
         document = await self.get_json(f"/projects/{_id(project_id)}/batches/{_id(batch_id)}")
@@ -291,17 +297,15 @@ class ApiClient:
             f"/projects/{_id(project_id)}/batches", "batches", Batch.from_json, params
         )
 
-    def list_batch_metrics(
-        self, project_id: IdLike, batch_id: IdLike
-    ) -> AsyncIterator[BatchMetric]:
+    def list_batch_metrics(self, project_id: IdLike, batch_id: IdLike) -> AsyncIterator[ApiMetric]:
         path = f"/projects/{_id(project_id)}/batches/{_id(batch_id)}/metrics"
-        return self._list(path, "batchMetrics", BatchMetric.from_json)
+        return self._list(path, "batchMetrics", _BATCH_METRIC)
 
     def list_batch_metrics_data(
         self, project_id: IdLike, batch_id: IdLike
-    ) -> AsyncIterator[BatchMetricsData]:
+    ) -> AsyncIterator[ApiMetricsData]:
         path = f"/projects/{_id(project_id)}/batches/{_id(batch_id)}/metricsData"
-        return self._list(path, "batchMetricsData", BatchMetricsData.from_json)
+        return self._list(path, "batchMetricsData", _BATCH_DATA)
 
     async def get_report(self, project_id: IdLike, report_id: IdLike) -> Report:
         document = await self.get_json(f"/projects/{_id(project_id)}/reports/{_id(report_id)}")

@@ -31,19 +31,18 @@ from typing import Any, Self, TypeVar
 from stook.service.api._errors import ApiResponseError
 
 __all__ = [
+    "ApiMetric",
     "ApiMetricStatus",
     "ApiMetricType",
+    "ApiMetricsData",
     "Batch",
-    "BatchMetric",
-    "BatchMetricsData",
     "BatchStatus",
     "Build",
     "ConflatedBatchStatus",
     "ConflatedJobStatus",
     "Job",
-    "JobMetric",
-    "JobMetricsData",
     "JobStatus",
+    "MetricOwner",
     "MetricsDataStorageType",
     "Report",
 ]
@@ -374,15 +373,28 @@ def _metric_fields(f: _Fields) -> dict[str, Any]:
     }
 
 
+class MetricOwner(enum.StrEnum):
+    """Whose metrics build produced a metric or metrics data: a job's, or the batch's own."""
+
+    JOB = "job"
+    BATCH = "batch"
+
+
+# The API's own schema names, which errors name: "JobMetric 1234…: field 'value' ...".
+_METRIC_KINDS = {MetricOwner.JOB: "JobMetric", MetricOwner.BATCH: "BatchMetric"}
+_DATA_KINDS = {MetricOwner.JOB: "JobMetricsData", MetricOwner.BATCH: "BatchMetricsData"}
+
+
 @dataclass(frozen=True, slots=True)
-class JobMetric:
-    """A metric a job's metrics build produced.
+class ApiMetric:
+    """A metric a job's or a batch's metrics build produced (``owner``).
 
     ``value`` is the number of a ``SCALAR`` metric (None for ``COMPOSITE``, or when the job
     reported none, or the API lists it as null: then the value is in the message at
     ``metric_url``). ``metric_url`` is the presigned URL of the serialized ``Metric``
     message; it expires, so fetch it soon after listing. ``name`` is "" when the API gave
     none; ``type`` None when it gave none; an unknown type or status is its raw string.
+    ``job_id`` is read for a job's metric only; ``batch_id`` for both.
     """
 
     metric_id: uuid.UUID
@@ -394,41 +406,18 @@ class JobMetric:
     metric_url: str | None = field(default=None, repr=False)
     data_ids: tuple[uuid.UUID, ...] = ()
     event_metric: bool = False
+    owner: MetricOwner = MetricOwner.JOB
     job_id: uuid.UUID | None = None
     batch_id: uuid.UUID | None = None
     creation_timestamp: datetime | None = None
 
     @classmethod
-    def from_json(cls, data: Mapping[str, Any]) -> Self:
-        f = _Fields("JobMetric", data, "metricID")
+    def from_json(cls, data: Mapping[str, Any], *, owner: MetricOwner) -> Self:
+        f = _Fields(_METRIC_KINDS[owner], data, "metricID")
         return cls(
             **_metric_fields(f),
-            job_id=f.opt_id("jobID"),
-            batch_id=f.opt_id("batchID"),
-        )
-
-
-@dataclass(frozen=True, slots=True)
-class BatchMetric:
-    """A metric a batch's metrics build produced; same shape as :class:`JobMetric`."""
-
-    metric_id: uuid.UUID
-    name: str
-    type: ApiMetricType | str | None
-    status: ApiMetricStatus | str
-    value: float | None = None
-    unit: str | None = None
-    metric_url: str | None = field(default=None, repr=False)
-    data_ids: tuple[uuid.UUID, ...] = ()
-    event_metric: bool = False
-    batch_id: uuid.UUID | None = None
-    creation_timestamp: datetime | None = None
-
-    @classmethod
-    def from_json(cls, data: Mapping[str, Any]) -> Self:
-        f = _Fields("BatchMetric", data, "metricID")
-        return cls(
-            **_metric_fields(f),
+            owner=owner,
+            job_id=f.opt_id("jobID") if owner is MetricOwner.JOB else None,
             batch_id=f.opt_id("batchID"),
         )
 
@@ -447,21 +436,14 @@ def _data_fields(f: _Fields) -> dict[str, Any]:
     }
 
 
-class _StorageTyped:
-    __slots__ = ()
-    metrics_data_type: MetricsDataStorageType | str
-
-    @property
-    def is_standard(self) -> bool:
-        """Whether the URL holds a ``MetricsData`` message (not a video or external file)."""
-        return self.metrics_data_type is MetricsDataStorageType.STANDARD
-
-
 @dataclass(frozen=True, slots=True)
-class JobMetricsData(_StorageTyped):
-    """A metrics-data file of a job; ``metrics_data_url`` is presigned and expires.
+class ApiMetricsData:
+    """A metrics-data file of a job or of a batch (``owner``); ``metrics_data_url`` is
+    presigned and expires.
 
-    ``name`` is "" when the API gave none: such data cannot be asked for by name.
+    ``name`` is "" when the API gave none: such data cannot be asked for by name. Its
+    owner's ID is read for its owner only: ``job_id`` for a job's, ``batch_id`` for a
+    batch's.
     """
 
     data_id: uuid.UUID
@@ -469,31 +451,22 @@ class JobMetricsData(_StorageTyped):
     metrics_data_type: MetricsDataStorageType | str
     metrics_data_url: str | None = field(default=None, repr=False)
     filename: str | None = None
+    owner: MetricOwner = MetricOwner.JOB
     job_id: uuid.UUID | None = None
-    creation_timestamp: datetime | None = None
-
-    @classmethod
-    def from_json(cls, data: Mapping[str, Any]) -> Self:
-        f = _Fields("JobMetricsData", data, "dataID")
-        return cls(**_data_fields(f), job_id=f.opt_id("jobID"))
-
-
-@dataclass(frozen=True, slots=True)
-class BatchMetricsData(_StorageTyped):
-    """A metrics-data file of a batch; same shape as :class:`JobMetricsData`."""
-
-    data_id: uuid.UUID
-    name: str
-    metrics_data_type: MetricsDataStorageType | str
-    metrics_data_url: str | None = field(default=None, repr=False)
-    filename: str | None = None
     batch_id: uuid.UUID | None = None
     creation_timestamp: datetime | None = None
 
+    @property
+    def is_standard(self) -> bool:
+        """Whether the URL holds a ``MetricsData`` message (not a video or external file)."""
+        return self.metrics_data_type is MetricsDataStorageType.STANDARD
+
     @classmethod
-    def from_json(cls, data: Mapping[str, Any]) -> Self:
-        f = _Fields("BatchMetricsData", data, "dataID")
-        return cls(**_data_fields(f), batch_id=f.opt_id("batchID"))
+    def from_json(cls, data: Mapping[str, Any], *, owner: MetricOwner) -> Self:
+        f = _Fields(_DATA_KINDS[owner], data, "dataID")
+        if owner is MetricOwner.JOB:
+            return cls(**_data_fields(f), owner=owner, job_id=f.opt_id("jobID"))
+        return cls(**_data_fields(f), owner=owner, batch_id=f.opt_id("batchID"))
 
 
 @dataclass(frozen=True, slots=True)

@@ -27,7 +27,7 @@ from stook.service.api._errors import (
     OriginUnavailableError,
     PresignedUrlExpiredError,
 )
-from stook.service.api._models import Job, JobMetric, JobMetricsData
+from stook.service.api._models import ApiMetric, ApiMetricsData, Job
 from stook.service.fetch._scalars import is_scalar, read_scalars
 
 log = structlog.get_logger("stook.fetch")
@@ -147,7 +147,7 @@ class BatchFetcher:
                 self._on_progress(self.outcome)
 
     async def _fetch_job(self, job: Job) -> JobRecord:
-        data_items: list[JobMetricsData] = []
+        data_items: list[ApiMetricsData] = []
         if self._plan.data:
             metrics, data_items = await asyncio.gather(
                 self._list_metrics(job), self._list_data(job)
@@ -188,13 +188,13 @@ class BatchFetcher:
             metric_statuses=[str(m.status) for m in metrics],
         )
 
-    async def _list_metrics(self, job: Job) -> list[JobMetric]:
+    async def _list_metrics(self, job: Job) -> list[ApiMetric]:
         return [
             m
             async for m in self._api.list_job_metrics(self._project_id, self._batch_id, job.job_id)
         ]
 
-    async def _list_data(self, job: Job) -> list[JobMetricsData]:
+    async def _list_data(self, job: Job) -> list[ApiMetricsData]:
         return [
             d
             async for d in self._api.list_job_metrics_data(
@@ -202,7 +202,7 @@ class BatchFetcher:
             )
         ]
 
-    async def _download(self, job: Job, item: JobMetricsData) -> pl.Series:
+    async def _download(self, job: Job, item: ApiMetricsData) -> pl.Series:
         source = f"job {job.job_id} / metrics data {item.name!r}"
         for relist in range(_MAX_RELISTS + 1):
             if item.metrics_data_url is None:

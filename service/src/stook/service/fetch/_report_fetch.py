@@ -24,7 +24,7 @@ import structlog
 from stook.sdk.aggregations import UNKNOWN_STATUS, BatchRecord, JobSummary, Needs, Scalar
 from stook.service.api._client import ApiClient
 from stook.service.api._errors import ApiError, AuthError, NotFoundError, OriginUnavailableError
-from stook.service.api._models import Batch, Job, JobMetric, Report
+from stook.service.api._models import ApiMetric, Batch, Job, Report
 from stook.service.fetch._batch_fetch import MissingJob
 from stook.service.fetch._scalars import is_scalar, read_scalars
 
@@ -227,7 +227,7 @@ class ReportFetcher:
                 self._finish(pending, on_batch)
 
     async def _job_scalars(
-        self, batch: Batch, job: Job, metrics: list[JobMetric]
+        self, batch: Batch, job: Job, metrics: list[ApiMetric]
     ) -> dict[str, Scalar]:
         """The job's scalars, values listed as null read from their messages when needed."""
         return await read_scalars(

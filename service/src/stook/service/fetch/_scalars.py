@@ -18,7 +18,7 @@ import structlog
 from stook.sdk import read_metric
 from stook.sdk.aggregations import Scalar
 from stook.service.api._errors import PresignedUrlExpiredError
-from stook.service.api._models import ApiMetricType, BatchMetric, JobMetric
+from stook.service.api._models import ApiMetric, ApiMetricType
 from stook.service.api._storage import StorageClient
 
 __all__ = ["is_scalar", "read_scalars"]
@@ -28,18 +28,17 @@ log = structlog.get_logger("stook.fetch")
 # Presigned URLs can expire between listing and download; listing again gives fresh ones.
 _MAX_RELISTS = 2
 
-Metric = JobMetric | BatchMetric
-Relist = Callable[[], Awaitable[Sequence[Metric]]]
+Relist = Callable[[], Awaitable[Sequence[ApiMetric]]]
 
 
-def is_scalar(metric: Metric) -> bool:
+def is_scalar(metric: ApiMetric) -> bool:
     """A named SCALAR metric that is not an event's: what aggregations get by name."""
     return metric.type is ApiMetricType.SCALAR and not metric.event_metric and bool(metric.name)
 
 
 async def read_scalars(
     storage: StorageClient,
-    metrics: Sequence[Metric],
+    metrics: Sequence[ApiMetric],
     wanted: Callable[[str], bool],
     *,
     source: str,
@@ -77,7 +76,7 @@ async def read_scalars(
 
 
 async def _from_message(
-    storage: StorageClient, metric: Metric, *, source: str, relist: Relist
+    storage: StorageClient, metric: ApiMetric, *, source: str, relist: Relist
 ) -> Scalar | None:
     where = f"{source} / metric {metric.name!r}"
     for attempt in range(_MAX_RELISTS + 1):
