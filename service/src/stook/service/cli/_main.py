@@ -21,7 +21,7 @@ if TYPE_CHECKING:
     from collections.abc import Sequence
     from typing import Any
 
-    from stook.service.modes._progress import Tally
+    from stook.service.modes import Tally
 
 
 def _add_logging(parser: argparse.ArgumentParser, *, default_level: str = "info") -> None:
@@ -134,7 +134,7 @@ class Voice:
     def failed(self, error: Exception) -> int:
         try:
             from stook.service.cli._run import ExitCode, exit_code_for, explain
-            from stook.service.modes._test_mode import UserFunctionError
+            from stook.service.modes import UserFunctionError
         except ImportError:  # a broken installation: the error is what failed to import
             self._say("stook failed", f"error: {error}", error, error=str(error), exit_code=1)
             return 1
@@ -217,7 +217,7 @@ def run_cli(argv: Sequence[str] | None = None, *, voice: Voice | None = None) ->
 
 def _run_cli(argv: Sequence[str] | None, voice: Voice) -> int:
     args = build_parser().parse_args(argv)
-    from stook.service.api._logging import configure_logging
+    from stook.service.api import configure_logging
 
     if hasattr(args, "log_format"):
         json_logs = None if args.log_format == "auto" else args.log_format == "json"
@@ -265,7 +265,7 @@ def _dispatch(args: argparse.Namespace, voice: Voice) -> int:
     match args.command:
         case "run":
             from stook.service.cli._run import resolve_options, run
-            from stook.service.modes._progress import Tally, for_stream
+            from stook.service.modes import Tally, for_stream
 
             options = resolve_options(
                 inputs=args.inputs,

@@ -36,15 +36,27 @@ from stook.sdk import (
     WriterError,
     remove_stale_temp_files,
 )
-from stook.service.api._errors import ApiError, AuthError
-from stook.service.modes._batch import OUTPUT_NAME, run_batch
-from stook.service.modes._config import ConfigError, StookConfig, load
-from stook.service.modes._inputs import BatchInputs, InputsError, ReportInputs, TestInputs, detect
-from stook.service.modes._open_api import Traffic
-from stook.service.modes._outputs import OutputsError, check_outputs_folder
-from stook.service.modes._progress import Progress, for_stream
-from stook.service.modes._report import run_report
-from stook.service.modes._test_mode import UserFunctionError, run_test_mode
+from stook.service.api import ApiError, AuthError
+from stook.service.modes import (
+    OUTPUT_NAME,
+    BatchInputs,
+    ConfigError,
+    InputsError,
+    OutputsError,
+    Progress,
+    ReportInputs,
+    StookConfig,
+    TestInputs,
+    Traffic,
+    UserFunctionError,
+    check_outputs_folder,
+    detect,
+    for_stream,
+    load,
+    run_batch,
+    run_report,
+    run_test_mode,
+)
 
 log = structlog.get_logger("stook.run")
 

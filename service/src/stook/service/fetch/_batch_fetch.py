@@ -20,14 +20,16 @@ import structlog
 
 from stook.sdk import ReadError, read_metrics_data
 from stook.sdk.aggregations import UNKNOWN_STATUS, JobRecord
-from stook.service.api._client import ApiClient
-from stook.service.api._errors import (
+from stook.service.api import (
+    ApiClient,
     ApiError,
+    ApiMetric,
+    ApiMetricsData,
     AuthError,
+    Job,
     OriginUnavailableError,
     PresignedUrlExpiredError,
 )
-from stook.service.api._models import ApiMetric, ApiMetricsData, Job
 from stook.service.fetch._scalars import is_scalar, read_scalars
 
 log = structlog.get_logger("stook.fetch")

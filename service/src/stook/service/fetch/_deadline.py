@@ -11,7 +11,7 @@ import asyncio
 import contextlib
 from collections.abc import AsyncIterator, Callable
 
-from stook.service.api._errors import ApiError
+from stook.service.api import ApiError
 
 __all__ = ["DeadlineReachedError", "fetch_deadline"]
 

@@ -22,9 +22,17 @@ from typing import TypeVar
 import structlog
 
 from stook.sdk.aggregations import UNKNOWN_STATUS, BatchRecord, JobSummary, Needs, Scalar
-from stook.service.api._client import ApiClient
-from stook.service.api._errors import ApiError, AuthError, NotFoundError, OriginUnavailableError
-from stook.service.api._models import ApiMetric, Batch, Job, Report
+from stook.service.api import (
+    ApiClient,
+    ApiError,
+    ApiMetric,
+    AuthError,
+    Batch,
+    Job,
+    NotFoundError,
+    OriginUnavailableError,
+    Report,
+)
 from stook.service.fetch._batch_fetch import MissingJob
 from stook.service.fetch._scalars import is_scalar, read_scalars
 

@@ -17,9 +17,7 @@ import structlog
 
 from stook.sdk import read_metric
 from stook.sdk.aggregations import Scalar
-from stook.service.api._errors import PresignedUrlExpiredError
-from stook.service.api._models import ApiMetric, ApiMetricType
-from stook.service.api._storage import StorageClient
+from stook.service.api import ApiMetric, ApiMetricType, PresignedUrlExpiredError, StorageClient
 
 __all__ = ["is_scalar", "read_scalars"]
 

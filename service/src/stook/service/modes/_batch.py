@@ -12,10 +12,8 @@ import structlog
 
 from stook.sdk import MetricStatus, MetricsWriter
 from stook.sdk.aggregations import BatchAggregation, JobRecord, Needs, default_batch_aggregations
-from stook.service.api._errors import ApiError
-from stook.service.api._retry import RetryPolicy
-from stook.service.fetch._batch_fetch import BatchFetcher, FetchOutcome, FetchPlan, MissingJob
-from stook.service.fetch._deadline import fetch_deadline
+from stook.service.api import ApiError, RetryPolicy
+from stook.service.fetch import BatchFetcher, FetchOutcome, FetchPlan, MissingJob, fetch_deadline
 from stook.service.modes._config import ConfigError, StookConfig
 from stook.service.modes._inputs import BatchInputs
 from stook.service.modes._open_api import HasTraffic, Traffic, open_api

@@ -6,10 +6,7 @@ import contextlib
 from collections.abc import AsyncIterator, Mapping
 from dataclasses import dataclass, field
 
-from stook.service.api._client import ApiClient
-from stook.service.api._limits import ConcurrencyLimit, LimitStats
-from stook.service.api._retry import RetryPolicy
-from stook.service.api._transport import body_cap_mb
+from stook.service.api import ApiClient, ConcurrencyLimit, LimitStats, RetryPolicy, body_cap_mb
 from stook.service.modes._config import FetchSettings
 from stook.service.modes._inputs import ApiAccess
 

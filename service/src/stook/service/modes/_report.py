@@ -17,9 +17,8 @@ from stook.sdk.aggregations import (
     Needs,
     default_report_aggregations,
 )
-from stook.service.api._retry import RetryPolicy
-from stook.service.fetch._deadline import fetch_deadline
-from stook.service.fetch._report_fetch import ReportFetcher, ReportOutcome
+from stook.service.api import RetryPolicy
+from stook.service.fetch import ReportFetcher, ReportOutcome, fetch_deadline
 from stook.service.modes._batch import OUTPUT_NAME, write_missing_jobs
 from stook.service.modes._config import ConfigError, StookConfig
 from stook.service.modes._inputs import ReportInputs

@@ -19,7 +19,7 @@ from yarl import URL
 
 from stook.bench._measure import BARE_LOOP, Measurement, cpu_seconds, peak_rss_mb
 from stook.emulator import EmulatorInfo
-from stook.service.api._models import ApiMetricsData, MetricOwner
+from stook.service import ApiMetricsData, MetricOwner
 
 
 @dataclass(frozen=True, slots=True)

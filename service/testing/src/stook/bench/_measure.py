@@ -22,7 +22,7 @@ from typing import TYPE_CHECKING, Any, Final, ParamSpec, TypeVar
 from stook.emulator import EmulatorInfo
 
 if TYPE_CHECKING:
-    from stook.service.modes._open_api import Traffic
+    from stook.service.modes import Traffic
 
 _P = ParamSpec("_P")
 _T = TypeVar("_T")
@@ -118,10 +118,8 @@ def run_stook(
     info: EmulatorInfo, config_toml: str, concurrency: int, adaptive: bool = False
 ) -> tuple[Measurement, Traffic]:
     """`measure_stook`, with the run's traffic: its limiters' stats among it."""
-    from stook.service.api._logging import configure_logging
-    from stook.service.modes._batch import run_batch
-    from stook.service.modes._config import parse
-    from stook.service.modes._inputs import BatchInputs, detect
+    from stook.service.api import configure_logging
+    from stook.service.modes import BatchInputs, detect, parse, run_batch
 
     configure_logging(json=True, level="error")
     doc = tomllib.loads(config_toml)

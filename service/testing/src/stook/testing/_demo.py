@@ -18,13 +18,19 @@ from pathlib import Path
 
 from stook.emulator import EmulatorConfig, EmulatorProcess
 from stook.sdk import find_problems, read_job_metrics
-from stook.service.cli._inspect import summary_lines
-from stook.service.modes._batch import run_batch
-from stook.service.modes._config import StookConfig, parse
-from stook.service.modes._inputs import BatchInputs, ReportInputs, TestInputs, detect
-from stook.service.modes._progress import for_stream
-from stook.service.modes._report import run_report
-from stook.service.modes._test_mode import run_test_mode
+from stook.service.cli import summary_lines
+from stook.service.modes import (
+    BatchInputs,
+    ReportInputs,
+    StookConfig,
+    TestInputs,
+    detect,
+    for_stream,
+    parse,
+    run_batch,
+    run_report,
+    run_test_mode,
+)
 
 REPORT_BATCHES = 14
 
