@@ -35,6 +35,7 @@ API_ORDER = [
     "_redact",
     "_logging",
     "_errors",
+    "_fields",
     "_stats",
     "_limits",
     "_models",
