@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pytest
 
-from stook.service._run import RunOptions, run
+from stook.service.cli._run import RunOptions, run
 from stook.testing import emulated_batch
 from tests.e2e.support import (
     BATCH_TOML,

@@ -11,10 +11,10 @@ import pytest
 import tenacity
 
 from stook.emulator import Emulator
-from stook.service._batch import BatchResult, run_batch
-from stook.service._config import parse
-from stook.service._inputs import BatchInputs, detect
-from stook.service._retry import RetryPolicy
+from stook.service.api._retry import RetryPolicy
+from stook.service.modes._batch import BatchResult, run_batch
+from stook.service.modes._config import parse
+from stook.service.modes._inputs import BatchInputs, detect
 from stook.testing import emulated_batch
 from tests.e2e.support import BATCH_TOML, assert_matches_truth, expected_from_truth, read_output
 
@@ -132,3 +132,18 @@ async def test_urls_that_expire_with_the_clock_are_listed_again(
     assert stats.bad_signatures == 0
     # Downloads in flight at the jump were refused (timing decides how many, not whether).
     assert stats.expired_urls > 0
+
+
+async def test_the_run_says_what_its_limiter_did(tmp_path: Path) -> None:
+    # Every request of the run, API and storage, passes the shared bound, and every
+    # throttling answer comes back through it: the run's traffic shows both, unpatched.
+    async with emulated_batch(
+        tmp_path / "inputs", jobs_per_batch=20, seed=SEED, fault_429=0.05, retry_after_max_s=0
+    ) as emu:
+        result = await _run(tmp_path, emu)
+        refused = sum(n for key, n in emu.stats.statuses.items() if key.endswith(":429"))
+    stats = result.traffic.limit_stats
+    assert set(stats) == {"shared"}
+    assert stats["shared"].acquisitions == result.requests
+    assert stats["shared"].in_flight == 0
+    assert stats["shared"].throttled == refused > 0

@@ -14,11 +14,11 @@ import tenacity
 
 from stook.emulator import Emulator
 from stook.sdk import MetricStatus
-from stook.service._config import parse
-from stook.service._inputs import ReportInputs, detect
-from stook.service._report import ReportResult, run_report
-from stook.service._retry import RetryPolicy
+from stook.service.api._retry import RetryPolicy
 from stook.service.cli import run_cli
+from stook.service.modes._config import parse
+from stook.service.modes._inputs import ReportInputs, detect
+from stook.service.modes._report import ReportResult, run_report
 from stook.testing import emulated_report
 from tests.e2e.support import (
     OUTPUT_NAME,

@@ -19,9 +19,9 @@ import pytest
 from stook.emulator import Emulator
 from stook.emulator._quirks import FUTURE_CONFLATED_STATUS, FUTURE_METRIC_STATUS
 from stook.sdk import MetricStatus
-from stook.service._client import ApiClient
-from stook.service._run import RunOptions, run
+from stook.service.api._client import ApiClient
 from stook.service.cli import run_cli
+from stook.service.cli._run import RunOptions, run
 from stook.testing import emulated_batch, emulated_report
 from tests.e2e.support import (
     BATCH_TOML,

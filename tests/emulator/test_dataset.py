@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import itertools
-import time
 from collections import Counter
 
 import aiohttp
@@ -17,10 +16,10 @@ from tests.emulator.support import SMALL, Raw
 
 @pytest.mark.parametrize("jobs", [0, 1, 200, 1000, 5000])
 def test_any_batch_size_is_quick_to_list(jobs: int) -> None:
-    start = time.perf_counter()
     ds = Dataset(EmulatorConfig(jobs_per_batch=jobs, cache_jobs=16))
     listed = ds.jobs(ds.main_batch_id)
-    assert time.perf_counter() - start < 2.0
+    # Quick because listing generates no job's metrics: outputs are made on first request.
+    assert ds.generated_outputs == ds.cached_outputs == 0
     assert len(listed) == jobs
     assert len({j.id for j in listed}) == jobs
     for job in (listed[:1] + listed[-1:]) if jobs else ():

@@ -147,6 +147,7 @@ def test_names_the_service_uses_are_public() -> None:
         "find_problems",
         "MetricsWriter",
         "write_atomic",
+        "remove_stale_temp_files",
         "data",
     ):
         assert name in sdk.__all__, name
@@ -166,3 +167,22 @@ def test_names_the_service_uses_are_public() -> None:
         "default_report_aggregations",
     ):
         assert name in aggregations.__all__, name
+
+
+def test_ruff_bans_every_private_sdk_module_outside_the_sdk() -> None:
+    # The rule (TID251) lists modules one by one; a new _-module must join the list.
+    import tomllib
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[2]
+    settings = tomllib.loads((root / "pyproject.toml").read_text())["tool"]["ruff"]["lint"]
+    banned = set(settings["flake8-tidy-imports"]["banned-api"])
+    src = root / "sdk" / "src"
+    private = {
+        ".".join(path.relative_to(src).with_suffix("").parts)
+        for path in src.rglob("_*.py")
+        if path.name != "__init__.py"
+    }
+    assert private <= banned, sorted(private - banned)
+    assert "TID251" in settings["select"]
+    assert settings["per-file-ignores"] == {"sdk/**": ["TID251"], "tests/**": ["TID251"]}

@@ -9,7 +9,7 @@ from aiohttp import web
 from aiohttp.test_utils import TestServer
 from tenacity import wait_none
 
-from stook.service._retry import RetryPolicy
+from stook.service.api._retry import RetryPolicy
 from tests.service.scripted_server import ScriptedServer
 
 

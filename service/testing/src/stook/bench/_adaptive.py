@@ -8,8 +8,9 @@ second while the bucket saves up only its burst.
 
 Every run starts with full buckets (the emulator rests in between) and is counted twice:
 by the emulator, how many requests it refused with 429; and by the client, in how many
-trips, i.e. bursts of refusals with more than a second (the Retry-After) between them.
-The adaptive limiter's own counters come with its runs.
+trips, i.e. bursts of refusals with more than a second (the Retry-After) between them, as
+the client's shared limiter counts them (``LimitStats.trips``; a run that fails has none).
+The adaptive limiter's own counters come with its runs, from the same stats.
 """
 
 from __future__ import annotations
@@ -19,73 +20,45 @@ import time
 from collections.abc import Callable
 from typing import Any, Final
 
-from stook.bench._measure import in_fresh_process, measure_stook
+from stook.bench._measure import in_fresh_process, measure_stook, run_stook
 from stook.bench._sweep import SWEEP_CONFIG, emulator_for
 from stook.emulator import EmulatorInfo
 
 FIXED: Final = (1, 4, 8, 16, 64, 256)
 ADAPTIVE_MAXIMUM: Final = 64
 BURST_SECONDS: Final = 0.1  # the bucket's burst, in seconds of its rate
-TRIP_GAP_S: Final = 1.0  # refusals further apart than this are separate trips
-
-
-def _count_trips(refusals: list[float]) -> int:
-    trips = 0
-    last = -float("inf")
-    for moment in sorted(refusals):
-        if moment - last > TRIP_GAP_S:
-            trips += 1
-        last = moment
-    return trips
 
 
 def measure_run(info: EmulatorInfo, concurrency: int, adaptive: bool) -> dict[str, Any]:
     """One batch-mode run (in a fresh process): its measurement, trips and limiter stats.
 
-    The limiters are wrapped in this process only, to note when a 429 came back and to
-    keep the adaptive limiters' counters (API first, then storage). A run that gives up is
-    a result, not a crash.
+    The trips are the shared bound's (every request passes it, adaptive or not): bursts
+    of throttling answers more than a second apart. The adaptive limiters' counters come
+    with adaptive runs (API first, then storage). A run that gives up is a result, not a
+    crash.
     """
-    from stook.service import _limiter
-
-    refusals: list[float] = []
-    paces: list[_limiter.AimdLimiter] = []
-    # Every request passes the shared fixed bound, adaptive or not: note refusals there.
-    shared_release = _limiter.FixedLimit.release
-    pace_init = _limiter.AimdLimiter.__init__
-
-    def release(self: Any, status: int | None, seconds: float) -> None:
-        if status == 429:
-            refusals.append(time.monotonic())
-        shared_release(self, status, seconds)
-
-    def init(self: Any, *args: Any, **kwargs: Any) -> None:
-        pace_init(self, *args, **kwargs)
-        paces.append(self)
-
-    _limiter.FixedLimit.release = release  # type: ignore[method-assign]
-    _limiter.AimdLimiter.__init__ = init  # type: ignore[method-assign]
     try:
-        m = measure_stook(info, SWEEP_CONFIG, concurrency, adaptive)
+        m, traffic = run_stook(info, SWEEP_CONFIG, concurrency, adaptive)
     except Exception as exc:
-        outcome: dict[str, Any] = {"seconds": None, "error": f"{type(exc).__name__}: {exc}"}
-    else:
-        outcome = {
-            "seconds": round(m.seconds, 3),
-            "requests": m.requests,
-            "retries": m.retries,
-            "peak_rss_mb": round(m.peak_rss_mb, 1),
-        }
-    outcome["trips"] = _count_trips(refusals)
+        return {"seconds": None, "error": f"{type(exc).__name__}: {exc}", "trips": None}
+    stats = traffic.limit_stats
+    outcome: dict[str, Any] = {
+        "seconds": round(m.seconds, 3),
+        "requests": m.requests,
+        "retries": m.retries,
+        "peak_rss_mb": round(m.peak_rss_mb, 1),
+        "trips": stats["shared"].trips,
+    }
+    paces = [stats[origin] for origin in ("api", "storage") if origin in stats]
     if paces:
         outcome["limiters"] = [
             {
-                "trips": pace.stats.trips,
-                "throttle_decreases": pace.stats.throttle_decreases,
-                "latency_decreases": pace.stats.latency_decreases,
-                "increases": pace.stats.increases,
-                "peak_limit": pace.stats.peak_limit,
-                "final_limit": pace.limit,
+                "trips": pace.trips,
+                "throttle_decreases": pace.throttle_decreases,
+                "latency_decreases": pace.latency_decreases,
+                "increases": pace.increases,
+                "peak_limit": pace.peak_limit,
+                "final_limit": int(pace.limit),
             }
             for pace in paces
         ]
@@ -132,10 +105,10 @@ def run_rate_limited(
                 }
                 rows.append(row)
                 seconds = f"{row['seconds']:.2f} s" if row["seconds"] is not None else "FAILED"
+                trips = "?" if row["trips"] is None else row["trips"]
                 say(
                     f"  {name:>20}: {seconds}, {row['rate_limited_429']} answered 429 "
-                    f"in {row['trips']} trips"
-                    + (f" ({row['error']})"[:120] if "error" in row else "")
+                    f"in {trips} trips" + (f" ({row['error']})"[:120] if "error" in row else "")
                 )
     return {
         "jobs": jobs,
@@ -160,7 +133,9 @@ def _summary(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
                 "failed": sum(t is None for t in times),
                 "median_seconds": None if None in times else statistics.median(times),
                 "max_429": max(r["rate_limited_429"] for r in runs),
-                "max_trips": max(r["trips"] for r in runs),
+                "max_trips": max(
+                    (r["trips"] for r in runs if r["trips"] is not None), default=None
+                ),
             }
         )
     return out

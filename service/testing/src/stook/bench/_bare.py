@@ -19,7 +19,7 @@ from yarl import URL
 
 from stook.bench._measure import BARE_LOOP, Measurement, cpu_seconds, peak_rss_mb
 from stook.emulator import EmulatorInfo
-from stook.service._models import JobMetricsData
+from stook.service import ApiMetricsData, MetricOwner
 
 
 @dataclass(frozen=True, slots=True)
@@ -74,7 +74,7 @@ async def collect_targets(
                 )
             found = [Target(u, api=True) for u in metric_pages + data_pages]
             for item in items:
-                data = JobMetricsData.from_json(item)
+                data = ApiMetricsData.from_json(item, owner=MetricOwner.JOB)
                 if data.name in wanted and data.is_standard and data.metrics_data_url:
                     found.append(Target(data.metrics_data_url, api=False))
             return found

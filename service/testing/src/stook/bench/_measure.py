@@ -17,9 +17,12 @@ from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 from multiprocessing import get_context
 from pathlib import Path
-from typing import Any, Final, ParamSpec, TypeVar
+from typing import TYPE_CHECKING, Any, Final, ParamSpec, TypeVar
 
 from stook.emulator import EmulatorInfo
+
+if TYPE_CHECKING:
+    from stook.service.modes import Traffic
 
 _P = ParamSpec("_P")
 _T = TypeVar("_T")
@@ -108,10 +111,15 @@ def measure_stook(
     info: EmulatorInfo, config_toml: str, concurrency: int, adaptive: bool = False
 ) -> Measurement:
     """Batch mode as `stook run` does it, minus the process start-up."""
-    from stook.service._batch import run_batch
-    from stook.service._config import parse
-    from stook.service._inputs import BatchInputs, detect
-    from stook.service._logging import configure_logging
+    return run_stook(info, config_toml, concurrency, adaptive)[0]
+
+
+def run_stook(
+    info: EmulatorInfo, config_toml: str, concurrency: int, adaptive: bool = False
+) -> tuple[Measurement, Traffic]:
+    """`measure_stook`, with the run's traffic: its limiters' stats among it."""
+    from stook.service.api import configure_logging
+    from stook.service.modes import BatchInputs, detect, parse, run_batch
 
     configure_logging(json=True, level="error")
     doc = tomllib.loads(config_toml)
@@ -129,7 +137,7 @@ def measure_stook(
         result = asyncio.run(run_batch(batch, config, Path(tmp) / "outputs"))
         seconds = time.perf_counter() - started
         cpu = cpu_seconds() - cpu_before
-    return Measurement(
+    measurement = Measurement(
         client=STOOK,
         jobs=result.outcome.jobs_listed,
         seconds=seconds,
@@ -139,6 +147,7 @@ def measure_stook(
         peak_rss_mb=peak_rss_mb(),
         cpu_seconds=cpu,
     )
+    return measurement, result.traffic
 
 
 def measure_resim(info: EmulatorInfo) -> Measurement:

@@ -14,10 +14,8 @@ from stook.emulator import EmulatorConfig, EmulatorInfo, EmulatorProcess
 
 
 def measure_stook_report(info: EmulatorInfo, concurrency: int) -> Measurement:
-    from stook.service._config import parse
-    from stook.service._inputs import ReportInputs, detect
-    from stook.service._logging import configure_logging
-    from stook.service._report import run_report
+    from stook.service.api import configure_logging
+    from stook.service.modes import ReportInputs, detect, parse, run_report
 
     configure_logging(json=True, level="error")
     config = parse({"fetch": {"concurrency": concurrency}}, source="bench")

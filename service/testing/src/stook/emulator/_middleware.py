@@ -92,7 +92,12 @@ async def admit(state: EmulatorState, request: web.Request, origin: Origin) -> w
         return error_response(503, "service unavailable (emulated outage)")
     delay = state.latency.next_delay()
     if delay > 0:
-        await asyncio.sleep(delay)
+        state.in_latency[origin] += 1
+        stats.peak_in_latency[origin] = max(stats.peak_in_latency[origin], state.in_latency[origin])
+        try:
+            await asyncio.sleep(delay)
+        finally:
+            state.in_latency[origin] -= 1
     bucket = state.buckets.get(origin)
     if bucket is not None:
         wait = bucket.take(state.now())

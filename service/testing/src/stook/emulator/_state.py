@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import time
 import uuid
+from collections import Counter
 
 from stook.emulator._config import EmulatorConfig, Origin
 from stook.emulator._dataset import Dataset
@@ -29,6 +30,7 @@ class EmulatorState:
         self.latency = Latency(config)
         self.quirks = SpecQuirks(config)
         self.outages = OutageSchedule(config.outages, time.monotonic())
+        self.in_latency: Counter[str] = Counter()  # requests waiting out their latency now
         self.clock_offset = 0.0
         self.storage_url = ""  # known once the storage site is bound
         # The secret only has to be unguessable by clients, not secret across runs.

@@ -16,6 +16,9 @@ class EmulatorStats:
     statuses: Counter[str] = field(default_factory=Counter)  # "api:200", "storage:403", ...
     faults: Counter[str] = field(default_factory=Counter)  # "storage:reset", "api:5xx", ...
     rate_limited: Counter[str] = field(default_factory=Counter)  # per origin
+    # The most requests of an origin waiting out their latency at once: concurrency as the
+    # server saw it.
+    peak_in_latency: Counter[str] = field(default_factory=Counter)
     bytes_served: Counter[str] = field(default_factory=Counter)  # per origin, bodies only
     unauthorized: int = 0  # API requests answered 401
     # Storage requests that carried an Authorization header: a leaked token.
@@ -51,6 +54,7 @@ class EmulatorStats:
             "statuses": dict(self.statuses),
             "faults": dict(self.faults),
             "rate_limited": dict(self.rate_limited),
+            "peak_in_latency": dict(self.peak_in_latency),
             "bytes_served": dict(self.bytes_served),
             "unauthorized": self.unauthorized,
             "storage_authorization": list(self.storage_authorization),
@@ -69,6 +73,7 @@ class EmulatorStats:
             statuses=Counter(values.get("statuses", {})),
             faults=Counter(values.get("faults", {})),
             rate_limited=Counter(values.get("rate_limited", {})),
+            peak_in_latency=Counter(values.get("peak_in_latency", {})),
             bytes_served=Counter(values.get("bytes_served", {})),
             unauthorized=int(values.get("unauthorized", 0)),
             storage_authorization=list(values.get("storage_authorization", [])),

@@ -17,15 +17,20 @@ import tomllib
 from pathlib import Path
 
 from stook.emulator import EmulatorConfig, EmulatorProcess
-from stook.sdk._reader import read_job_metrics
-from stook.sdk._validate import find_problems
-from stook.service._batch import run_batch
-from stook.service._config import StookConfig, parse
-from stook.service._inputs import BatchInputs, ReportInputs, TestInputs, detect
-from stook.service._inspect import summary_lines
-from stook.service._progress import for_stream
-from stook.service._report import run_report
-from stook.service._test_mode import run_test_mode
+from stook.sdk import find_problems, read_job_metrics
+from stook.service.cli import summary_lines
+from stook.service.modes import (
+    BatchInputs,
+    ReportInputs,
+    StookConfig,
+    TestInputs,
+    detect,
+    for_stream,
+    parse,
+    run_batch,
+    run_report,
+    run_test_mode,
+)
 
 REPORT_BATCHES = 14
 

@@ -1,0 +1,366 @@
+"""The ReSim API client: JSON over a bearer-token session, paging, typed endpoints.
+
+Two sessions, on purpose. The API session carries ``Authorization: Bearer <token>`` on every
+request; the storage client's (:mod:`stook.service.api._storage`) is built without it, so the
+token cannot follow a presigned URL (or a redirect from one) to another host.
+"""
+
+from __future__ import annotations
+
+import functools
+import json
+import uuid
+from collections.abc import AsyncIterator, Callable, Mapping
+from types import TracebackType
+from typing import Any, Final, Self, TypeVar
+
+from aiohttp import hdrs
+from yarl import URL
+
+from stook.service.api._errors import (
+    ApiError,
+    ApiResponseError,
+    ApiStatusError,
+    AuthError,
+    NotFoundError,
+    RedirectedRefusalError,
+)
+from stook.service.api._limits import AimdLimiter, ConcurrencyLimit, FixedLimit, NestedLimit
+from stook.service.api._models import (
+    ApiMetric,
+    ApiMetricsData,
+    Batch,
+    Build,
+    Job,
+    MetricOwner,
+    Report,
+)
+from stook.service.api._paging import ListingGuard
+from stook.service.api._redact import redact_url, register_secret
+from stook.service.api._retry import RetryPolicy, new_gate
+from stook.service.api._retrying import call_with_retries
+from stook.service.api._stats import TransferStats
+from stook.service.api._storage import DEFAULT_CONCURRENCY, StorageClient, answer_retry_after
+from stook.service.api._transport import (
+    USER_AGENT,
+    BodyCap,
+    HttpTransport,
+    Response,
+    Transport,
+    body_cap_mb,
+)
+
+__all__ = ["ApiClient", "IdLike"]
+
+IdLike = uuid.UUID | str
+_Model = TypeVar("_Model")
+
+# Each listing's parser, made once: a listing parses thousands of items.
+_JOB_METRIC = functools.partial(ApiMetric.from_json, owner=MetricOwner.JOB)
+_BATCH_METRIC = functools.partial(ApiMetric.from_json, owner=MetricOwner.BATCH)
+_JOB_DATA = functools.partial(ApiMetricsData.from_json, owner=MetricOwner.JOB)
+_BATCH_DATA = functools.partial(ApiMetricsData.from_json, owner=MetricOwner.BATCH)
+
+# The API caps pages; 100 is the largest size ReSim's own tools ask for.
+DEFAULT_PAGE_SIZE: Final = 100
+# What one API answer (a JSON page) may hold, decompressed.
+DEFAULT_MAX_API_BODY_MB: Final = 16.0
+
+
+class ApiClient:
+    """The ReSim REST API for one token, plus the storage client for the URLs it hands out.
+
+    ::
+
+        async with ApiClient(config.api_url, config.auth_token) as api:
+            async for job in api.list_jobs(project_id, batch_id):
+                async for metric in api.list_job_metrics(project_id, batch_id, job.job_id):
+                    payload = await api.storage.fetch_bytes(metric.metric_url)
+
+    ``concurrency`` bounds the requests in flight, API and storage together; with
+    ``storage_concurrency`` storage fetches get a bound of their own instead. Callers may
+    start as many tasks as they like: they queue for a slot, without that queueing
+    counting against the request timeout. With ``adaptive=True`` each origin (API, storage)
+    also gets an :class:`~stook.service.api._limits.AimdLimiter` that finds that server's pace
+    below ``concurrency`` (backing off on 429s and on growing latency); ``self.paces``
+    shows them, ``self.limiter`` the shared bound, and ``self.limiters`` all of them by
+    name, for their ``stats``.
+
+    What is built from these settings can be passed in instead, as httpx takes
+    ``transport=`` and aiohttp ``connector=``: ``limiter`` is the shared bound (a
+    :class:`~stook.service.api._limits.FixedLimit` of ``concurrency`` by default), and
+    ``transport`` sends the API's requests (an HTTP transport carrying the token, under the
+    shared bound and the API's pace); one passed in brings its own headers, limiter, timeout
+    and body cap. ``storage_transport`` does the same for the storage client.
+    """
+
+    def __init__(
+        self,
+        base_url: str,
+        token: str,
+        *,
+        concurrency: int = DEFAULT_CONCURRENCY,
+        storage_concurrency: int | None = None,
+        retry: RetryPolicy | None = None,
+        page_size: int = DEFAULT_PAGE_SIZE,
+        adaptive: bool = False,
+        body_cap: BodyCap | None = None,
+        storage_body_cap: BodyCap | None = None,
+        limiter: ConcurrencyLimit | None = None,
+        transport: Transport | None = None,
+        storage_transport: Transport | None = None,
+    ) -> None:
+        base = URL(base_url)
+        if base.scheme not in ("http", "https") or not base.host:
+            raise ValueError(f"API base URL must be http(s)://host[/path], got {redact_url(base)}")
+        if not token:
+            raise ValueError("an API token is required")
+        if page_size < 1:
+            raise ValueError(f"page_size must be at least 1, got {page_size}")
+        # Registered before any request so a token echoed in an error body or log is masked.
+        register_secret(token)
+        self._base = base.with_query(None).with_fragment(None)
+        self._policy = retry or RetryPolicy()
+        self._page_size = page_size
+        # Shared by every API request: when the API fails, they wait together.
+        self.gate = new_gate("the API", self._policy)
+        if concurrency < 1:
+            raise ValueError(f"concurrency must be at least 1, got {concurrency}")
+        self.limiter: ConcurrencyLimit = limiter or FixedLimit(concurrency)
+        # Adaptive: each origin finds its own pace, inside the shared bound. A rate limit
+        # on the API says nothing about storage, and one shared pace cut by the API's 429s
+        # would hold storage back too. A transport passed in paces itself.
+        self.paces: dict[str, AimdLimiter] = {}
+        api_limit: ConcurrencyLimit = self.limiter
+        storage_limit: ConcurrencyLimit | None = None if storage_concurrency else self.limiter
+        if adaptive:
+            if transport is None:
+                self.paces["api"] = AimdLimiter(maximum=concurrency)
+                api_limit = NestedLimit(self.paces["api"], self.limiter)
+            if storage_transport is None:
+                self.paces["storage"] = AimdLimiter(maximum=storage_concurrency or concurrency)
+                storage_limit = (
+                    self.paces["storage"]
+                    if storage_concurrency
+                    else NestedLimit(self.paces["storage"], self.limiter)
+                )
+        # The bounds on requests in flight by name, for their stats: the shared one (the
+        # API's alone when storage has a concurrency of its own) and each origin's pace.
+        self.limiters: dict[str, ConcurrencyLimit] = {"shared": self.limiter, **self.paces}
+        if transport is None:
+            transport = HttpTransport(
+                name="api",
+                body_cap=body_cap or body_cap_mb(DEFAULT_MAX_API_BODY_MB, "max_api_body_mb"),
+                concurrency=concurrency,
+                limiter=api_limit,
+                proxy_for=self._base,
+                request_timeout=self._policy.request_timeout,
+                headers={
+                    hdrs.AUTHORIZATION: f"Bearer {token}",
+                    hdrs.ACCEPT: "application/json",
+                    hdrs.USER_AGENT: USER_AGENT,
+                },
+            )
+        self._transport = transport
+        self.stats: TransferStats = transport.stats
+        self.storage = StorageClient(
+            concurrency=storage_concurrency or concurrency,
+            retry=self._policy,
+            limiter=storage_limit,
+            body_cap=storage_body_cap,
+            transport=storage_transport,
+        )
+
+    def __repr__(self) -> str:
+        return f"ApiClient({redact_url(self._base)!r})"
+
+    async def __aenter__(self) -> Self:
+        await self._transport.open()
+        try:
+            await self.storage.__aenter__()
+        except BaseException:
+            await self._transport.close()
+            raise
+        return self
+
+    async def __aexit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
+        try:
+            await self.storage.__aexit__(exc_type, exc, tb)
+        finally:
+            await self._transport.close()
+
+    # -- generic -------------------------------------------------------------------------
+
+    async def get_json(
+        self, path: str, params: Mapping[str, str | int] | None = None
+    ) -> dict[str, Any]:
+        """GET ``path`` (relative to the base URL) and return its JSON object."""
+        url = self._url(path)
+        response = await call_with_retries(
+            lambda: self._get_once(url, params),
+            self._policy,
+            stats=self.stats,
+            method="GET",
+            url=str(url),
+            gate=self.gate,
+        )
+        try:
+            document = json.loads(response.body)
+        except (UnicodeDecodeError, json.JSONDecodeError) as exc:
+            raise ApiResponseError(
+                f"GET {redact_url(url)}: answer is not valid JSON ({exc})"
+            ) from None
+        if not isinstance(document, dict):
+            raise ApiResponseError(
+                f"GET {redact_url(url)}: expected a JSON object, got {type(document).__name__}"
+            )
+        return document
+
+    async def paginate(
+        self,
+        path: str,
+        items_key: str,
+        params: Mapping[str, str | int] | None = None,
+        page_size: int | None = None,
+    ) -> AsyncIterator[dict[str, Any]]:
+        """Every item of a list endpoint, page after page, until ``nextPageToken`` is empty.
+
+        A listing that cannot end (see :class:`ListingGuard`) is an ApiResponseError.
+        """
+        query: dict[str, str | int] = dict(params or {})
+        query["pageSize"] = page_size or self._page_size
+        listing = f"GET {redact_url(self._url(path))}"
+        guard = ListingGuard(listing, items_key, int(query["pageSize"]))
+        while True:
+            page = await self.get_json(path, query)
+            items = page.get(items_key)
+            if items is None:
+                items = []  # the API omits empty lists
+            if not isinstance(items, list):
+                raise ApiResponseError(
+                    f"{listing}: '{items_key}' should be a list, got {type(items).__name__}"
+                )
+            for item in items:
+                if not isinstance(item, dict):
+                    raise ApiResponseError(
+                        f"{listing}: an item of '{items_key}' is {type(item).__name__}, "
+                        "not an object"
+                    )
+            token = page.get("nextPageToken")
+            if token and not isinstance(token, str):
+                raise ApiResponseError(f"{listing}: 'nextPageToken' should be a string")
+            # Checked before the items are handed on: a page that proves the listing
+            # endless must not feed its repeats to the caller.
+            guard.check(items, token or None, page.get("total"))
+            for item in items:
+                yield item
+            if not token:
+                return
+            query["pageToken"] = token
+
+    # -- typed endpoints -----------------------------------------------------------------
+
+    def list_jobs(self, project_id: IdLike, batch_id: IdLike) -> AsyncIterator[Job]:
+        """The jobs (tests) of a batch."""
+        path = f"/projects/{_id(project_id)}/batches/{_id(batch_id)}/jobs"
+        return self._list(path, "jobs", Job.from_json)
+
+    def list_job_metrics(
+        self, project_id: IdLike, batch_id: IdLike, job_id: IdLike
+    ) -> AsyncIterator[ApiMetric]:
+        """The metrics a job's metrics build produced."""
+        path = f"/projects/{_id(project_id)}/batches/{_id(batch_id)}/jobs/{_id(job_id)}/metrics"
+        return self._list(path, "metrics", _JOB_METRIC)
+
+    def list_job_metrics_data(
+        self, project_id: IdLike, batch_id: IdLike, job_id: IdLike
+    ) -> AsyncIterator[ApiMetricsData]:
+        """The metrics-data files of a job (all storage types; filter on ``is_standard``)."""
+        path = f"/projects/{_id(project_id)}/batches/{_id(batch_id)}/jobs/{_id(job_id)}/metricsData"
+        return self._list(path, "metricsData", _JOB_DATA)
+
+    async def get_batch(self, project_id: IdLike, batch_id: IdLike) -> Batch:
+        document = await self.get_json(f"/projects/{_id(project_id)}/batches/{_id(batch_id)}")
+        return Batch.from_json(document)
+
+    def list_batches(
+        self, project_id: IdLike, *, search: str | None = None
+    ) -> AsyncIterator[Batch]:
+        """The batches of a project matching ``search`` (clauses joined with `` AND ``)."""
+        params = {"search": search} if search else None
+        return self._list(
+            f"/projects/{_id(project_id)}/batches", "batches", Batch.from_json, params
+        )
+
+    def list_batch_metrics(self, project_id: IdLike, batch_id: IdLike) -> AsyncIterator[ApiMetric]:
+        path = f"/projects/{_id(project_id)}/batches/{_id(batch_id)}/metrics"
+        return self._list(path, "batchMetrics", _BATCH_METRIC)
+
+    def list_batch_metrics_data(
+        self, project_id: IdLike, batch_id: IdLike
+    ) -> AsyncIterator[ApiMetricsData]:
+        path = f"/projects/{_id(project_id)}/batches/{_id(batch_id)}/metricsData"
+        return self._list(path, "batchMetricsData", _BATCH_DATA)
+
+    async def get_report(self, project_id: IdLike, report_id: IdLike) -> Report:
+        document = await self.get_json(f"/projects/{_id(project_id)}/reports/{_id(report_id)}")
+        return Report.from_json(document)
+
+    async def get_build(self, project_id: IdLike, build_id: IdLike) -> Build:
+        document = await self.get_json(f"/projects/{_id(project_id)}/builds/{_id(build_id)}")
+        return Build.from_json(document)
+
+    # -- internals -----------------------------------------------------------------------
+
+    async def _list(
+        self,
+        path: str,
+        items_key: str,
+        parse: Callable[[Mapping[str, Any]], _Model],
+        params: Mapping[str, str | int] | None = None,
+    ) -> AsyncIterator[_Model]:
+        async for item in self.paginate(path, items_key, params):
+            yield parse(item)
+
+    def _url(self, path: str) -> URL:
+        # Joined as text: yarl's join() would drop the base path ("/v1") for "/projects/...".
+        return URL(str(self._base).rstrip("/") + "/" + path.lstrip("/"))
+
+    async def _get_once(self, url: URL, params: Mapping[str, str | int] | None) -> Response:
+        response = await self._transport.get(url, params=params)
+        if response.ok:
+            return response
+        raise _api_error(response, self._base.origin())
+
+
+def _id(value: IdLike) -> str:
+    """An ID for a URL path; parsing it also keeps anything but a UUID out of the path."""
+    if isinstance(value, uuid.UUID):
+        return str(value)
+    try:
+        return str(uuid.UUID(value))
+    except (ValueError, AttributeError, TypeError):
+        raise ValueError(f"not a UUID: {value!r}") from None
+
+
+def _api_error(response: Response, api_origin: URL) -> ApiError:
+    common: dict[str, Any] = {
+        "status": response.status,
+        "method": "GET",
+        "url": response.url,
+        "body": response.body,
+    }
+    if response.status in (401, 403) and response.url.origin() != api_origin:
+        # aiohttp drops the token on a redirect to another origin, so this refusal says
+        # nothing about the token; blaming it would send the reader the wrong way.
+        return RedirectedRefusalError(**common, api_origin=str(api_origin))
+    if response.status in (401, 403):
+        return AuthError(**common)
+    if response.status == 404:
+        return NotFoundError(**common)
+    return ApiStatusError(**common, retry_after=answer_retry_after(response))

@@ -1,0 +1,115 @@
+"""structlog set-up for the service: JSON lines in the platform, readable lines at a terminal,
+and credentials scrubbed from every event before it is rendered.
+
+The scrubbing is a processor rather than a habit so that one careless ``log.info(url=...)``
+cannot leak a presigned-URL signature or the bearer token: :func:`redact_event` runs last
+before the renderer, after exceptions have been turned into text, so tracebacks are scrubbed
+too.
+"""
+
+from __future__ import annotations
+
+import logging
+import sys
+import uuid
+from collections.abc import Mapping
+from datetime import date, datetime
+from enum import Enum
+from typing import TextIO, cast
+
+import structlog
+from structlog.typing import EventDict, FilteringBoundLogger, Processor, WrappedLogger
+from yarl import URL
+
+from stook.service.api._redact import redact_text, redact_url, register_secret
+
+__all__ = ["configure_logging", "get_logger", "redact_event", "register_secret"]
+
+# Deeply nested event values are not expected; the limit only guards against cycles.
+_MAX_DEPTH = 8
+
+
+def redact_event(_logger: WrappedLogger, _method: str, event_dict: EventDict) -> EventDict:
+    """structlog processor: mask secrets and URL query values in every value, however nested."""
+    return {key: _redact_value(value, 0) for key, value in event_dict.items()}
+
+
+def _redact_value(value: object, depth: int) -> object:
+    if value is None or isinstance(value, bool | int | float):
+        return value
+    if isinstance(value, str):
+        return redact_text(value)
+    if isinstance(value, URL):
+        return redact_url(value)
+    if depth >= _MAX_DEPTH:
+        return "<nested too deep>"
+    if isinstance(value, Mapping):
+        return {str(key): _redact_value(item, depth + 1) for key, item in value.items()}
+    if isinstance(value, list | tuple | set | frozenset):
+        return [_redact_value(item, depth + 1) for item in value]
+    if isinstance(value, BaseException):
+        return f"{type(value).__name__}: {redact_text(str(value))}"
+    if isinstance(value, uuid.UUID | datetime | date | Enum):
+        return str(value)
+    # Renderers would fall back to repr(), which for sessions, requests or responses can
+    # include a full URL; render it ourselves so the text passes through the scrubber.
+    return redact_text(repr(value))
+
+
+def configure_logging(
+    *,
+    json: bool | None = None,
+    level: str = "info",
+    stream: TextIO | None = None,
+) -> None:
+    """Route structlog to ``stream`` (stderr by default).
+
+    ``json=None`` picks JSON lines when the stream is not a terminal (the platform collects
+    them) and coloured console lines when it is.
+    """
+    out = sys.stderr if stream is None else stream
+    if json is None:
+        json = not _is_tty(out)
+    levels = logging.getLevelNamesMapping()
+    try:
+        numeric_level = levels[level.upper()]
+    except KeyError:
+        raise ValueError(f"unknown log level {level!r}") from None
+
+    renderer: Processor
+    if json:
+        renderer = structlog.processors.JSONRenderer()
+    else:
+        renderer = structlog.dev.ConsoleRenderer(colors=_is_tty(out))
+
+    structlog.configure(
+        processors=[
+            structlog.contextvars.merge_contextvars,
+            structlog.processors.add_log_level,
+            structlog.processors.TimeStamper(fmt="iso", utc=True),
+            structlog.processors.StackInfoRenderer(),
+            # Exceptions become text here so that redact_event sees their messages.
+            structlog.processors.format_exc_info,
+            redact_event,
+            renderer,
+        ],
+        wrapper_class=structlog.make_filtering_bound_logger(numeric_level),
+        logger_factory=structlog.WriteLoggerFactory(file=out),
+        # Not cached: tests and `stook` subcommands reconfigure after loggers exist.
+        cache_logger_on_first_use=False,
+    )
+
+
+def get_logger(name: str) -> FilteringBoundLogger:
+    """A logger whose events carry ``logger_name=name``; configuration is looked up per call.
+
+    (``logger`` itself cannot be an initial value: structlog reserves that argument name.)
+    """
+    return cast(FilteringBoundLogger, structlog.get_logger(name, logger_name=name))
+
+
+def _is_tty(stream: TextIO) -> bool:
+    try:
+        return stream.isatty()
+    except (AttributeError, ValueError):
+        return False

@@ -1,0 +1,365 @@
+"""Typed, immutable views of the API objects that batch and report modes read.
+
+Each ``from_json`` checks only what stook relies on and ignores every other key, so a newer
+API that adds fields keeps working. The spec's ``job``, ``batch``, ``metric`` and
+``metricsData`` schemas list no required field (ReSim's Go client omits empty ones), so
+required here are only the IDs stook cannot do without (an object's own ID, to fetch it or
+match it) and a report's search window. Everything else may be absent, with a documented
+meaning: a missing string reads as ``None`` (names as ``""``: unnamed), a metric's missing
+``status`` as ``NO_STATUS_REPORTED``, a missing ``metricsDataType`` as ``STANDARD`` (ReSim's
+own fetcher reads every metrics-data URL as a ``MetricsData`` message), a missing metric
+``type`` or job ``conflatedStatus`` as ``None``.
+
+Enumerations are open: a value this client does not know (one the platform adds later) is
+kept as its raw string, so that it is counted under its own name instead of failing a job.
+Known values are the ``StrEnum`` members, which are strings too.
+
+Field names and which keys exist follow ReSim's published client (``resim.sdk.client.models``).
+"""
+
+from __future__ import annotations
+
+import enum
+import uuid
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from datetime import datetime
+from typing import Any, Self
+
+from stook.service.api._fields import Fields
+
+__all__ = [
+    "ApiMetric",
+    "ApiMetricStatus",
+    "ApiMetricType",
+    "ApiMetricsData",
+    "Batch",
+    "BatchStatus",
+    "Build",
+    "ConflatedBatchStatus",
+    "ConflatedJobStatus",
+    "Job",
+    "JobStatus",
+    "MetricOwner",
+    "MetricsDataStorageType",
+    "Report",
+]
+
+
+class ConflatedJobStatus(enum.StrEnum):
+    """The one status the platform shows for a test (job)."""
+
+    QUEUED = "QUEUED"
+    RUNNING = "RUNNING"
+    PASSED = "PASSED"
+    WARNING = "WARNING"
+    BLOCKER = "BLOCKER"
+    ERROR = "ERROR"
+    CANCELLED = "CANCELLED"
+
+
+class JobStatus(enum.StrEnum):
+    """Where a job is in its execution."""
+
+    SUBMITTED = "SUBMITTED"
+    EXPERIENCE_RUNNING = "EXPERIENCE_RUNNING"
+    METRICS_QUEUED = "METRICS_QUEUED"
+    METRICS_RUNNING = "METRICS_RUNNING"
+    SUCCEEDED = "SUCCEEDED"
+    ERROR = "ERROR"
+    CANCELLED = "CANCELLED"
+
+
+class BatchStatus(enum.StrEnum):
+    """Where a batch is in its execution."""
+
+    SUBMITTED = "SUBMITTED"
+    EXPERIENCES_RUNNING = "EXPERIENCES_RUNNING"
+    BATCH_METRICS_QUEUED = "BATCH_METRICS_QUEUED"
+    BATCH_METRICS_RUNNING = "BATCH_METRICS_RUNNING"
+    SUCCEEDED = "SUCCEEDED"
+    ERROR = "ERROR"
+    CANCELLED = "CANCELLED"
+
+
+class ConflatedBatchStatus(enum.StrEnum):
+    """The one status the platform shows for a batch (a different set from a job's)."""
+
+    SUBMITTED = "SUBMITTED"
+    RUNNING = "RUNNING"
+    COMPLETE = "COMPLETE"
+    WARNING = "WARNING"
+    BLOCKER = "BLOCKER"
+    ERROR = "ERROR"
+    CANCELLED = "CANCELLED"
+
+
+class ApiMetricStatus(enum.StrEnum):
+    """A metric's status as the API spells it.
+
+    Named apart from ``stook.sdk.MetricStatus`` (the proto enum), which has no
+    ``NO_STATUS_REPORTED``.
+    """
+
+    PASSED = "PASSED"
+    FAIL_WARN = "FAIL_WARN"
+    FAIL_BLOCK = "FAIL_BLOCK"
+    NOT_APPLICABLE = "NOT_APPLICABLE"
+    RAW = "RAW"
+    NO_STATUS_REPORTED = "NO_STATUS_REPORTED"
+
+
+class ApiMetricType(enum.StrEnum):
+    """How the API stores a metric: a bare number, or a serialized ``Metric`` message."""
+
+    SCALAR = "SCALAR"
+    COMPOSITE = "COMPOSITE"
+
+
+class MetricsDataStorageType(enum.StrEnum):
+    """What a metrics-data URL points at; only ``STANDARD`` is a ``MetricsData`` message."""
+
+    STANDARD = "STANDARD"
+    EXTERNAL_FILE = "EXTERNAL_FILE"
+    VIDEO = "VIDEO"
+
+
+# ---------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True, slots=True)
+class Job:
+    """One test of a batch: an experience run against a build.
+
+    ``conflated_status`` is None when the API gave none (batch aggregations count such
+    jobs as ``UNKNOWN``); a status this client does not know is its raw string.
+    """
+
+    job_id: uuid.UUID
+    conflated_status: ConflatedJobStatus | str | None
+    job_status: JobStatus | str | None = None
+    job_metrics_status: ApiMetricStatus | str | None = None
+    batch_id: uuid.UUID | None = None
+    project_id: uuid.UUID | None = None
+    experience_id: uuid.UUID | None = None
+    experience_name: str | None = None
+    build_id: uuid.UUID | None = None
+    creation_timestamp: datetime | None = None
+
+    @classmethod
+    def from_json(cls, data: Mapping[str, Any]) -> Self:
+        f = Fields("Job", data, "jobID")
+        return cls(
+            job_id=f.id("jobID"),
+            conflated_status=f.opt_choice("conflatedStatus", ConflatedJobStatus),
+            job_status=f.opt_choice("jobStatus", JobStatus),
+            job_metrics_status=f.opt_choice("jobMetricsStatus", ApiMetricStatus),
+            batch_id=f.opt_id("batchID"),
+            project_id=f.opt_id("projectID"),
+            experience_id=f.opt_id("experienceID"),
+            experience_name=f.opt_string("experienceName"),
+            build_id=f.opt_id("buildID"),
+            creation_timestamp=f.opt_timestamp("creationTimestamp"),
+        )
+
+
+def _metric_fields(f: Fields) -> dict[str, Any]:
+    """The fields job and batch metrics share, as keyword arguments."""
+    return {
+        "metric_id": f.id("metricID"),
+        "name": f.opt_string("name") or "",
+        "type": f.opt_choice("type", ApiMetricType),
+        "status": f.choice("status", ApiMetricStatus, default=ApiMetricStatus.NO_STATUS_REPORTED),
+        "value": f.opt_number("value"),
+        "unit": f.opt_string("unit"),
+        "metric_url": f.opt_string("metricURL"),
+        "data_ids": f.ids("dataIDs"),
+        "event_metric": f.flag("eventMetric", default=False),
+        "creation_timestamp": f.opt_timestamp("creationTimestamp"),
+    }
+
+
+class MetricOwner(enum.StrEnum):
+    """Whose metrics build produced a metric or metrics data: a job's, or the batch's own."""
+
+    JOB = "job"
+    BATCH = "batch"
+
+
+# The API's own schema names, which errors name: "JobMetric 1234…: field 'value' ...".
+_METRIC_KINDS = {MetricOwner.JOB: "JobMetric", MetricOwner.BATCH: "BatchMetric"}
+_DATA_KINDS = {MetricOwner.JOB: "JobMetricsData", MetricOwner.BATCH: "BatchMetricsData"}
+
+
+@dataclass(frozen=True, slots=True)
+class ApiMetric:
+    """A metric a job's or a batch's metrics build produced (``owner``).
+
+    ``value`` is the number of a ``SCALAR`` metric (None for ``COMPOSITE``, or when the job
+    reported none, or the API lists it as null: then the value is in the message at
+    ``metric_url``). ``metric_url`` is the presigned URL of the serialized ``Metric``
+    message; it expires, so fetch it soon after listing. ``name`` is "" when the API gave
+    none; ``type`` None when it gave none; an unknown type or status is its raw string.
+    ``job_id`` is read for a job's metric only; ``batch_id`` for both.
+    """
+
+    metric_id: uuid.UUID
+    name: str
+    type: ApiMetricType | str | None
+    status: ApiMetricStatus | str
+    value: float | None = None
+    unit: str | None = None
+    metric_url: str | None = field(default=None, repr=False)
+    data_ids: tuple[uuid.UUID, ...] = ()
+    event_metric: bool = False
+    owner: MetricOwner = MetricOwner.JOB
+    job_id: uuid.UUID | None = None
+    batch_id: uuid.UUID | None = None
+    creation_timestamp: datetime | None = None
+
+    @classmethod
+    def from_json(cls, data: Mapping[str, Any], *, owner: MetricOwner) -> Self:
+        f = Fields(_METRIC_KINDS[owner], data, "metricID")
+        return cls(
+            **_metric_fields(f),
+            owner=owner,
+            job_id=f.opt_id("jobID") if owner is MetricOwner.JOB else None,
+            batch_id=f.opt_id("batchID"),
+        )
+
+
+def _data_fields(f: Fields) -> dict[str, Any]:
+    """The fields job and batch metrics data share, as keyword arguments."""
+    return {
+        "data_id": f.id("dataID"),
+        "name": f.opt_string("name") or "",
+        "metrics_data_type": f.choice(
+            "metricsDataType", MetricsDataStorageType, default=MetricsDataStorageType.STANDARD
+        ),
+        "metrics_data_url": f.opt_string("metricsDataURL"),
+        "filename": f.opt_string("filename"),
+        "creation_timestamp": f.opt_timestamp("creationTimestamp"),
+    }
+
+
+@dataclass(frozen=True, slots=True)
+class ApiMetricsData:
+    """A metrics-data file of a job or of a batch (``owner``); ``metrics_data_url`` is
+    presigned and expires.
+
+    ``name`` is "" when the API gave none: such data cannot be asked for by name. Its
+    owner's ID is read for its owner only: ``job_id`` for a job's, ``batch_id`` for a
+    batch's.
+    """
+
+    data_id: uuid.UUID
+    name: str
+    metrics_data_type: MetricsDataStorageType | str
+    metrics_data_url: str | None = field(default=None, repr=False)
+    filename: str | None = None
+    owner: MetricOwner = MetricOwner.JOB
+    job_id: uuid.UUID | None = None
+    batch_id: uuid.UUID | None = None
+    creation_timestamp: datetime | None = None
+
+    @property
+    def is_standard(self) -> bool:
+        """Whether the URL holds a ``MetricsData`` message (not a video or external file)."""
+        return self.metrics_data_type is MetricsDataStorageType.STANDARD
+
+    @classmethod
+    def from_json(cls, data: Mapping[str, Any], *, owner: MetricOwner) -> Self:
+        f = Fields(_DATA_KINDS[owner], data, "dataID")
+        if owner is MetricOwner.JOB:
+            return cls(**_data_fields(f), owner=owner, job_id=f.opt_id("jobID"))
+        return cls(**_data_fields(f), owner=owner, batch_id=f.opt_id("batchID"))
+
+
+@dataclass(frozen=True, slots=True)
+class Batch:
+    """A run of a test suite (or ad-hoc set of experiences) against one build."""
+
+    batch_id: uuid.UUID
+    status: BatchStatus | str | None = None
+    conflated_status: ConflatedBatchStatus | str | None = None
+    batch_metrics_status: ApiMetricStatus | str | None = None
+    jobs_metrics_status: ApiMetricStatus | str | None = None
+    project_id: uuid.UUID | None = None
+    build_id: uuid.UUID | None = None
+    branch_id: uuid.UUID | None = None
+    test_suite_id: uuid.UUID | None = None
+    test_suite_revision: int | None = None
+    total_jobs: int | None = None
+    friendly_name: str | None = None
+    creation_timestamp: datetime | None = None
+
+    @classmethod
+    def from_json(cls, data: Mapping[str, Any]) -> Self:
+        f = Fields("Batch", data, "batchID")
+        return cls(
+            batch_id=f.id("batchID"),
+            status=f.opt_choice("status", BatchStatus),
+            conflated_status=f.opt_choice("conflatedStatus", ConflatedBatchStatus),
+            batch_metrics_status=f.opt_choice("batchMetricsStatus", ApiMetricStatus),
+            jobs_metrics_status=f.opt_choice("jobsMetricsStatus", ApiMetricStatus),
+            project_id=f.opt_id("projectID"),
+            build_id=f.opt_id("buildID"),
+            branch_id=f.opt_id("branchID"),
+            test_suite_id=f.opt_id("testSuiteID"),
+            test_suite_revision=f.opt_integer("testSuiteRevision"),
+            total_jobs=f.opt_integer("totalJobs"),
+            friendly_name=f.opt_string("friendlyName"),
+            creation_timestamp=f.opt_timestamp("creationTimestamp"),
+        )
+
+
+@dataclass(frozen=True, slots=True)
+class Report:
+    """A report: the batches of one test suite on one branch within a time window."""
+
+    report_id: uuid.UUID
+    project_id: uuid.UUID
+    test_suite_id: uuid.UUID
+    test_suite_revision: int
+    branch_id: uuid.UUID
+    start_timestamp: datetime
+    end_timestamp: datetime
+    respect_revision_boundary: bool
+    name: str
+    creation_timestamp: datetime | None = None
+
+    @classmethod
+    def from_json(cls, data: Mapping[str, Any]) -> Self:
+        f = Fields("Report", data, "reportID")
+        return cls(
+            report_id=f.id("reportID"),
+            project_id=f.id("projectID"),
+            test_suite_id=f.id("testSuiteID"),
+            test_suite_revision=f.integer("testSuiteRevision"),
+            branch_id=f.id("branchID"),
+            start_timestamp=f.timestamp("startTimestamp"),
+            end_timestamp=f.timestamp("endTimestamp"),
+            respect_revision_boundary=f.flag("respectRevisionBoundary", default=False),
+            name=f.opt_string("name") or "",
+            creation_timestamp=f.opt_timestamp("creationTimestamp"),
+        )
+
+
+@dataclass(frozen=True, slots=True)
+class Build:
+    """A build (system-under-test image); stook only needs it for labels."""
+
+    build_id: uuid.UUID
+    name: str | None = None
+    version: str | None = None
+    creation_timestamp: datetime | None = None
+
+    @classmethod
+    def from_json(cls, data: Mapping[str, Any]) -> Self:
+        f = Fields("Build", data, "buildID")
+        return cls(
+            build_id=f.id("buildID"),
+            name=f.opt_string("name"),
+            version=f.opt_string("version"),
+            creation_timestamp=f.opt_timestamp("creationTimestamp"),
+        )

@@ -1,0 +1,162 @@
+"""The object-storage client: presigned URLs fetched with retries and without any credentials.
+
+Its transport is built without the API's token, does not read ``.netrc``, and follows
+redirects itself so that each hop is checked: it cannot hand the token to whichever host a
+presigned URL (or a redirect from it) names.
+"""
+
+from __future__ import annotations
+
+import re
+from types import TracebackType
+from typing import Final, Self
+
+from aiohttp import hdrs
+from yarl import URL
+
+from stook.service.api._errors import PresignedUrlExpiredError, StorageError
+from stook.service.api._limits import ConcurrencyLimit
+from stook.service.api._redact import redact_url
+from stook.service.api._retry import RETRYABLE_STATUSES, RetryPolicy, new_gate, parse_retry_after
+from stook.service.api._retrying import call_with_retries
+from stook.service.api._stats import TransferStats
+from stook.service.api._transport import (
+    USER_AGENT,
+    BodyCap,
+    HttpTransport,
+    Response,
+    Transport,
+    body_cap_mb,
+)
+
+__all__ = ["DEFAULT_CONCURRENCY", "DEFAULT_MAX_BODY_MB", "StorageClient", "answer_retry_after"]
+
+DEFAULT_CONCURRENCY: Final = 64
+# What one download may hold, decompressed: generous for metrics data. A real answer never
+# comes near; a hostile or broken one is stopped at the cap.
+DEFAULT_MAX_BODY_MB: Final = 256.0
+_REDIRECT_STATUSES: Final = frozenset({301, 302, 303, 307, 308})
+_MAX_STORAGE_REDIRECTS: Final = 5
+_STORAGE_ERROR_CODE: Final = re.compile(rb"<Code>\s*([A-Za-z0-9_.-]{1,64})\s*</Code>")
+_EXPIRED_CODES: Final = frozenset({b"ExpiredToken", b"AccessDenied", b"RequestExpired"})
+
+
+class StorageClient:
+    """Fetches presigned object-storage URLs, with retries and without any credentials.
+
+    Usually owned by an :class:`ApiClient` (``api.storage``); it can also be used alone::
+
+        async with StorageClient() as storage:
+            payload = await storage.fetch_bytes(url)
+
+    ``limiter`` bounds the fetches in flight (a fixed bound of ``concurrency`` by default).
+    ``transport`` replaces the HTTP transport built from these settings: one passed in
+    brings its own limiter, timeout and body cap, and must carry no credentials.
+    """
+
+    def __init__(
+        self,
+        *,
+        concurrency: int = DEFAULT_CONCURRENCY,
+        retry: RetryPolicy | None = None,
+        limiter: ConcurrencyLimit | None = None,
+        body_cap: BodyCap | None = None,
+        transport: Transport | None = None,
+    ) -> None:
+        self._policy = retry or RetryPolicy()
+        # Shared by every storage request: when storage fails, they wait together.
+        self.gate = new_gate("object storage", self._policy)
+        if transport is None:
+            transport = HttpTransport(
+                name="storage",
+                body_cap=body_cap or body_cap_mb(DEFAULT_MAX_BODY_MB, "max_body_mb"),
+                concurrency=concurrency,
+                request_timeout=self._policy.request_timeout,
+                headers={hdrs.USER_AGENT: USER_AGENT},
+                follow_redirects=False,
+                credentials_allowed=False,
+                limiter=limiter,
+            )
+        self._transport = transport
+        self.stats: TransferStats = transport.stats
+
+    async def __aenter__(self) -> Self:
+        await self._transport.open()
+        return self
+
+    async def __aexit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
+        await self._transport.close()
+
+    async def fetch_bytes(self, url: str) -> bytes:
+        """The whole object behind a presigned URL.
+
+        Raises :class:`PresignedUrlExpiredError` when storage refuses the signature (list
+        again for a fresh URL), :class:`StorageError` for other refusals, and
+        :class:`RetriesExhaustedError` when transient failures outlast the retry policy
+        (:class:`OriginUnavailableError` when storage as a whole is failing).
+        """
+        # encoded=True: re-quoting would alter the signed query string and void the signature.
+        target = URL(url, encoded=True)
+        if target.scheme not in ("http", "https") or not target.host:
+            raise StorageError("not an http(s) URL", url=url)
+        return await call_with_retries(
+            lambda: self._fetch_once(target),
+            self._policy,
+            stats=self.stats,
+            method="GET",
+            url=url,
+            gate=self.gate,
+        )
+
+    async def _fetch_once(self, url: URL) -> bytes:
+        for _hop in range(_MAX_STORAGE_REDIRECTS + 1):
+            response = await self._transport.get(url)
+            location = response.headers.get(hdrs.LOCATION)
+            if response.status in _REDIRECT_STATUSES and location:
+                url = url.join(URL(location, encoded=True))
+                continue
+            if response.ok:
+                return response.body
+            raise _storage_error(response)
+        raise StorageError(
+            f"more than {_MAX_STORAGE_REDIRECTS} redirects from object storage", url=url
+        )
+
+
+def answer_retry_after(response: Response) -> float | None:
+    """The pause a throttling or failing answer asked for (``Retry-After``), if any."""
+    if response.status not in RETRYABLE_STATUSES:
+        return None
+    return parse_retry_after(response.headers.get(hdrs.RETRY_AFTER))
+
+
+def _storage_error(response: Response) -> StorageError:
+    """Map a storage refusal; only the error code is kept (S3 bodies echo the signature)."""
+    match = _STORAGE_ERROR_CODE.search(response.body[:4096])
+    code = match.group(1) if match else None
+    code_text = f" ({code.decode()})" if code else ""
+    status = response.status
+    if status == 403 or (status == 400 and code in _EXPIRED_CODES):
+        return PresignedUrlExpiredError(
+            f"GET {redact_url(response.url)} answered HTTP {status}{code_text}: the presigned "
+            "URL has expired or its signature is invalid; list again for a fresh URL",
+            url=response.url,
+            status=status,
+        )
+    if status == 404:
+        message = "no such object"
+    elif status in RETRYABLE_STATUSES:
+        message = "object storage is unavailable or throttling"
+    else:
+        message = "object storage refused the request"
+    return StorageError(
+        f"GET {redact_url(response.url)} answered HTTP {status}{code_text}: {message}",
+        url=response.url,
+        status=status,
+        retry_after=answer_retry_after(response),
+    )

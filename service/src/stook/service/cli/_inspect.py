@@ -1,0 +1,97 @@
+"""`stook validate` and `stook show`: look at a metrics.binproto from the command line."""
+
+from __future__ import annotations
+
+import enum
+import sys
+from pathlib import Path
+from typing import TextIO
+
+from stook.sdk import (
+    InvalidMetricsError,
+    JobMetricsView,
+    MetricType,
+    MetricView,
+    ReadError,
+    SeriesKind,
+    find_problems,
+    read_job_metrics,
+)
+
+EXIT_INVALID = 4
+
+
+def _read(path: Path) -> JobMetricsView:
+    try:
+        payload = path.read_bytes()
+    except OSError as exc:
+        raise ReadError(f"could not read JobMetrics from {str(path)!r}: {exc.strerror}") from None
+    return read_job_metrics(payload, source=str(path))
+
+
+def validate_file(path: Path, out: TextIO | None = None) -> int:
+    """Print every rule the file breaks; exit 0 when there is none, 4 otherwise."""
+    stream = out or sys.stdout
+    view = _read(path)
+    problems = find_problems(view.raw)
+    if not problems:
+        print(
+            f"{path}: valid ({len(view.metrics)} metrics, {len(view.data)} metrics data)",
+            file=stream,
+        )
+        return 0
+    for problem in problems:
+        print(f"{path}: {problem}", file=stream)
+    raise InvalidMetricsError(problems)
+
+
+def _value(metric: MetricView, view: JobMetricsView) -> str:
+    if metric.type is MetricType.SCALAR and metric.value is not None:
+        return f"{metric.value:.6g} {metric.unit or ''}".rstrip()
+    if metric.type is MetricType.TEXT:
+        text = (metric.raw.metric_values.text_metric_values.text.splitlines() or [""])[0]
+        return text if len(text) <= 48 else text[:45] + "..."
+    sizes = []
+    for data_id in metric.data_ids:
+        data = view.data_by_id.get(data_id)
+        if data is None or data.is_external or data.kind in (None, SeriesKind.STATUS):
+            continue  # no values to count
+        sizes.append(data.frame().height)
+    return f"{sum(sizes)} values" if sizes else ""
+
+
+def _enum_name(value: enum.IntEnum | int | None) -> str:
+    """A member's name; ``?`` when unset; the number of a value this schema does not know."""
+    if value is None:
+        return "?"
+    return value.name if isinstance(value, enum.IntEnum) else f"unknown ({value})"
+
+
+def summary_lines(view: JobMetricsView) -> list[str]:
+    """A readable table: one line per metric with its type, status and value."""
+    rows = [
+        (m.name, _enum_name(m.type), _enum_name(m.status), _value(m, view)) for m in view.metrics
+    ]
+    widths = [max([len(h), *(len(r[i]) for r in rows)]) for i, h in enumerate(_HEADER)]
+    widths[0] = min(widths[0], 56)
+
+    def line(cells: tuple[str, ...]) -> str:
+        return "  ".join(c[: widths[i]].ljust(widths[i]) for i, c in enumerate(cells)).rstrip()
+
+    status = "unset" if view.status is None else _enum_name(view.status)
+    return [
+        f"{len(view.metrics)} metrics, {len(view.data)} metrics data, overall status {status}",
+        line(_HEADER),
+        line(tuple("-" * w for w in widths)),
+        *(line(r) for r in rows),
+    ]
+
+
+_HEADER = ("metric", "type", "status", "value")
+
+
+def show_file(path: Path, out: TextIO | None = None) -> int:
+    stream = out or sys.stdout
+    for text in summary_lines(_read(path)):
+        print(text, file=stream)
+    return 0

@@ -1,0 +1,302 @@
+"""The `stook` command: run (the metrics-build entry point), demo, emulate, validate, show.
+
+Only the standard library and the signal guard are imported at the top: `main` takes
+SIGINT and SIGTERM before the heavy imports (polars, aiohttp, protobuf), so that a signal
+during those still ends in one line and not a traceback.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+
+from stook.service.cli import _signals
+from stook.service.cli._signals import Interrupted
+
+# typing.TYPE_CHECKING without importing typing, which alone costs milliseconds before the
+# handlers are in place; mypy and ruff read this constant the same way.
+TYPE_CHECKING = False
+if TYPE_CHECKING:
+    import argparse
+    from collections.abc import Sequence
+    from typing import Any
+
+    from stook.service.modes import Tally
+
+
+def _add_logging(parser: argparse.ArgumentParser, *, default_level: str = "info") -> None:
+    parser.add_argument(
+        "--log-level",
+        default=os.environ.get("STOOK_LOG_LEVEL", default_level),
+        choices=["debug", "info", "warning", "error"],
+        help="log level (env STOOK_LOG_LEVEL; default info)",
+    )
+    parser.add_argument(
+        "--log-format",
+        default=os.environ.get("STOOK_LOG_FORMAT", "auto"),
+        choices=["auto", "json", "console"],
+        help="JSON lines or console lines; auto picks JSON when stderr is not a terminal",
+    )
+
+
+def build_parser() -> argparse.ArgumentParser:
+    import argparse
+    from pathlib import Path
+
+    parser = argparse.ArgumentParser(
+        prog="stook",
+        description="Fast aggregation of ReSim test, batch and report metrics.",
+    )
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+
+    run_p = sub.add_parser(
+        "run",
+        help="the metrics-build entry point: detect test, batch or report mode and run it",
+        description="Detect the mode from the inputs folder and write OUTPUTS/metrics.binproto.",
+    )
+    run_p.add_argument("--inputs", help="inputs folder (env STOOK_INPUTS; /tmp/resim/inputs)")
+    run_p.add_argument("--outputs", help="outputs folder (env STOOK_OUTPUTS; /tmp/resim/outputs)")
+    run_p.add_argument("--config", help="stook.toml (env STOOK_CONFIG; ./stook.toml if present)")
+    run_p.add_argument(
+        "--allow-missing-jobs",
+        type=float,
+        metavar="FRACTION",
+        help="tolerate up to this share of jobs whose data stays unavailable (default 0)",
+    )
+    run_p.add_argument(
+        "--project-id", help="project for batch configs that lack projectID (env STOOK_PROJECT_ID)"
+    )
+    _add_logging(run_p)
+
+    demo_p = sub.add_parser("demo", help="run batch mode against the built-in emulator")
+    demo_p.add_argument("--jobs", type=int, default=200, help="jobs in the emulated batch")
+    demo_p.add_argument("--output", default="demo-output", help="where to write the output")
+    demo_p.add_argument("--seed", type=int, default=7)
+    _add_logging(demo_p, default_level="warning")
+
+    emulate_p = sub.add_parser("emulate", help="serve the ReSim API emulator on loopback")
+    emulate_p.add_argument("--jobs", type=int, default=200, help="jobs per batch")
+    emulate_p.add_argument("--batches", type=int, default=12, help="batches in the report")
+    emulate_p.add_argument("--seed", type=int, default=7)
+    emulate_p.add_argument("--latency-ms", type=float, default=0.0)
+    emulate_p.add_argument("--api-port", type=int, default=0)
+    emulate_p.add_argument("--storage-port", type=int, default=0)
+    emulate_p.add_argument(
+        "--inputs", help="also write the platform's config files into this inputs folder"
+    )
+    _add_logging(emulate_p)
+
+    bench_p = sub.add_parser("bench", help="measure batch mode against the emulator and ReSim")
+    bench_p.add_argument("--quick", action="store_true", help="small sizes; a smoke test")
+    bench_p.add_argument("--out", default="docs/benchmarks", help="where results are written")
+
+    validate_p = sub.add_parser("validate", help="check a metrics.binproto against every rule")
+    validate_p.add_argument("file", type=Path)
+
+    show_p = sub.add_parser("show", help="print a summary of a metrics.binproto")
+    show_p.add_argument("file", type=Path)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> None:
+    _signals.install()  # first: a signal from here on ends in one line, imports included
+    voice: Voice | None = None
+    try:
+        voice = Voice(argv)
+        code = run_cli(argv, voice=voice)
+    except Interrupted as stop:  # before run_cli took over, or a second signal in its end
+        code = (voice or Voice(argv)).interrupted(stop)
+    sys.exit(code)
+
+
+class Voice:
+    """Says how a failed command ended, exactly once: one JSON event when logging JSON
+    lines, one `stook: …` line otherwise. Thread-safe, for the signal watchdog."""
+
+    def __init__(self, argv: Sequence[str] | None = None) -> None:
+        import threading
+
+        # Until the arguments are parsed (a signal during the imports): the format they ask
+        # for, read without argparse.
+        chosen = os.environ.get("STOOK_LOG_FORMAT", "auto")
+        args = list(sys.argv[1:] if argv is None else argv)
+        for i, arg in enumerate(args):
+            if arg == "--log-format" and i + 1 < len(args):
+                chosen = args[i + 1]
+            elif arg.startswith("--log-format="):
+                chosen = arg.partition("=")[2]
+        self.json = chosen == "json" or (chosen != "console" and not _is_tty(sys.stderr))
+        self.logging_ready = False
+        self.progress: Tally | None = None
+        self._lock = threading.Lock()
+        self._said = False
+
+    def failed(self, error: Exception) -> int:
+        try:
+            from stook.service.cli._run import ExitCode, exit_code_for, explain
+            from stook.service.modes import UserFunctionError
+        except ImportError:  # a broken installation: the error is what failed to import
+            self._say("stook failed", f"error: {error}", error, error=str(error), exit_code=1)
+            return 1
+        code = exit_code_for(error)
+        shown: BaseException | None = None
+        if isinstance(error, UserFunctionError) and error.__cause__ is not None:
+            shown = error.__cause__  # the user's own traceback, not stook's wrapper
+        elif code is ExitCode.UNEXPECTED:
+            shown = error
+        message = explain(error)
+        self._say("stook failed", f"error: {message}", shown, error=message, exit_code=int(code))
+        return int(code)
+
+    def interrupted(self, stop: Interrupted) -> int:
+        counts: dict[str, Any] = {}
+        where = ""
+        if self.progress is not None and self.progress.listed:
+            counts = {"jobs_done": self.progress.done, "jobs_listed": self.progress.listed}
+            where = f" after {self.progress.done:,} of {self.progress.listed:,} jobs"
+        line = f"interrupted by {stop.signal_name}{where}"
+        self._say(
+            "stook interrupted",
+            line,
+            error=line,
+            signal=stop.signal_name,
+            exit_code=stop.exit_code,
+            **counts,
+        )
+        return stop.exit_code
+
+    def _say(
+        self, event: str, line: str, shown: BaseException | None = None, **fields: Any
+    ) -> None:
+        import traceback
+
+        with self._lock:
+            if self._said:
+                return
+            self._said = True
+        if not self.json:
+            if shown is not None:
+                traceback.print_exception(shown)
+            print(f"stook: {line}", file=sys.stderr, flush=True)
+        elif self.logging_ready:
+            import structlog
+
+            if shown is not None:
+                fields["exc_info"] = shown  # rendered into the event's "exception" text
+            structlog.get_logger("stook.cli").error(event, **fields)
+        else:
+            # Before structlog is set up (a signal during the imports): the same event,
+            # by hand.
+            import json
+            from datetime import UTC, datetime
+
+            stamp = datetime.now(UTC).isoformat().replace("+00:00", "Z")
+            body = {**fields, "event": event, "level": "error", "timestamp": stamp}
+            if shown is not None:
+                body["exception"] = "".join(traceback.format_exception(shown))
+            print(json.dumps(body), file=sys.stderr, flush=True)
+
+
+def run_cli(argv: Sequence[str] | None = None, *, voice: Voice | None = None) -> int:
+    voice = voice or Voice(argv)
+    with _signals.handled(on_give_up=voice.interrupted):
+        try:
+            code = _run_cli(argv, voice)
+        except Interrupted as stop:
+            _signals.settle()
+            return voice.interrupted(stop)
+        except KeyboardInterrupt:  # only where no handler could be installed
+            _signals.settle()
+            return voice.interrupted(Interrupted(_signals.SIGNALS[0]))
+        except Exception as error:
+            _signals.settle()
+            return voice.failed(error)
+        _signals.settle()
+        return code
+
+
+def _run_cli(argv: Sequence[str] | None, voice: Voice) -> int:
+    args = build_parser().parse_args(argv)
+    from stook.service.api import configure_logging
+
+    if hasattr(args, "log_format"):
+        json_logs = None if args.log_format == "auto" else args.log_format == "json"
+        configure_logging(json=json_logs, level=args.log_level)
+    else:
+        # Commands without logging flags still log to stderr, never onto their stdout.
+        chosen = os.environ.get("STOOK_LOG_FORMAT", "auto")
+        json_logs = None if chosen not in ("json", "console") else chosen == "json"
+        configure_logging(json=json_logs, level="warning")
+    voice.json = not _is_tty(sys.stderr) if json_logs is None else json_logs
+    voice.logging_ready = True
+    return _dispatch(args, voice)
+
+
+def _is_tty(stream: Any) -> bool:
+    try:
+        return bool(stream.isatty())
+    except (AttributeError, ValueError):
+        return False
+
+
+# What `demo`, `emulate` and `bench` run lives in the stook-testing distribution, which a
+# metrics-build image does not install: the emulator and benchmarks are no part of a run.
+_TESTING_PACKAGES = ("stook.emulator", "stook.testing", "stook.bench")
+
+
+def _testing_tool(command: str, module: str) -> Any:
+    """`module` from stook-testing, or a usage error saying how to install it."""
+    import importlib
+
+    from stook.service.cli._run import UsageError
+
+    try:
+        return importlib.import_module(module)
+    except ModuleNotFoundError as exc:
+        if exc.name is None or not exc.name.startswith(_TESTING_PACKAGES):
+            raise
+        raise UsageError(
+            f"'stook {command}' needs the stook-testing distribution, which is not installed "
+            "(from a checkout: 'make setup', or 'pip install ./service/testing')"
+        ) from None
+
+
+def _dispatch(args: argparse.Namespace, voice: Voice) -> int:
+    match args.command:
+        case "run":
+            from stook.service.cli._run import resolve_options, run
+            from stook.service.modes import Tally, for_stream
+
+            options = resolve_options(
+                inputs=args.inputs,
+                outputs=args.outputs,
+                config=args.config,
+                allow_missing_jobs=args.allow_missing_jobs,
+                project_id=args.project_id,
+            )
+            voice.progress = Tally(for_stream(label="jobs"))
+            _signals.run(run(options, progress=voice.progress))
+            return 0
+        case "demo":
+            from pathlib import Path
+
+            demo = _testing_tool("demo", "stook.testing._demo")
+            return int(demo.run_demo(jobs=args.jobs, output=Path(args.output), seed=args.seed))
+        case "emulate":
+            emulator_cli = _testing_tool("emulate", "stook.emulator._cli")
+            return int(_signals.run(emulator_cli.emulate(args)))
+        case "bench":
+            from pathlib import Path
+
+            bench = _testing_tool("bench", "stook.bench")
+            bench.run_bench(Path(args.out), quick=args.quick)
+            return 0
+        case "validate":
+            from stook.service.cli._inspect import validate_file
+
+            return validate_file(args.file)
+        case "show":
+            from stook.service.cli._inspect import show_file
+
+            return show_file(args.file)
+    raise AssertionError(f"unhandled command {args.command!r}")  # argparse restricts it

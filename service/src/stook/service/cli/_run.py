@@ -1,0 +1,206 @@
+"""`stook run`: detect the mode from the inputs folder, run it, map failures to exit codes.
+
+Exit codes (also in the README):
+  0  metrics.binproto written
+  1  an unexpected error, or the user's own test-metrics function raised
+  2  bad usage, config or inputs (malformed JSON, missing key, non-UUID ID, bad TOML,
+     a metric or data name in the config that no job has, a misspelt config file name),
+     or an outputs folder that cannot be written (checked before the first request)
+  3  the API or storage failed for [fetch] retry_for or asked to wait longer than
+     stook waits, refused the token, too many jobs stayed unavailable, or the
+     [fetch] deadline was reached; an answer over its cap; a listing that does not end
+  4  invalid metrics data: a downloaded item could not be decoded, or the output
+     would not validate
+  5  the output could not be written (disk full, file-size limit, I/O error)
+  130, 143  interrupted by SIGINT or SIGTERM (stook.service._signals)
+
+Whatever the failure, metrics.binproto is written atomically or not at all.
+"""
+
+from __future__ import annotations
+
+import enum
+import os
+import uuid
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import structlog
+
+from stook.sdk import (
+    InvalidMetricsError,
+    OutputWriteError,
+    ReadError,
+    StookError,
+    WriterError,
+    remove_stale_temp_files,
+)
+from stook.service.api import ApiError, AuthError
+from stook.service.modes import (
+    OUTPUT_NAME,
+    BatchInputs,
+    BatchMode,
+    ConfigError,
+    InputsError,
+    OutputsError,
+    Progress,
+    ReportMode,
+    RunResult,
+    StookConfig,
+    TestInputs,
+    UserFunctionError,
+    check_outputs_folder,
+    detect,
+    for_stream,
+    load,
+    run_pipeline,
+    run_test_mode,
+)
+
+log = structlog.get_logger("stook.run")
+
+DEFAULT_INPUTS = Path("/tmp/resim/inputs")
+DEFAULT_OUTPUTS = Path("/tmp/resim/outputs")
+DEFAULT_CONFIG_NAME = "stook.toml"
+
+
+class ExitCode(enum.IntEnum):
+    OK = 0
+    UNEXPECTED = 1
+    USAGE = 2
+    API = 3
+    INVALID_DATA = 4
+    OUTPUT = 5
+
+
+class UsageError(StookError):
+    """A command-line or environment setting is unusable (exit code 2)."""
+
+
+@dataclass(frozen=True, slots=True)
+class RunOptions:
+    inputs: Path
+    outputs: Path
+    config: Path | None
+    allow_missing_jobs: float = 0.0
+    project_id: uuid.UUID | None = None
+
+
+def resolve_options(
+    *,
+    inputs: str | None,
+    outputs: str | None,
+    config: str | None,
+    allow_missing_jobs: float | None,
+    project_id: str | None,
+    cwd: Path | None = None,
+) -> RunOptions:
+    """Flags first, then STOOK_* environment variables, then the platform's defaults."""
+    env = os.environ
+    config_path = config or env.get("STOOK_CONFIG")
+    if config_path is None:
+        local = (cwd or Path.cwd()) / DEFAULT_CONFIG_NAME
+        config_path = str(local) if local.is_file() else None
+    share = allow_missing_jobs
+    if share is None and env.get("STOOK_ALLOW_MISSING_JOBS"):
+        try:
+            share = float(env["STOOK_ALLOW_MISSING_JOBS"])
+        except ValueError:
+            raise UsageError("STOOK_ALLOW_MISSING_JOBS must be a number from 0 to 1") from None
+    share = 0.0 if share is None else share
+    if not 0.0 <= share <= 1.0:
+        raise UsageError(f"--allow-missing-jobs must be a fraction from 0 to 1, got {share:g}")
+    project_text = project_id or env.get("STOOK_PROJECT_ID")
+    project = None
+    if project_text:
+        try:
+            project = uuid.UUID(project_text)
+        except ValueError:
+            raise UsageError(f"project ID {project_text!r} is not a UUID") from None
+    return RunOptions(
+        inputs=Path(inputs or env.get("STOOK_INPUTS") or DEFAULT_INPUTS),
+        outputs=Path(outputs or env.get("STOOK_OUTPUTS") or DEFAULT_OUTPUTS),
+        config=Path(config_path) if config_path else None,
+        allow_missing_jobs=share,
+        project_id=project,
+    )
+
+
+async def run(options: RunOptions, *, progress: Progress | None = None) -> Path:
+    """Run the detected mode; raises the typed errors that `exit_code_for` maps.
+
+    `progress` is shown the jobs done and listed (default: a terminal line on a TTY).
+    """
+    config: StookConfig = load(options.config)
+    mode = detect(options.inputs, project_id=options.project_id)
+    check_outputs_folder(options.outputs)  # before the first request, not after the fetch
+    output = options.outputs / OUTPUT_NAME
+    _remove_stale_temp_files(output)
+    if isinstance(mode, TestInputs):
+        log.info("test mode", config=config.source)
+        return await run_test_mode(mode, config, output)
+    pieces: BatchMode | ReportMode = (
+        BatchMode(mode, config) if isinstance(mode, BatchInputs) else ReportMode(mode, config)
+    )
+    log.info(
+        f"{pieces.kind} mode", **{f"{pieces.kind}_id": str(pieces.output_id)}, config=config.source
+    )
+    result: RunResult[Any] = await run_pipeline(
+        pieces,
+        mode.access,
+        config.fetch,
+        options.outputs,
+        allow_missing_jobs=options.allow_missing_jobs,
+        progress=progress or for_stream(label="jobs"),
+    )
+    _log_written(result)
+    return result.output
+
+
+def _remove_stale_temp_files(output: Path) -> None:
+    """Temporary files that an earlier, killed run's write left beside the output."""
+    removed = remove_stale_temp_files(output)
+    if removed:
+        log.info("removed stale temporary files", files=[str(p) for p in removed])
+
+
+def _log_written(result: RunResult[Any]) -> None:
+    """The run's final summary event."""
+    traffic = result.traffic
+    log.info(
+        f"{result.kind} metrics written",
+        output=str(result.output),
+        status=result.status.name,
+        **result.counts,
+        metrics=len(result.metrics_written),
+        requests=traffic.requests,
+        retries=traffic.retries,
+        bytes=traffic.bytes_received,
+        seconds=round(result.seconds, 3),
+    )
+
+
+def explain(error: BaseException) -> str:
+    """The one line printed for a failure, with a hint where the cause is likely local."""
+    if isinstance(error, AuthError):
+        return f"the API refused the token (authToken in the inputs config): {error}"
+    return str(error)
+
+
+def exit_code_for(error: BaseException) -> ExitCode:
+    """The documented exit code of an expected failure; UNEXPECTED for anything else."""
+    if isinstance(error, UsageError | ConfigError | InputsError | OutputsError):
+        return ExitCode.USAGE
+    if isinstance(error, ApiError):
+        return ExitCode.API
+    if isinstance(error, ReadError | InvalidMetricsError):
+        return ExitCode.INVALID_DATA
+    if isinstance(error, OutputWriteError):
+        return ExitCode.OUTPUT
+    if isinstance(error, WriterError):
+        # A config that asks for two metrics of one name, or impossible bounds.
+        return ExitCode.USAGE
+    if isinstance(error, UserFunctionError):
+        return ExitCode.UNEXPECTED
+    return ExitCode.UNEXPECTED

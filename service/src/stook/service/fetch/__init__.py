@@ -1,0 +1,38 @@
+"""The fetch layer: every job of a batch, or every batch of a report, as records.
+
+On top of the API layer (it imports `stook.service.api` and nothing above it): bounded
+pools of workers list and download only what the aggregations' plan names, and hand each
+job (`JobRecord`) or batch (`BatchRecord`) on as soon as it is complete.
+"""
+
+from stook.service.fetch._batch_fetch import (
+    BatchFetcher,
+    FetchOutcome,
+    InvalidDataError,
+    MissingJob,
+    decode_values,
+)
+from stook.service.fetch._deadline import DeadlineReachedError, fetch_deadline
+from stook.service.fetch._report_fetch import (
+    ReportFetcher,
+    ReportNotFoundError,
+    ReportOutcome,
+    search_for,
+)
+from stook.service.fetch._scalars import is_scalar, read_scalars
+
+__all__ = [
+    "BatchFetcher",
+    "DeadlineReachedError",
+    "FetchOutcome",
+    "InvalidDataError",
+    "MissingJob",
+    "ReportFetcher",
+    "ReportNotFoundError",
+    "ReportOutcome",
+    "decode_values",
+    "fetch_deadline",
+    "is_scalar",
+    "read_scalars",
+    "search_for",
+]

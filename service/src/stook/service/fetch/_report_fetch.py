@@ -1,0 +1,277 @@
+"""The fetch core of report mode: the report, its batches, and per batch its metrics and jobs.
+
+The report's batches are found with the platform's `search` filter and sorted by
+creation time. Batches are listed a few at a time; when the plan asks for job
+metrics, every job of a listed batch goes into one bounded queue that a fixed pool
+of workers drains, so requests stay within the client's bound and memory within
+`workers + queue size` jobs, however long the report. A batch is handed to
+`on_batch` as a `BatchRecord` once all of its jobs are in.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import time
+import uuid
+from collections import Counter
+from collections.abc import AsyncIterator, Callable
+from dataclasses import dataclass, field
+from datetime import datetime
+from typing import TypeVar
+
+import structlog
+
+from stook.sdk.aggregations import UNKNOWN_STATUS, BatchRecord, JobSummary, Needs, Scalar
+from stook.service.api import (
+    ApiClient,
+    ApiError,
+    ApiMetric,
+    AuthError,
+    Batch,
+    Job,
+    NotFoundError,
+    OriginUnavailableError,
+    Report,
+)
+from stook.service.fetch._batch_fetch import MissingJob
+from stook.service.fetch._scalars import is_scalar, read_scalars
+
+log = structlog.get_logger("stook.report")
+_T = TypeVar("_T")
+
+# Batches whose job and metric lists are fetched at once; their jobs share the workers.
+_BATCHES_IN_FLIGHT = 4
+
+
+class ReportNotFoundError(ApiError):
+    """The report ID of report_config.json does not exist in its project (exit code 3)."""
+
+
+@dataclass(slots=True)
+class ReportOutcome:
+    report: Report | None = None
+    batches: int = 0
+    jobs: int = 0
+    jobs_with_metrics: int = 0
+    missing: list[MissingJob] = field(default_factory=list)
+    job_scalar_names: set[str] = field(default_factory=set)
+    first: datetime | None = None
+    last: datetime | None = None
+    started: float = field(default_factory=time.monotonic)
+    seconds: float = 0.0
+
+
+def search_for(report: Report) -> str:
+    """The platform's batch filter for a report (see resim-api.md)."""
+    clauses = [
+        f'test_suite_id = "{report.test_suite_id}"',
+        f'branch_id = "{report.branch_id}"',
+        f'created_at > "{report.start_timestamp.isoformat()}"',
+        f'created_at < "{report.end_timestamp.isoformat()}"',
+    ]
+    if report.respect_revision_boundary:
+        clauses.append(f"test_suite_revision = {report.test_suite_revision}")
+    return " AND ".join(clauses)
+
+
+@dataclass(slots=True)
+class _PendingBatch:
+    """A batch whose jobs' metrics are still coming in."""
+
+    batch: Batch
+    scalars: dict[str, Scalar]
+    metric_statuses: list[str]
+    jobs: list[JobSummary]
+    remaining: int
+    listed: bool = False
+    job_scalars: dict[str, list[float]] = field(default_factory=dict)
+    job_units: dict[str, str] = field(default_factory=dict)
+    job_statuses: list[str] = field(default_factory=list)
+
+
+class ReportFetcher:
+    def __init__(
+        self,
+        api: ApiClient,
+        project_id: uuid.UUID,
+        report_id: uuid.UUID,
+        needs: Needs,
+        *,
+        workers: int = 64,
+        on_progress: Callable[[ReportOutcome], None] | None = None,
+    ) -> None:
+        self._api = api
+        self._project_id = project_id
+        self._report_id = report_id
+        self._needs = needs
+        self._workers = workers
+        self._on_progress = on_progress
+        self.outcome = ReportOutcome()
+
+    async def run(self, on_batch: Callable[[BatchRecord], None]) -> ReportOutcome:
+        try:
+            report = await self._api.get_report(self._project_id, self._report_id)
+        except NotFoundError:
+            raise ReportNotFoundError(
+                f"report {self._report_id} does not exist in project {self._project_id} (HTTP 404)"
+            ) from None
+        self.outcome.report = report
+        batches = [
+            b async for b in self._api.list_batches(self._project_id, search=search_for(report))
+        ]
+        batches.sort(key=lambda b: (b.creation_timestamp or report.start_timestamp, b.batch_id))
+        self.outcome.batches = len(batches)
+        if batches:
+            self.outcome.first = batches[0].creation_timestamp
+            self.outcome.last = batches[-1].creation_timestamp
+        log.info("report batches found", report_id=str(self._report_id), batches=len(batches))
+
+        queue: asyncio.Queue[tuple[_PendingBatch, Job] | None] = asyncio.Queue(
+            maxsize=2 * self._workers
+        )
+        gate = asyncio.Semaphore(_BATCHES_IN_FLIGHT)
+        workers = self._workers if self._needs.job_metrics else 0
+        try:
+            async with asyncio.TaskGroup() as group:
+                for _ in range(workers):
+                    group.create_task(self._work(queue, on_batch))
+                lister = group.create_task(self._list_all(batches, gate, queue, on_batch))
+                await lister
+                # Reached only after a complete listing. Should a worker fail meanwhile, the
+                # group cancels this body too, so a put into a full queue cannot hang here.
+                for _ in range(workers):
+                    await queue.put(None)
+        except ExceptionGroup as group_error:
+            raise group_error.exceptions[0] from None
+        self.outcome.seconds = time.monotonic() - self.outcome.started
+        return self.outcome
+
+    async def _list_all(
+        self,
+        batches: list[Batch],
+        gate: asyncio.Semaphore,
+        queue: asyncio.Queue[tuple[_PendingBatch, Job] | None],
+        on_batch: Callable[[BatchRecord], None],
+    ) -> None:
+        async def one(batch: Batch) -> None:
+            async with gate:
+                await self._list_batch(batch, queue, on_batch)
+
+        async with asyncio.TaskGroup() as group:
+            for batch in batches:
+                group.create_task(one(batch))
+
+    async def _list_batch(
+        self,
+        batch: Batch,
+        queue: asyncio.Queue[tuple[_PendingBatch, Job] | None],
+        on_batch: Callable[[BatchRecord], None],
+    ) -> None:
+        metrics, jobs = await asyncio.gather(
+            _collect(self._api.list_batch_metrics(self._project_id, batch.batch_id)),
+            _collect(self._api.list_jobs(self._project_id, batch.batch_id)),
+        )
+        self.outcome.jobs += len(jobs)
+        pending = _PendingBatch(
+            batch=batch,
+            scalars=await read_scalars(
+                self._api.storage,
+                metrics,
+                self._needs.wants_scalar,
+                source=f"batch {batch.batch_id}",
+                relist=lambda: _collect(
+                    self._api.list_batch_metrics(self._project_id, batch.batch_id)
+                ),
+            ),
+            metric_statuses=[str(m.status) for m in metrics],
+            jobs=[
+                JobSummary(
+                    j.job_id,
+                    j.experience_name or "",
+                    str(j.conflated_status or UNKNOWN_STATUS),
+                    j.experience_id,
+                )
+                for j in jobs
+            ],
+            remaining=len(jobs) if self._needs.job_metrics else 0,
+        )
+        if self._needs.job_metrics:
+            for job in jobs:
+                await queue.put((pending, job))
+        pending.listed = True
+        if pending.remaining == 0:
+            self._finish(pending, on_batch)
+
+    async def _work(
+        self,
+        queue: asyncio.Queue[tuple[_PendingBatch, Job] | None],
+        on_batch: Callable[[BatchRecord], None],
+    ) -> None:
+        while (item := await queue.get()) is not None:
+            pending, job = item
+            try:
+                metrics = await _collect(
+                    self._api.list_job_metrics(self._project_id, pending.batch.batch_id, job.job_id)
+                )
+                scalars = await self._job_scalars(pending.batch, job, metrics)
+            except (AuthError, OriginUnavailableError):
+                raise
+            except ApiError as exc:
+                self.outcome.missing.append(
+                    MissingJob(job.job_id, job.experience_name or "", str(exc))
+                )
+                log.warning("job metrics unavailable", job_id=str(job.job_id), reason=str(exc))
+            else:
+                if metrics:
+                    self.outcome.jobs_with_metrics += 1
+                pending.job_statuses.extend(str(m.status) for m in metrics)
+                for name, scalar in scalars.items():
+                    pending.job_scalars.setdefault(name, []).append(scalar.value)
+                    pending.job_units.setdefault(name, scalar.unit)
+                # Listed is enough: a name a job has is no typo, even when its value is absent.
+                self.outcome.job_scalar_names.update(m.name for m in metrics if is_scalar(m))
+            pending.remaining -= 1
+            if pending.remaining == 0 and pending.listed:
+                self._finish(pending, on_batch)
+
+    async def _job_scalars(
+        self, batch: Batch, job: Job, metrics: list[ApiMetric]
+    ) -> dict[str, Scalar]:
+        """The job's scalars, values listed as null read from their messages when needed."""
+        return await read_scalars(
+            self._api.storage,
+            metrics,
+            self._needs.wants_scalar,
+            source=f"job {job.job_id}",
+            relist=lambda: _collect(
+                self._api.list_job_metrics(self._project_id, batch.batch_id, job.job_id)
+            ),
+        )
+
+    def _finish(self, pending: _PendingBatch, on_batch: Callable[[BatchRecord], None]) -> None:
+        batch = pending.batch
+        created = batch.creation_timestamp
+        if created is None:
+            raise ApiError(f"batch {batch.batch_id} has no creationTimestamp to place it in time")
+        # Sorted, so that the record does not depend on the order job listings returned in.
+        job_statuses = Counter(pending.job_statuses)
+        on_batch(
+            BatchRecord(
+                batch_id=batch.batch_id,
+                name=batch.friendly_name or str(batch.batch_id)[:8],
+                created=created,
+                conflated_status=str(batch.conflated_status or ""),
+                scalars=pending.scalars,
+                metric_statuses=sorted(pending.metric_statuses),
+                jobs=sorted(pending.jobs, key=lambda j: j.job_id),
+                job_scalars={k: sorted(v) for k, v in pending.job_scalars.items()},
+                job_scalar_units=pending.job_units,
+                job_metric_statuses=sorted(job_statuses.elements()),
+            )
+        )
+        if self._on_progress is not None:
+            self._on_progress(self.outcome)
+
+
+async def _collect(items: AsyncIterator[_T]) -> list[_T]:
+    return [item async for item in items]

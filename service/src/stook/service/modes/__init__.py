@@ -1,0 +1,65 @@
+"""The modes: test, batch and report mode, and the settings and inputs they run on.
+
+On top of the fetch layer (it imports `stook.service.fetch` and `stook.service.api`, never
+the CLI): stook.toml (`parse`, `load`), the platform's inputs folder (`detect`), each
+mode's run, the configured client of a run (`open_api`) and what its traffic was.
+"""
+
+from stook.service.modes._batch import BatchMode, BatchResult, run_batch
+from stook.service.modes._config import ConfigError, FetchSettings, StookConfig, load, parse
+from stook.service.modes._inputs import (
+    ApiAccess,
+    BatchInputs,
+    InputsError,
+    ReportInputs,
+    TestInputs,
+    detect,
+)
+from stook.service.modes._open_api import Traffic, open_api
+from stook.service.modes._outputs import OutputsError, check_outputs_folder
+from stook.service.modes._pipeline import (
+    OUTPUT_NAME,
+    MissingJobsError,
+    Mode,
+    RunResult,
+    run_pipeline,
+)
+from stook.service.modes._progress import NoProgress, Progress, Tally, TerminalProgress, for_stream
+from stook.service.modes._report import ReportMode, ReportResult, run_report
+from stook.service.modes._test_mode import UserFunctionError, run_test_mode
+
+__all__ = [
+    "OUTPUT_NAME",
+    "ApiAccess",
+    "BatchInputs",
+    "BatchMode",
+    "BatchResult",
+    "ConfigError",
+    "FetchSettings",
+    "InputsError",
+    "MissingJobsError",
+    "Mode",
+    "NoProgress",
+    "OutputsError",
+    "Progress",
+    "ReportInputs",
+    "ReportMode",
+    "ReportResult",
+    "RunResult",
+    "StookConfig",
+    "Tally",
+    "TerminalProgress",
+    "TestInputs",
+    "Traffic",
+    "UserFunctionError",
+    "check_outputs_folder",
+    "detect",
+    "for_stream",
+    "load",
+    "open_api",
+    "parse",
+    "run_batch",
+    "run_pipeline",
+    "run_report",
+    "run_test_mode",
+]

@@ -1,0 +1,275 @@
+"""stook.toml: how to fetch, and what to compute in each mode.
+
+[fetch]
+concurrency = 64       # requests in flight, API and storage together
+timeout = 30.0         # seconds per request attempt
+retry_for = 120.0      # seconds each request may spend retrying transient failures
+deadline = 1800.0      # optional: seconds the whole fetch may take (default: no limit)
+page_size = 100        # items asked for per list page (the API's maximum is 100)
+adaptive = false       # find the server's pace below `concurrency` (AIMD on 429s and latency)
+max_body_mb = 256      # largest metrics data or metric download, decompressed
+max_api_body_mb = 16   # largest API answer (a JSON page), decompressed
+
+[test]
+metrics = "my_metrics.test:compute"   # called as compute(experience_dir, logs_dir, writer)
+
+[batch]
+defaults = true        # the default batch metrics (means, distributions, statuses)
+[[batch.weighted_mean]]
+name = "Distance-weighted localization error"
+metric = "Localization error"
+weight = "Distance driven"
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import tomllib
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import structlog
+
+from stook.sdk import StookError
+from stook.sdk.aggregations import (
+    AggregationConfigError,
+    BatchAggregation,
+    ReportAggregation,
+    build_all,
+)
+from stook.service.modes._user_code import add_import_folders
+
+log = structlog.get_logger("stook.config")
+
+
+class ConfigError(StookError):
+    """stook.toml is missing, malformed or names something that does not exist (exit 2)."""
+
+
+# The API spec's `pageSize` maximum; the API answers 400 to more.
+MAX_PAGE_SIZE = 100
+
+
+@dataclass(frozen=True, slots=True)
+class FetchSettings:
+    concurrency: int = 64
+    timeout: float = 30.0
+    retry_for: float = 120.0
+    deadline: float | None = None
+    page_size: int = 100
+    adaptive: bool = False
+    max_body_mb: float = 256.0
+    max_api_body_mb: float = 16.0
+
+
+# Counts of attempts, replaced by the time budget `retry_for`. Still accepted, so that a
+# config written for an older stook keeps working, but ignored with a warning: honouring
+# them would bring back runs lost to a two-second outage.
+_DEPRECATED_FETCH_KEYS = ("max_attempts", "max_throttled_attempts")
+
+
+@dataclass(frozen=True, slots=True)
+class ReportSettings:
+    defaults: bool = True
+    top_n: int = 10
+    regression_window: int = 10
+    regression_threshold: float = 3.5
+    job_metrics: tuple[str, ...] | None = None  # None: every SCALAR job metric
+
+
+@dataclass(frozen=True, slots=True)
+class StookConfig:
+    source: str = "(built-in defaults)"
+    fetch: FetchSettings = field(default_factory=FetchSettings)
+    test_metrics: str | None = None
+    batch_defaults: bool = True
+    # Raw [[batch.<kind>]] tables; built into fresh aggregations per run.
+    batch_tables: Mapping[str, list[dict[str, Any]]] = field(default_factory=dict)
+    report: ReportSettings = field(default_factory=lambda: ReportSettings())
+    # Raw [[report.<kind>]] tables: custom report aggregations.
+    report_tables: Mapping[str, list[dict[str, Any]]] = field(default_factory=dict)
+    # The file read, if any: user code is imported from beside it.
+    file: Path | None = None
+
+    def batch_aggregations(self) -> list[BatchAggregation]:
+        try:
+            return build_all(self.batch_tables, section="batch")
+        except AggregationConfigError as exc:
+            raise ConfigError(f"{self.source}: {exc}") from None
+
+    def report_aggregations(self) -> list[ReportAggregation]:
+        try:
+            return build_all(self.report_tables, section="report")
+        except AggregationConfigError as exc:
+            raise ConfigError(f"{self.source}: {exc}") from None
+
+
+_SECTIONS = {"fetch", "test", "batch", "report"}
+
+
+def load(path: Path | None) -> StookConfig:
+    """Read a config file; None means no file: the defaults."""
+    if path is None:
+        return StookConfig()
+    name = str(path)
+    try:
+        doc = tomllib.loads(path.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise ConfigError(f"config file {name!r} does not exist") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ConfigError(
+            f"config file {name!r} cannot be read ({exc.__class__.__name__})"
+        ) from None
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(f"{name}: not valid TOML ({exc})") from None
+    # Before parse builds the custom aggregations: their modules sit beside the file or in
+    # the working directory, as [test] metrics' does.
+    add_import_folders(path)
+    return dataclasses.replace(parse(doc, source=name), file=path)
+
+
+def parse(doc: Mapping[str, Any], *, source: str = "stook.toml") -> StookConfig:
+    unknown = set(doc) - _SECTIONS
+    if unknown:
+        raise ConfigError(
+            f"{source}: unknown section {sorted(unknown)[0]!r} "
+            f"(known: {', '.join(sorted(_SECTIONS))})"
+        )
+    fetch = _fetch(_table(doc, "fetch", source), source)
+    test = _table(doc, "test", source)
+    _only(test, {"metrics"}, "[test]", source)
+    metrics = test.get("metrics")
+    if metrics is not None and (not isinstance(metrics, str) or ":" not in metrics):
+        raise ConfigError(f"{source}: [test] metrics must be 'package.module:function'")
+    batch = dict(_table(doc, "batch", source))
+    defaults = batch.pop("defaults", True)
+    if not isinstance(defaults, bool):
+        raise ConfigError(f"{source}: [batch] defaults must be true or false")
+    report, report_tables = _report(_table(doc, "report", source), source)
+    config = StookConfig(
+        source=source,
+        fetch=fetch,
+        test_metrics=metrics,
+        batch_defaults=defaults,
+        batch_tables=batch,
+        report=report,
+        report_tables=report_tables,
+    )
+    # Fail now, before any fetching, on a bad table.
+    config.batch_aggregations()
+    config.report_aggregations()
+    return config
+
+
+def _table(doc: Mapping[str, Any], key: str, source: str) -> Mapping[str, Any]:
+    value = doc.get(key, {})
+    if not isinstance(value, dict):
+        raise ConfigError(f"{source}: [{key}] must be a table")
+    return value
+
+
+def _only(table: Mapping[str, Any], allowed: set[str], where: str, source: str) -> None:
+    extra = set(table) - allowed
+    if extra:
+        raise ConfigError(
+            f"{source}: unknown key {sorted(extra)[0]!r} in {where} "
+            f"(known: {', '.join(sorted(allowed))})"
+        )
+
+
+def _report(
+    table: Mapping[str, Any], source: str
+) -> tuple[ReportSettings, dict[str, list[dict[str, Any]]]]:
+    settings = {k: v for k, v in table.items() if not isinstance(v, list | dict)}
+    # Tables are checked by build_all, which names a dict where a list belongs.
+    tables: dict[str, Any] = {k: v for k, v in table.items() if isinstance(v, list | dict)}
+    job_metrics = table.get("job_metrics")
+    if job_metrics is not None:
+        tables.pop("job_metrics", None)
+        if not isinstance(job_metrics, list) or not all(isinstance(m, str) for m in job_metrics):
+            raise ConfigError(f"{source}: [report] job_metrics must be a list of metric names")
+    known = {"defaults", "top_n", "regression_window", "regression_threshold"}
+    _only(settings, known, "[report]", source)
+    defaults = ReportSettings()
+    flag = settings.get("defaults", True)
+    if not isinstance(flag, bool):
+        raise ConfigError(f"{source}: [report] defaults must be true or false")
+
+    def number(key: str, kind: type[int] | type[float], default: float) -> Any:
+        value = settings.get(key, default)
+        if isinstance(value, bool) or not isinstance(value, int | float) or value <= 0:
+            raise ConfigError(f"{source}: [report] {key} must be a positive number")
+        if kind is int and not isinstance(value, int):
+            raise ConfigError(f"{source}: [report] {key} must be a whole number")
+        return kind(value)
+
+    return (
+        ReportSettings(
+            defaults=flag,
+            top_n=number("top_n", int, defaults.top_n),
+            regression_window=number("regression_window", int, defaults.regression_window),
+            regression_threshold=number(
+                "regression_threshold", float, defaults.regression_threshold
+            ),
+            job_metrics=tuple(job_metrics) if job_metrics is not None else None,
+        ),
+        tables,
+    )
+
+
+def _fetch(table: Mapping[str, Any], source: str) -> FetchSettings:
+    for key in _DEPRECATED_FETCH_KEYS:
+        if key in table:
+            log.warning(
+                "deprecated setting ignored",
+                setting=f"[fetch] {key}",
+                config=source,
+                hint="retries are bounded by time now: [fetch] retry_for, in seconds",
+            )
+    table = {k: v for k, v in table.items() if k not in _DEPRECATED_FETCH_KEYS}
+    _only(
+        table,
+        {
+            "concurrency",
+            "timeout",
+            "retry_for",
+            "deadline",
+            "page_size",
+            "adaptive",
+            "max_body_mb",
+            "max_api_body_mb",
+        },
+        "[fetch]",
+        source,
+    )
+    defaults = FetchSettings()
+    adaptive = table.get("adaptive", defaults.adaptive)
+    if not isinstance(adaptive, bool):
+        raise ConfigError(f"{source}: [fetch] adaptive must be true or false")
+
+    def positive(key: str, kind: type[int] | type[float], default: float) -> Any:
+        value = table.get(key, default)
+        if isinstance(value, bool) or not isinstance(value, int | float) or value <= 0:
+            raise ConfigError(f"{source}: [fetch] {key} must be a positive number")
+        if kind is int and not isinstance(value, int):
+            raise ConfigError(f"{source}: [fetch] {key} must be a whole number")
+        return kind(value)
+
+    page_size = positive("page_size", int, defaults.page_size)
+    if page_size > MAX_PAGE_SIZE:
+        raise ConfigError(
+            f"{source}: [fetch] page_size must be at most {MAX_PAGE_SIZE} "
+            f"(the API's limit), got {page_size}"
+        )
+    return FetchSettings(
+        concurrency=positive("concurrency", int, defaults.concurrency),
+        timeout=positive("timeout", float, defaults.timeout),
+        retry_for=positive("retry_for", float, defaults.retry_for),
+        deadline=positive("deadline", float, 0.0) if "deadline" in table else None,
+        page_size=page_size,
+        adaptive=adaptive,
+        max_body_mb=positive("max_body_mb", float, defaults.max_body_mb),
+        max_api_body_mb=positive("max_api_body_mb", float, defaults.max_api_body_mb),
+    )

@@ -1,0 +1,73 @@
+"""Test mode: call the user's metrics function on one test's experience and logs."""
+
+from __future__ import annotations
+
+import importlib
+import inspect
+import uuid
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import structlog
+
+from stook.sdk import MetricsWriter
+from stook.service.modes._config import ConfigError, StookConfig
+from stook.service.modes._inputs import TestInputs
+from stook.service.modes._user_code import add_import_folders, describe_search
+
+log = structlog.get_logger("stook.test")
+
+TestMetricsFunction = Callable[[Path, Path, MetricsWriter], Any]
+
+
+class UserFunctionError(Exception):
+    """The user's own metrics function raised; its traceback is theirs to read (exit 1)."""
+
+
+def load_function(
+    reference: str, *, source: str, config_file: Path | None = None
+) -> TestMetricsFunction:
+    """Import ``module:function``, from `config_file`'s folder and the working directory first."""
+    module_name, _, attr = reference.partition(":")
+    add_import_folders(config_file)
+    try:
+        module = importlib.import_module(module_name)
+    except ImportError as exc:
+        raise ConfigError(
+            f"{source}: [test] metrics {reference!r} cannot be imported ({exc}); "
+            f"{describe_search(config_file)}"
+        ) from None
+    try:
+        function = getattr(module, attr)
+    except AttributeError as exc:
+        raise ConfigError(
+            f"{source}: [test] metrics {reference!r} cannot be imported ({exc}; "
+            f"module {module_name!r} is {module.__file__})"
+        ) from None
+    if not callable(function):
+        raise ConfigError(f"{source}: [test] metrics {reference!r} is not callable")
+    return function  # type: ignore[no-any-return]
+
+
+async def run_test_mode(inputs: TestInputs, config: StookConfig, output: Path) -> Path:
+    writer = MetricsWriter(uuid.uuid4())
+    if config.test_metrics is None:
+        log.warning(
+            "no [test] metrics function configured; writing a valid empty metrics file",
+            config=config.source,
+        )
+    else:
+        for folder in (inputs.experience_dir, inputs.logs_dir):
+            if not folder.is_dir():
+                log.warning("test-mode input folder is missing", folder=str(folder))
+        function = load_function(config.test_metrics, source=config.source, config_file=config.file)
+        try:
+            result = function(inputs.experience_dir, inputs.logs_dir, writer)
+            if inspect.isawaitable(result):
+                await result
+        except Exception as exc:
+            raise UserFunctionError(f"{config.test_metrics} raised {exc!r}") from exc
+    written = writer.write(output)
+    log.info("test metrics written", output=str(written), metrics=len(writer.metrics))
+    return written

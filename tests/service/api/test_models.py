@@ -1,0 +1,501 @@
+"""from_json of every API model, checked against JSON produced by ReSim's own client models."""
+
+from __future__ import annotations
+
+import json
+import uuid
+from datetime import UTC, datetime, timedelta, timezone
+from typing import Any
+
+import pytest
+from resim.sdk.client.models import (
+    Batch as ResimBatch,
+)
+from resim.sdk.client.models import (
+    BatchMetric as ResimBatchMetric,
+)
+from resim.sdk.client.models import (
+    BatchMetricsData as ResimBatchMetricsData,
+)
+from resim.sdk.client.models import (
+    Build as ResimBuild,
+)
+from resim.sdk.client.models import (
+    Job as ResimJob,
+)
+from resim.sdk.client.models import (
+    JobMetric as ResimJobMetric,
+)
+from resim.sdk.client.models import (
+    JobMetricsData as ResimJobMetricsData,
+)
+from resim.sdk.client.models import (
+    Report as ResimReport,
+)
+from resim.sdk.client.models.batch_status import BatchStatus as ResimBatchStatus
+from resim.sdk.client.models.conflated_batch_status import (
+    ConflatedBatchStatus as ResimConflatedBatchStatus,
+)
+from resim.sdk.client.models.conflated_job_status import (
+    ConflatedJobStatus as ResimConflatedJobStatus,
+)
+from resim.sdk.client.models.job_status import JobStatus as ResimJobStatus
+from resim.sdk.client.models.metric_status import MetricStatus as ResimMetricStatus
+from resim.sdk.client.models.metric_type import MetricType as ResimMetricType
+from resim.sdk.client.models.metrics_data_type import MetricsDataType as ResimMetricsDataType
+from resim.sdk.client.models.report_status import ReportStatus as ResimReportStatus
+
+from stook.service.api._errors import ApiResponseError
+from stook.service.api._models import (
+    ApiMetric,
+    ApiMetricsData,
+    ApiMetricStatus,
+    ApiMetricType,
+    Batch,
+    BatchStatus,
+    Build,
+    ConflatedBatchStatus,
+    ConflatedJobStatus,
+    Job,
+    JobStatus,
+    MetricOwner,
+    MetricsDataStorageType,
+    Report,
+)
+
+NOW = datetime(2025, 3, 4, 5, 6, 7, 891011, tzinfo=UTC)
+IDS = [uuid.uuid4() for _ in range(8)]
+
+
+def as_wire(resim_model: Any) -> dict[str, Any]:
+    """What the API would send: ReSim's model serialised to JSON and read back."""
+    wire: dict[str, Any] = json.loads(json.dumps(resim_model.to_dict()))
+    return wire
+
+
+@pytest.mark.parametrize(
+    ("ours", "theirs"),
+    [
+        (ConflatedJobStatus, ResimConflatedJobStatus),
+        (JobStatus, ResimJobStatus),
+        (BatchStatus, ResimBatchStatus),
+        (ConflatedBatchStatus, ResimConflatedBatchStatus),
+        (ApiMetricStatus, ResimMetricStatus),
+        (ApiMetricType, ResimMetricType),
+        (MetricsDataStorageType, ResimMetricsDataType),
+    ],
+)
+def test_enums_match_resim(ours: Any, theirs: Any) -> None:
+    assert {member.value for member in ours} == {member.value for member in theirs}
+
+
+def test_job_from_resim_json() -> None:
+    wire = as_wire(
+        ResimJob(
+            job_id=str(IDS[0]),
+            batch_id=str(IDS[1]),
+            project_id=str(IDS[2]),
+            experience_id=str(IDS[3]),
+            experience_name="left turn",
+            build_id=str(IDS[4]),
+            conflated_status=ResimConflatedJobStatus.WARNING,
+            job_status=ResimJobStatus.SUCCEEDED,
+            job_metrics_status=ResimMetricStatus.FAIL_WARN,
+            creation_timestamp=NOW,
+            description="extra fields are ignored",
+            worker_id="w-1",
+        )
+    )
+    job = Job.from_json(wire)
+    assert job == Job(
+        job_id=IDS[0],
+        batch_id=IDS[1],
+        project_id=IDS[2],
+        experience_id=IDS[3],
+        experience_name="left turn",
+        build_id=IDS[4],
+        conflated_status=ConflatedJobStatus.WARNING,
+        job_status=JobStatus.SUCCEEDED,
+        job_metrics_status=ApiMetricStatus.FAIL_WARN,
+        creation_timestamp=NOW,
+    )
+
+
+def test_job_metric_and_batch_metric_from_resim_json() -> None:
+    common: dict[str, Any] = {
+        "metric_id": str(IDS[0]),
+        "name": "max speed",
+        "type_": ResimMetricType.SCALAR,
+        "status": ResimMetricStatus.PASSED,
+        "value": 12.5,
+        "unit": "m/s",
+        "metric_url": "https://storage.example.com/m.binproto?X-Amz-Signature=abc",
+        "data_i_ds": [str(IDS[1]), str(IDS[2])],
+        "event_metric": False,
+        "creation_timestamp": NOW,
+        "batch_id": str(IDS[3]),
+    }
+    job_metric = ApiMetric.from_json(
+        as_wire(ResimJobMetric(**common, job_id=str(IDS[4]))), owner=MetricOwner.JOB
+    )
+    assert job_metric.metric_id == IDS[0]
+    assert job_metric.type is ApiMetricType.SCALAR
+    assert job_metric.status is ApiMetricStatus.PASSED
+    assert job_metric.value == 12.5
+    assert job_metric.unit == "m/s"
+    assert job_metric.data_ids == (IDS[1], IDS[2])
+    assert job_metric.job_id == IDS[4]
+    assert job_metric.batch_id == IDS[3]
+    assert job_metric.metric_url is not None
+    assert "X-Amz-Signature" not in repr(job_metric)
+
+    batch_metric = ApiMetric.from_json(as_wire(ResimBatchMetric(**common)), owner=MetricOwner.BATCH)
+    assert batch_metric.batch_id == IDS[3]
+    assert batch_metric.value == 12.5
+
+
+def test_composite_metric_without_value() -> None:
+    metric = ApiMetric.from_json(
+        {
+            "metricID": str(IDS[0]),
+            "name": "plot",
+            "type": "COMPOSITE",
+            "status": "RAW",
+            "value": None,
+        },
+        owner=MetricOwner.JOB,
+    )
+    assert metric.value is None
+    assert metric.metric_url is None
+    assert metric.data_ids == ()
+    assert metric.event_metric is False
+
+
+def test_metrics_data_from_resim_json() -> None:
+    common: dict[str, Any] = {
+        "data_id": str(IDS[0]),
+        "name": "speeds",
+        "metrics_data_type": ResimMetricsDataType.STANDARD,
+        "metrics_data_url": "https://storage.example.com/d?sig=1",
+        "filename": "speeds.binproto",
+        "creation_timestamp": NOW,
+    }
+    job_data = ApiMetricsData.from_json(
+        as_wire(ResimJobMetricsData(**common, job_id=str(IDS[1]))), owner=MetricOwner.JOB
+    )
+    assert job_data.is_standard
+    assert job_data.job_id == IDS[1]
+    assert job_data.filename == "speeds.binproto"
+    assert "sig=1" not in repr(job_data)
+
+    video = ApiMetricsData.from_json(
+        as_wire(
+            ResimBatchMetricsData(
+                **(common | {"metrics_data_type": ResimMetricsDataType.VIDEO}),
+                batch_id=str(IDS[2]),
+            )
+        ),
+        owner=MetricOwner.BATCH,
+    )
+    assert not video.is_standard
+    assert video.batch_id == IDS[2]
+
+
+def test_batch_from_resim_json() -> None:
+    wire = as_wire(
+        ResimBatch(
+            associated_account="acme",
+            batch_id=str(IDS[0]),
+            build_id=str(IDS[1]),
+            branch_id=str(IDS[2]),
+            test_suite_id=str(IDS[3]),
+            test_suite_revision=4,
+            total_jobs=120,
+            friendly_name="brave-otter",
+            status=ResimBatchStatus.BATCH_METRICS_RUNNING,
+            conflated_status=ResimConflatedBatchStatus.RUNNING,
+            batch_metrics_status=ResimMetricStatus.NO_STATUS_REPORTED,
+            jobs_metrics_status=ResimMetricStatus.FAIL_BLOCK,
+            creation_timestamp=NOW,
+        )
+    )
+    batch = Batch.from_json(wire)
+    assert batch.batch_id == IDS[0]
+    assert batch.status is BatchStatus.BATCH_METRICS_RUNNING
+    assert batch.conflated_status is ConflatedBatchStatus.RUNNING
+    assert batch.batch_metrics_status is ApiMetricStatus.NO_STATUS_REPORTED
+    assert batch.jobs_metrics_status is ApiMetricStatus.FAIL_BLOCK
+    assert batch.test_suite_revision == 4
+    assert batch.total_jobs == 120
+    assert batch.friendly_name == "brave-otter"
+    assert batch.creation_timestamp == NOW
+
+
+def test_report_from_resim_json() -> None:
+    wire = as_wire(
+        ResimReport(
+            report_id=str(IDS[0]),
+            project_id=str(IDS[1]),
+            test_suite_id=str(IDS[2]),
+            test_suite_revision=7,
+            respect_revision_boundary=True,
+            branch_id=str(IDS[3]),
+            metrics_build_id=str(IDS[4]),
+            metrics_set_name=None,
+            start_timestamp=NOW - timedelta(days=7),
+            end_timestamp=NOW,
+            name="weekly",
+            output_location="s3://bucket/report",
+            status=ResimReportStatus.RUNNING,
+            status_history=[],
+            last_updated_timestamp=NOW,
+            creation_timestamp=NOW,
+            user_id="u",
+            org_id="o",
+            associated_account="acme",
+            metrics_status=ResimMetricStatus.RAW,
+        )
+    )
+    report = Report.from_json(wire)
+    assert report == Report(
+        report_id=IDS[0],
+        project_id=IDS[1],
+        test_suite_id=IDS[2],
+        test_suite_revision=7,
+        branch_id=IDS[3],
+        start_timestamp=NOW - timedelta(days=7),
+        end_timestamp=NOW,
+        respect_revision_boundary=True,
+        name="weekly",
+        creation_timestamp=NOW,
+    )
+
+
+def test_build_from_resim_json() -> None:
+    wire = as_wire(
+        ResimBuild(
+            build_id=str(IDS[0]),
+            branch_id=str(IDS[1]),
+            project_id=str(IDS[2]),
+            system_id=str(IDS[3]),
+            description="abc123",
+            version="1.2.3",
+            image_uri="registry/image:tag",
+            build_specification="",
+            creation_timestamp=NOW,
+            update_timestamp=NOW,
+            associated_account="acme",
+            user_id="u",
+            update_user_id="u",
+            org_id="o",
+            name="nightly",
+        )
+    )
+    assert Build.from_json(wire) == Build(
+        build_id=IDS[0], name="nightly", version="1.2.3", creation_timestamp=NOW
+    )
+
+
+def test_timestamps_with_nanoseconds_and_offsets() -> None:
+    job = Job.from_json(
+        {
+            "jobID": str(IDS[0]),
+            "conflatedStatus": "PASSED",
+            "creationTimestamp": "2025-03-04T05:06:07.891011123+02:00",
+        }
+    )
+    assert job.creation_timestamp == datetime(
+        2025, 3, 4, 5, 6, 7, 891011, tzinfo=timezone(timedelta(hours=2))
+    )
+
+
+@pytest.mark.parametrize(
+    "text",
+    [
+        "2026-01-02T03:04:05.123456789Z",  # Go's RFC3339Nano
+        "2026-01-02t03:04:05.123456789z",  # RFC 3339 allows lower case
+        "2026-01-02 03:04:05.1234567891234Z",
+        "2026-01-02T05:04:05.123456789+02:00",
+    ],
+)
+def test_rfc3339_timestamps_of_any_precision_and_case(text: str) -> None:
+    job = Job.from_json(
+        {"jobID": str(IDS[0]), "conflatedStatus": "PASSED", "creationTimestamp": text}
+    )
+    assert job.creation_timestamp == datetime(2026, 1, 2, 3, 4, 5, 123456, tzinfo=UTC)
+
+
+def test_absent_optional_fields_have_their_documented_meaning() -> None:
+    """The spec's job, metric and metricsData schemas require nothing: absent is not an error."""
+    job = Job.from_json({"jobID": str(IDS[0])})
+    assert job.conflated_status is None  # counted as UNKNOWN by the aggregations
+    metric = ApiMetric.from_json({"metricID": str(IDS[1])}, owner=MetricOwner.JOB)
+    assert metric.name == ""
+    assert metric.type is None
+    assert metric.status is ApiMetricStatus.NO_STATUS_REPORTED
+    assert (metric.value, metric.unit, metric.metric_url) == (None, None, None)
+    assert (metric.data_ids, metric.event_metric) == ((), False)
+    data = ApiMetricsData.from_json({"dataID": str(IDS[2])}, owner=MetricOwner.JOB)
+    assert data.name == ""
+    assert data.metrics_data_type is MetricsDataStorageType.STANDARD
+    assert data.is_standard
+    batch_metric = ApiMetric.from_json(
+        {"metricID": str(IDS[1]), "name": "", "status": ""}, owner=MetricOwner.BATCH
+    )
+    assert batch_metric.name == ""
+    assert batch_metric.status is ApiMetricStatus.NO_STATUS_REPORTED
+    assert (
+        ApiMetricsData.from_json(
+            {"dataID": str(IDS[2]), "name": None}, owner=MetricOwner.BATCH
+        ).name
+        == ""
+    )
+
+
+def test_unknown_enum_values_are_kept_by_name() -> None:
+    """A value the platform adds later is kept as its raw string, never an error."""
+    job = Job.from_json(
+        {
+            "jobID": str(IDS[0]),
+            "conflatedStatus": "FLAKY",
+            "jobStatus": "RETRYING",
+            "jobMetricsStatus": "FAIL_SOFT",
+        }
+    )
+    assert (job.conflated_status, job.job_status, job.job_metrics_status) == (
+        "FLAKY",
+        "RETRYING",
+        "FAIL_SOFT",
+    )
+    assert not isinstance(job.conflated_status, ConflatedJobStatus)
+    metric = ApiMetric.from_json(
+        {"metricID": str(IDS[1]), "name": "m", "type": "HISTOGRAM", "status": "FAIL_SOFT"},
+        owner=MetricOwner.JOB,
+    )
+    assert (metric.type, metric.status) == ("HISTOGRAM", "FAIL_SOFT")
+    assert metric.type is not ApiMetricType.SCALAR
+    data = ApiMetricsData.from_json(
+        {"dataID": str(IDS[2]), "name": "lidar", "metricsDataType": "POINT_CLOUD"},
+        owner=MetricOwner.JOB,
+    )
+    assert data.metrics_data_type == "POINT_CLOUD"
+    assert not data.is_standard  # not a MetricsData message: never downloaded
+    batch = Batch.from_json(
+        {"batchID": str(IDS[3]), "status": "ARCHIVED", "conflatedStatus": "ARCHIVED"}
+    )
+    assert (batch.status, batch.conflated_status) == ("ARCHIVED", "ARCHIVED")
+    # Known values stay members.
+    known = ApiMetric.from_json(
+        {"metricID": str(IDS[1]), "type": "SCALAR", "status": "RAW"}, owner=MetricOwner.JOB
+    )
+    assert (known.type, known.status) == (ApiMetricType.SCALAR, ApiMetricStatus.RAW)
+
+
+def test_empty_strings_read_as_absent() -> None:
+    job = Job.from_json(
+        {"jobID": str(IDS[0]), "conflatedStatus": "QUEUED", "buildID": "", "experienceName": ""}
+    )
+    assert job.build_id is None
+    assert job.experience_name is None
+
+
+@pytest.mark.parametrize(
+    ("data", "message"),
+    [
+        (
+            {"jobID": "1234", "conflatedStatus": "PASSED"},
+            "Job 1234: field 'jobID' is not a UUID: '1234'",
+        ),
+        (
+            {"conflatedStatus": "PASSED"},
+            "Job: field 'jobID' is missing",
+        ),
+        (
+            {"jobID": str(IDS[0]), "conflatedStatus": 3},
+            f"Job {IDS[0]}: field 'conflatedStatus' should be a string, got a number",
+        ),
+        (
+            {"jobID": str(IDS[0]), "conflatedStatus": "PASSED", "creationTimestamp": "yesterday"},
+            f"Job {IDS[0]}: field 'creationTimestamp' is not an RFC 3339 timestamp: 'yesterday'",
+        ),
+        (
+            {
+                "jobID": str(IDS[0]),
+                "conflatedStatus": "PASSED",
+                "creationTimestamp": "2025-01-01T00:00:00",
+            },
+            f"Job {IDS[0]}: field 'creationTimestamp' has no time zone: '2025-01-01T00:00:00'",
+        ),
+        (["not", "an", "object"], "Job: expected a JSON object, got a list"),
+    ],
+)
+def test_job_errors_name_object_and_field(data: Any, message: str) -> None:
+    with pytest.raises(ApiResponseError) as caught:
+        Job.from_json(data)
+    assert str(caught.value) == message
+
+
+@pytest.mark.parametrize(
+    ("field", "value", "problem"),
+    [
+        ("value", True, "should be a number, got a boolean"),
+        ("value", "1.5", "should be a number, got the string '1.5'"),
+        ("dataIDs", ["nope"], "is not a UUID: 'nope'"),
+        ("dataIDs", "nope", "should be a list, got the string 'nope'"),
+        ("eventMetric", "yes", "should be true or false, got the string 'yes'"),
+        ("status", 3, "should be a string, got a number"),
+    ],
+)
+def test_metric_field_errors(field: str, value: Any, problem: str) -> None:
+    data = {"metricID": str(IDS[0]), "name": "m", "type": "SCALAR", "status": "PASSED"}
+    with pytest.raises(ApiResponseError) as caught:
+        ApiMetric.from_json(data | {field: value}, owner=MetricOwner.BATCH)
+    assert str(caught.value) == f"BatchMetric {IDS[0]}: field '{field}' {problem}"
+
+
+def test_report_requires_its_search_window() -> None:
+    data = {
+        "reportID": str(IDS[0]),
+        "projectID": str(IDS[1]),
+        "testSuiteID": str(IDS[2]),
+        "testSuiteRevision": 1,
+        "branchID": str(IDS[3]),
+        "startTimestamp": "2025-01-01T00:00:00Z",
+    }
+    with pytest.raises(ApiResponseError, match="field 'endTimestamp' is missing"):
+        Report.from_json(data)
+
+
+def test_integer_fields_accept_integral_floats_only() -> None:
+    batch = Batch.from_json({"batchID": str(IDS[0]), "totalJobs": 3.0})
+    assert batch.total_jobs == 3
+    with pytest.raises(ApiResponseError, match="'totalJobs' should be an integer"):
+        Batch.from_json({"batchID": str(IDS[0]), "totalJobs": 3.5})
+
+
+def test_models_are_frozen_and_slotted() -> None:
+    job = Job(job_id=IDS[0], conflated_status=ConflatedJobStatus.PASSED)
+    with pytest.raises(AttributeError):
+        job.job_id = IDS[1]  # type: ignore[misc]
+    assert not hasattr(job, "__dict__")
+
+
+def test_one_metric_model_and_one_data_model_say_their_owner() -> None:
+    metric = {"metricID": str(IDS[0]), "jobID": str(IDS[1]), "batchID": str(IDS[2])}
+    of_job = ApiMetric.from_json(metric, owner=MetricOwner.JOB)
+    of_batch = ApiMetric.from_json(metric, owner=MetricOwner.BATCH)
+    assert (of_job.owner, of_job.job_id, of_job.batch_id) == (MetricOwner.JOB, IDS[1], IDS[2])
+    # A batch's own metric belongs to no job, whatever the answer carries.
+    assert (of_batch.owner, of_batch.job_id, of_batch.batch_id) == (MetricOwner.BATCH, None, IDS[2])
+    data = {"dataID": str(IDS[3]), "jobID": str(IDS[1]), "batchID": str(IDS[2])}
+    job_data = ApiMetricsData.from_json(data, owner=MetricOwner.JOB)
+    batch_data = ApiMetricsData.from_json(data, owner=MetricOwner.BATCH)
+    assert (job_data.owner, job_data.job_id, job_data.batch_id) == (MetricOwner.JOB, IDS[1], None)
+    assert (batch_data.owner, batch_data.job_id, batch_data.batch_id) == (
+        MetricOwner.BATCH,
+        None,
+        IDS[2],
+    )
+    # Errors name the API's schema of the owner's listing.
+    with pytest.raises(ApiResponseError, match=f"^JobMetricsData {IDS[3]}: field 'jobID'"):
+        ApiMetricsData.from_json(data | {"jobID": "nope"}, owner=MetricOwner.JOB)
