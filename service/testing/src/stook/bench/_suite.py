@@ -200,6 +200,11 @@ def run_bench(
         compare = compare_with_resim(400, 10.0, 64)
         if "speedup" in compare:
             say(f"  stook is {compare['speedup']:.1f}x faster")
+        else:
+            say(
+                "  ReSim's fetcher not measured: resim-open-core is not installed (it is in "
+                "the development environment: make setup)"
+            )
         say("peak memory with an exact-mode histogram (every value kept) ...")
         memory = memory_scaling([1000, 5000], 64)
         for row in memory:
