@@ -12,7 +12,7 @@ Exit codes (also in the README):
   4  invalid metrics data: a downloaded item could not be decoded, or the output
      would not validate
   5  the output could not be written (disk full, file-size limit, I/O error)
-  130, 143  interrupted by SIGINT or SIGTERM (stook.service._signals)
+  130, 143  interrupted by SIGINT or SIGTERM (stook.service.cli._signals)
 
 Whatever the failure, metrics.binproto is written atomically or not at all.
 """

@@ -1,7 +1,7 @@
 """The fetch layer: every job of a batch, or every batch of a report, as records.
 
 On top of the API layer (it imports `stook.service.api` and nothing above it): bounded
-pools of workers list and download only what the aggregations' plan names, and hand each
+pools of workers list and download only what the aggregations' `Needs` name, and hand each
 job (`JobRecord`) or batch (`BatchRecord`) on as soon as it is complete.
 """
 
