@@ -40,12 +40,8 @@ SETPRIV = shutil.which("setpriv")
 EXAMPLE_TOML = '[test]\nmetrics = "stook.sdk.example:every_metric_type"\n'
 
 
-@pytest.fixture(autouse=True)
-def _isolated(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
-    monkeypatch.chdir(tmp_path)
-    for name in list(os.environ):
-        if name.startswith("STOOK_"):
-            monkeypatch.delenv(name)
+# No ./stook.toml and no STOOK_* settings from the environment (tests/e2e/conftest.py).
+pytestmark = pytest.mark.usefixtures("isolated")
 
 
 @pytest.fixture(scope="module")

@@ -40,13 +40,8 @@ BROKEN = 3  # index of a job with metrics (6 is the job that never wrote any)
 FAST_FETCH = "[fetch]\nretry_for = 2\ntimeout = 5.0\n"
 
 
-@pytest.fixture(autouse=True)
-def _isolated(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
-    """No ./stook.toml and no STOOK_* settings from the environment."""
-    monkeypatch.chdir(tmp_path)
-    for name in list(os.environ):
-        if name.startswith("STOOK_"):
-            monkeypatch.delenv(name)
+# No ./stook.toml and no STOOK_* settings from the environment (tests/e2e/conftest.py).
+pytestmark = pytest.mark.usefixtures("isolated")
 
 
 @pytest.fixture(scope="module")

@@ -7,7 +7,6 @@ outages), as a load balancer does when the service behind it is down.
 
 from __future__ import annotations
 
-import os
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -33,13 +32,8 @@ SEED = 37
 MID_RUN: dict[Origin, int] = {"api": 40, "storage": 20}
 
 
-@pytest.fixture(autouse=True)
-def _isolated(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
-    """No ./stook.toml and no STOOK_* settings from the environment."""
-    monkeypatch.chdir(tmp_path)
-    for name in list(os.environ):
-        if name.startswith("STOOK_"):
-            monkeypatch.delenv(name)
+# No ./stook.toml and no STOOK_* settings from the environment (tests/e2e/conftest.py).
+pytestmark = pytest.mark.usefixtures("isolated")
 
 
 @dataclass(frozen=True)

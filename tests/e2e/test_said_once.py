@@ -9,7 +9,6 @@ pipeline reading the lines reads all of them.
 from __future__ import annotations
 
 import json
-import os
 import uuid
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
@@ -27,12 +26,8 @@ from tests.failures import failure_lines
 BROKEN = 3
 
 
-@pytest.fixture(autouse=True)
-def _isolated(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
-    monkeypatch.chdir(tmp_path)
-    for name in list(os.environ):
-        if name.startswith("STOOK_"):
-            monkeypatch.delenv(name)
+# No ./stook.toml and no STOOK_* settings from the environment (tests/e2e/conftest.py).
+pytestmark = pytest.mark.usefixtures("isolated")
 
 
 @pytest.fixture(scope="module")

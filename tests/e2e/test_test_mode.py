@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import json
-import os
 from pathlib import Path
 
 import pytest
@@ -15,13 +14,8 @@ from tests.e2e.support import OUTPUT_NAME, by_name, outputs_left, read_output
 from tests.e2e.user_metrics import ASYNC_VALUE
 from tests.failures import failure_lines, traceback_text
 
-
-@pytest.fixture(autouse=True)
-def _isolated(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
-    monkeypatch.chdir(tmp_path)
-    for name in list(os.environ):
-        if name.startswith("STOOK_"):
-            monkeypatch.delenv(name)
+# No ./stook.toml and no STOOK_* settings from the environment (tests/e2e/conftest.py).
+pytestmark = pytest.mark.usefixtures("isolated")
 
 
 @pytest.fixture
