@@ -84,6 +84,15 @@ def build_parser() -> argparse.ArgumentParser:
     emulate_p.add_argument(
         "--inputs", help="also write the platform's config files into this inputs folder"
     )
+    emulate_p.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="any other emulator setting (a field of stook.emulator.EmulatorConfig), VALUE "
+        "as JSON: --set spec_quirks=true --set fault_5xx=0.05 "
+        """--set 'outages=[{"origin": "api", "after_s": 5, "duration_s": 8}]'""",
+    )
     _add_logging(emulate_p)
 
     bench_p = sub.add_parser("bench", help="measure batch mode against the emulator and ReSim")
