@@ -7,17 +7,19 @@ because it was added alone with `MetricsWriter.add_data` for later batch use.
 
 from __future__ import annotations
 
+import sys
 import uuid
 from array import array
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
-from typing import TypeAlias
-
-import polars as pl
+from typing import TYPE_CHECKING, TypeAlias, TypeGuard
 
 from stook.sdk._enums import MetricStatus, SeriesKind
 from stook.sdk._errors import WriterError
+
+if TYPE_CHECKING:
+    import polars as pl
 
 # Timestamps are kept as integer nanoseconds since the Unix epoch (UTC).
 TimestampLike = datetime | int
@@ -91,8 +93,17 @@ def _check_index(name: str, shape: int | dict[str, int], index: MetricsData | No
 _CHUNK = 1 << 16
 
 
+def _is_polars_series(values: object) -> TypeGuard[pl.Series]:
+    # A polars Series exists only once polars is imported: without it, the writer never
+    # imports polars (`stook show` and the service's start-up stay without it).
+    polars = sys.modules.get("polars")
+    return polars is not None and isinstance(values, polars.Series)
+
+
 def _as_doubles(name: str, values: Iterable[float] | pl.Series) -> array[float]:
-    if isinstance(values, pl.Series):
+    if _is_polars_series(values):
+        import polars as pl
+
         if not values.dtype.is_numeric():
             raise WriterError(f"metrics data {name!r}: a {values.dtype} series is not numbers")
         packed: array[float] = array("d")
