@@ -7,7 +7,6 @@ because it was added alone with `MetricsWriter.add_data` for later batch use.
 
 from __future__ import annotations
 
-import sys
 import uuid
 from array import array
 from collections.abc import Iterable, Mapping, Sequence
@@ -94,10 +93,14 @@ _CHUNK = 1 << 16
 
 
 def _is_polars_series(values: object) -> TypeGuard[pl.Series]:
-    # A polars Series exists only once polars is imported: without it, the writer never
-    # imports polars (`stook show` and the service's start-up stay without it).
-    polars = sys.modules.get("polars")
-    return polars is not None and isinstance(values, polars.Series)
+    # Told by the class's module, so that the writer never imports polars for values that
+    # are not polars' (`stook show` and the service's start-up go without it), and never
+    # looks into a polars that another thread is still importing.
+    if not any(c.__module__.startswith("polars.") for c in type(values).__mro__):
+        return False
+    import polars as pl
+
+    return isinstance(values, pl.Series)
 
 
 def _as_doubles(name: str, values: Iterable[float] | pl.Series) -> array[float]:
