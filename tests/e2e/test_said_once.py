@@ -89,7 +89,7 @@ CASES = {
     "user function raises": Case(_user_raises, 1, "user_metrics:raises raised"),
     "validate garbage": Case(_garbage_file, 4, "not a valid protobuf message"),
     "validate an invalid file": Case(_invalid_file, 4, "the metric status is unset"),
-    "show a missing file": Case(_missing_file, 4, "No such file or directory"),
+    "show a missing file": Case(_missing_file, 2, "no such file"),
 }
 
 

@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import importlib.metadata
 import json
+import os
 import queue
 import signal
 import subprocess
@@ -253,16 +255,69 @@ def test_the_file_name_of_an_unreadable_file_is_quoted_once(
 def test_validate_and_show_a_missing_file(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
+    # A file that is not there is a usage error (2), not invalid data (4).
     path = tmp_path / "nowhere" / "metrics.binproto"
     for command in ("validate", "show"):
         code = run_cli([command, str(path)])
-        assert code != 0
-        assert code == 4
-        _, err = capsys.readouterr()
+        assert code == 2
+        out, err = capsys.readouterr()
+        assert out == ""
         (error,) = _error_lines(err)
-        assert error == (
-            f"stook: error: could not read JobMetrics from '{path}': No such file or directory"
+        assert error == f"stook: error: '{path}': no such file"
+
+
+def test_a_missing_file_as_a_process_is_said_once_in_json(tmp_path: Path) -> None:
+    path = tmp_path / "metrics.binproto"
+    for command in ("validate", "show"):
+        done = subprocess.run(
+            [*CLI, command, str(path)],
+            capture_output=True,
+            text=True,
+            timeout=60,
+            env={**os.environ, "STOOK_LOG_FORMAT": "json"},
         )
+        assert done.returncode == 2
+        assert done.stdout == ""
+        (line,) = done.stderr.splitlines()
+        event = json.loads(line)
+        assert (event["event"], event["exit_code"]) == ("stook failed", 2)
+        assert event["error"] == f"'{path}': no such file"
+
+
+def test_version() -> None:
+    done = subprocess.run([*CLI, "--version"], capture_output=True, text=True, timeout=60)
+    assert done.returncode == 0
+    assert done.stderr == ""
+    versions = {d: importlib.metadata.version(d) for d in ("stook", "stook-sdk", "stook-proto")}
+    assert done.stdout == (
+        f"stook {versions['stook']} "
+        f"(stook-sdk {versions['stook-sdk']}, stook-proto {versions['stook-proto']})\n"
+    )
+
+
+# What `show` and `validate` must not import: they read a file, with protobuf alone. (How
+# fast they start is measured in `stook bench`, not here.)
+_HEAVY = ("polars", "numpy", "aiohttp", "structlog")
+
+
+@pytest.mark.parametrize("command", ["show", "validate", "--version", "--help"])
+def test_inspecting_a_file_imports_no_heavy_library(command: str, known_file: Path) -> None:
+    script = (
+        "import sys\n"
+        "from stook.service.cli import main\n"
+        "try:\n"
+        "    main()\n"
+        "except SystemExit as stop:\n"
+        f"    heavy = [m for m in {_HEAVY!r} if m in sys.modules]\n"
+        "    print('HEAVY', heavy, file=sys.stderr)\n"
+        "    raise\n"
+    )
+    args = [command] if command.startswith("--") else [command, str(known_file)]
+    done = subprocess.run(
+        [sys.executable, "-c", script, *args], capture_output=True, text=True, timeout=60
+    )
+    assert done.returncode == 0, done.stderr
+    assert "HEAVY []" in done.stderr
 
 
 def test_validate_without_a_file_is_a_usage_error(capsys: pytest.CaptureFixture[str]) -> None:

@@ -11,6 +11,8 @@ in ``_modules`` is private.
     w.write("/tmp/resim/outputs/metrics.binproto")
 """
 
+import typing as _typing
+
 from stook.sdk import data
 from stook.sdk._atomic import remove_stale_temp_files, write_atomic
 from stook.sdk._data import MetricsData
@@ -32,10 +34,24 @@ from stook.sdk._reader import (
     read_metric,
     read_metrics_data,
 )
-from stook.sdk._series import KIND_DTYPE, STATUS_DTYPE
 from stook.sdk._validate import find_problems, validate_job_metrics
 from stook.sdk._views import EventView, JobMetricsView, MetricsDataView, MetricView
 from stook.sdk._writer import MetricsWriter
+
+if _typing.TYPE_CHECKING:
+    from stook.sdk._series import KIND_DTYPE, STATUS_DTYPE
+else:
+
+    def __getattr__(name: str) -> object:
+        # The two polars dtypes import polars (and numpy), which reading, writing and
+        # validating a file do not need: on first use, not with the SDK.
+        if name in ("KIND_DTYPE", "STATUS_DTYPE"):
+            from stook.sdk import _series
+
+            value = globals()[name] = getattr(_series, name)
+            return value
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
 
 __all__ = [
     "KIND_DTYPE",

@@ -12,12 +12,13 @@ from array import array
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
-from typing import TypeAlias
-
-import polars as pl
+from typing import TYPE_CHECKING, TypeAlias, TypeGuard
 
 from stook.sdk._enums import MetricStatus, SeriesKind
 from stook.sdk._errors import WriterError
+
+if TYPE_CHECKING:
+    import polars as pl
 
 # Timestamps are kept as integer nanoseconds since the Unix epoch (UTC).
 TimestampLike = datetime | int
@@ -91,8 +92,21 @@ def _check_index(name: str, shape: int | dict[str, int], index: MetricsData | No
 _CHUNK = 1 << 16
 
 
+def _is_polars_series(values: object) -> TypeGuard[pl.Series]:
+    # Told by the class's module, so that the writer never imports polars for values that
+    # are not polars' (`stook show` and the service's start-up go without it), and never
+    # looks into a polars that another thread is still importing.
+    if not any(c.__module__.startswith("polars.") for c in type(values).__mro__):
+        return False
+    import polars as pl
+
+    return isinstance(values, pl.Series)
+
+
 def _as_doubles(name: str, values: Iterable[float] | pl.Series) -> array[float]:
-    if isinstance(values, pl.Series):
+    if _is_polars_series(values):
+        import polars as pl
+
         if not values.dtype.is_numeric():
             raise WriterError(f"metrics data {name!r}: a {values.dtype} series is not numbers")
         packed: array[float] = array("d")

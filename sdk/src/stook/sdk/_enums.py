@@ -6,6 +6,9 @@ import enum
 
 from stook.proto import metrics_pb2 as pb
 
+NANOS_PER_SECOND = 1_000_000_000
+"""A schema ``Timestamp`` is seconds and nanos; series and views count UTC nanoseconds."""
+
 
 class MetricStatus(enum.IntEnum):
     """The status of a metric, a data point or a whole output."""

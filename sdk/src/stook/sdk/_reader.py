@@ -35,17 +35,36 @@ from __future__ import annotations
 import uuid
 from collections.abc import Callable, Iterable, Mapping
 from types import MappingProxyType
-from typing import Literal, TypeVar
+from typing import TYPE_CHECKING, Any, Literal, TypeVar
 
 from google.protobuf.message import Error as ProtobufError
 from google.protobuf.message import Message
 from google.protobuf.unknown_fields import UnknownFieldSet
 
 from stook.proto import metrics_pb2 as pb
-from stook.sdk._enums import MetricImportance, MetricStatus, MetricType, SeriesKind, kind_of
+from stook.sdk._enums import (
+    NANOS_PER_SECOND,
+    MetricImportance,
+    MetricStatus,
+    MetricType,
+    SeriesKind,
+    kind_of,
+)
 from stook.sdk._errors import MalformedError, read_error
-from stook.sdk._series import KIND_DTYPE, NANOS_PER_SECOND, STATUS_DTYPE
 from stook.sdk._views import EventView, JobMetricsView, MetricsDataView, MetricView
+
+if TYPE_CHECKING:
+    from stook.sdk._series import KIND_DTYPE, STATUS_DTYPE
+else:
+
+    def __getattr__(name: str) -> Any:
+        # The polars dtypes, imported with polars on first use (see `_views`).
+        if name in ("KIND_DTYPE", "STATUS_DTYPE"):
+            from stook.sdk import _series
+
+            return getattr(_series, name)
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
 
 # The views and dtypes are listed with the entry points that hand them out, so that
 # code importing them from here keeps working; the public home is `stook.sdk`.

@@ -15,7 +15,7 @@ import numpy as np
 import polars as pl
 
 from stook.proto import metrics_pb2 as pb
-from stook.sdk._enums import MetricStatus, SeriesKind
+from stook.sdk._enums import NANOS_PER_SECOND, MetricStatus, SeriesKind
 from stook.sdk._errors import MalformedError
 
 STATUS_DTYPE = pl.Enum([s.name for s in MetricStatus])
@@ -35,7 +35,6 @@ VALUE_DTYPES: dict[SeriesKind, pl.DataType] = {
 }
 
 _STATUS_NAMES: dict[int, str] = {s.value: s.name for s in MetricStatus}
-NANOS_PER_SECOND = 1_000_000_000
 
 
 def long_frame(category: str | None, values: pl.Series) -> pl.DataFrame:

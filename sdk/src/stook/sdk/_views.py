@@ -12,21 +12,18 @@ from __future__ import annotations
 import uuid
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Literal
-
-import polars as pl
+from functools import cache
+from typing import TYPE_CHECKING, Literal
 
 from stook.proto import metrics_pb2 as pb
 from stook.sdk._enums import MetricImportance, MetricStatus, MetricType, SeriesKind
 from stook.sdk._errors import MalformedError, read_error
-from stook.sdk._series import (
-    KIND_DTYPE,
-    SERIES_KINDS,
-    STATUS_DTYPE,
-    VALUE_DTYPES,
-    long_frame,
-    to_polars,
-)
+
+if TYPE_CHECKING:
+    import polars as pl
+
+# polars (and numpy, through `_series`) is imported when a series or frame is first asked
+# for, not with the views: `stook show` and `stook validate` read files without it.
 
 
 @dataclass(frozen=True, slots=True)
@@ -87,6 +84,10 @@ class MetricsDataView:
         Categories come in declared order, then any undeclared ones, sorted.
         ValueError for external files.
         """
+        import polars as pl
+
+        from stook.sdk._series import VALUE_DTYPES, long_frame
+
         kind = self._check_has_series()
         if not self.per_category:
             return long_frame(None, self.series())
@@ -112,6 +113,8 @@ class MetricsDataView:
         return self.kind
 
     def _convert(self, series: pb.Series, name: str) -> pl.Series:
+        from stook.sdk._series import to_polars
+
         try:
             return to_polars(series, self._check_has_series(), name)
         except MalformedError as exc:
@@ -177,6 +180,10 @@ class JobMetricsView:
 
     def scalars_frame(self) -> pl.DataFrame:
         """One row per SCALAR metric: metric_id, name, value (Float64), unit, status."""
+        import polars as pl
+
+        from stook.sdk._series import STATUS_DTYPE
+
         scalars = [m for m in self.metrics if m.type is MetricType.SCALAR]
         return pl.DataFrame(
             {
@@ -205,7 +212,12 @@ class JobMetricsView:
         kind -- value_double, value_timestamp, value_uuid, value_string, value_status --
         of which only the row's own kind is filled.
         """
-        parts = [_SERIES_FRAME_SCHEMA.clear()]
+        import polars as pl
+
+        from stook.sdk._series import KIND_DTYPE
+
+        schema = _series_frame_schema()
+        parts = [schema.clear()]
         for data in self.data:
             if data.is_external or data.kind is None:
                 continue
@@ -218,16 +230,22 @@ class JobMetricsView:
                     kind=pl.lit(data.kind.value, KIND_DTYPE),
                 )
             )
-        return pl.concat(parts, how="diagonal").select(_SERIES_FRAME_SCHEMA.columns)
+        return pl.concat(parts, how="diagonal").select(schema.columns)
 
 
-_SERIES_FRAME_SCHEMA = pl.DataFrame(
-    schema={
-        "data_id": pl.String,
-        "data_name": pl.String,
-        "kind": KIND_DTYPE,
-        "category": pl.String,
-        "position": pl.UInt32,
-        **{f"value_{k.value}": VALUE_DTYPES[k] for k in SERIES_KINDS},
-    }
-)
+@cache
+def _series_frame_schema() -> pl.DataFrame:
+    import polars as pl
+
+    from stook.sdk._series import KIND_DTYPE, SERIES_KINDS, VALUE_DTYPES
+
+    return pl.DataFrame(
+        schema={
+            "data_id": pl.String,
+            "data_name": pl.String,
+            "kind": KIND_DTYPE,
+            "category": pl.String,
+            "position": pl.UInt32,
+            **{f"value_{k.value}": VALUE_DTYPES[k] for k in SERIES_KINDS},
+        }
+    )

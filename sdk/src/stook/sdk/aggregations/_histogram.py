@@ -4,10 +4,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Self
-
-import numpy as np
-import polars as pl
+from typing import TYPE_CHECKING, Self
 
 from stook.sdk import _data
 from stook.sdk._buckets import histogram_buckets
@@ -15,6 +12,9 @@ from stook.sdk._enums import MetricStatus
 from stook.sdk._writer import MetricsWriter
 from stook.sdk.aggregations._base import Aggregation, Needs
 from stook.sdk.aggregations._record import JobRecord
+
+if TYPE_CHECKING:
+    import polars as pl
 
 DEFAULT_MAX_VALUES = 2_000_000
 _CONSOLIDATE_AT = 256
@@ -54,7 +54,6 @@ class MergedHistogram(Aggregation[JobRecord]):
     def __post_init__(self) -> None:
         # Raises WriterError on bad bounds now, at configuration time, not at the end.
         self._edges = histogram_buckets(self.name, self.buckets, self.lower, self.upper)
-        self._lowers = np.array([lo for lo, _ in self._edges], dtype=np.float64)
         if self.max_values < 1:
             raise ValueError(f"{self.name!r}: max_values must be at least 1")
 
@@ -79,10 +78,14 @@ class MergedHistogram(Aggregation[JobRecord]):
 
     def _flush(self) -> None:
         if self.unbinned:
+            import polars as pl
+
             pending, self.unbinned, self.unbinned_values = self.unbinned, [], 0
             self._bin(pl.concat(pending, rechunk=True))
 
     def _bin(self, s: pl.Series) -> None:
+        import numpy as np
+
         assert self.bucket_counts is not None  # only called once binned
         values = s.to_numpy()
         outside = (values < self.lower) | (values > self.upper)
@@ -90,7 +93,8 @@ class MergedHistogram(Aggregation[JobRecord]):
         # Search the bucket edges rather than divide by the width: division rounds a value
         # on an inner edge into the bucket below, against the "[lower, upper)" buckets.
         # (numpy rather than polars: a polars value_counts per batch cost 4x the search.)
-        index = np.searchsorted(self._lowers, values, side="right") - 1
+        lowers = np.array([lo for lo, _ in self._edges], dtype=np.float64)
+        index = np.searchsorted(lowers, values, side="right") - 1
         np.clip(index, 0, self.buckets - 1, out=index)
         counts = np.bincount(index, minlength=self.buckets)
         self.bucket_counts = [
@@ -113,6 +117,8 @@ class MergedHistogram(Aggregation[JobRecord]):
             return
         self.chunks.append(s)
         if len(self.chunks) >= _CONSOLIDATE_AT:
+            import polars as pl
+
             # Thousands of small Series cost far more than their values; one big one does not.
             self.chunks = [pl.concat(self.chunks, rechunk=True)]
         if self.total > self.max_values:
@@ -123,6 +129,8 @@ class MergedHistogram(Aggregation[JobRecord]):
         if s is None:
             return
         self.jobs += 1
+        import polars as pl
+
         if s.dtype != pl.Float64:
             s = s.cast(pl.Float64)
         # A sum is NaN only when a value is (or +inf meets -inf). It is one native pass,
@@ -153,6 +161,8 @@ class MergedHistogram(Aggregation[JobRecord]):
     def values(self) -> pl.Series:
         """The appended series (exact mode only), sorted: jobs arrive in any order, and a
         histogram does not depend on the order of its values, so sorted output is stable."""
+        import polars as pl
+
         if not self.chunks:
             return pl.Series(self.data, [], dtype=pl.Float64)
         values = pl.concat(self.chunks, rechunk=True)

@@ -6,8 +6,10 @@ import uuid
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from datetime import datetime
+from typing import TYPE_CHECKING
 
-import polars as pl
+if TYPE_CHECKING:
+    import polars as pl
 
 #: The conflated status of a job the API listed without one. A status the platform adds
 #: later is kept under its own name; either way it is a category of its own in the charts,
@@ -46,6 +48,8 @@ class JobRecord:
 
     def scalars_frame(self) -> pl.DataFrame:
         """The scalars as a frame with columns name, value, unit, status."""
+        import polars as pl
+
         return pl.DataFrame(
             {
                 "name": list(self.scalars),

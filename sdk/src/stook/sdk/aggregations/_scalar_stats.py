@@ -8,9 +8,7 @@ from array import array
 from collections import Counter
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Self
-
-import polars as pl
+from typing import TYPE_CHECKING, Self
 
 from stook.sdk._errors import WriterError
 from stook.sdk._writer import MetricsWriter
@@ -18,6 +16,9 @@ from stook.sdk.aggregations._base import Aggregation, Needs
 from stook.sdk.aggregations._record import JobRecord
 from stook.sdk.aggregations._sums import exact_mean
 from stook.sdk.aggregations._units import pick_unit
+
+if TYPE_CHECKING:
+    pass
 
 _QUANTILE = re.compile(r"^p(\d{1,2}(?:\.\d+)?)$")
 _PLAIN = ("mean", "min", "max", "std", "count")
@@ -73,6 +74,8 @@ class ScalarStats(Aggregation[JobRecord]):
         """Each statistic's value; empty when no job reported the metric."""
         if not self.values:
             return {}
+        import polars as pl
+
         # Sorted, so that the result does not depend on the order jobs arrived in.
         s = pl.Series(self.metric, self.values, dtype=pl.Float64).sort()
         out: dict[str, float] = {}

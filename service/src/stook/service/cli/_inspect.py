@@ -10,6 +10,7 @@ from typing import TextIO
 from stook.sdk import (
     InvalidMetricsError,
     JobMetricsView,
+    MetricsDataView,
     MetricType,
     MetricView,
     ReadError,
@@ -24,6 +25,11 @@ EXIT_INVALID = 4
 def _read(path: Path) -> JobMetricsView:
     try:
         payload = path.read_bytes()
+    except FileNotFoundError:
+        # A file that is not there is the user's to fix (exit 2), not invalid data (4).
+        from stook.service.cli._run import UsageError
+
+        raise UsageError(f"{str(path)!r}: no such file") from None
     except OSError as exc:
         raise ReadError(f"could not read JobMetrics from {str(path)!r}: {exc.strerror}") from None
     return read_job_metrics(payload, source=str(path))
@@ -56,8 +62,21 @@ def _value(metric: MetricView, view: JobMetricsView) -> str:
         data = view.data_by_id.get(data_id)
         if data is None or data.is_external or data.kind in (None, SeriesKind.STATUS):
             continue  # no values to count
-        sizes.append(data.frame().height)
+        sizes.append(_length(data))
     return f"{sum(sizes)} values" if sizes else ""
+
+
+def _length(data: MetricsDataView) -> int:
+    """How many values `data.frame()` has. Doubles and strings always convert, so they are
+    counted in the message, without importing polars; other kinds are converted, so that
+    a value the reader refuses fails here as it would in a frame."""
+    if data.kind is SeriesKind.DOUBLE or data.kind is SeriesKind.STRING:
+        field = "doubles" if data.kind is SeriesKind.DOUBLE else "strings"
+        if data.per_category:
+            by_category = data.raw.series_per_category.category_to_series
+            return sum(len(getattr(s, field).series) for s in by_category.values())
+        return len(getattr(data.raw.series, field).series)
+    return data.frame().height
 
 
 def _enum_name(value: enum.IntEnum | int | None) -> str:

@@ -18,7 +18,7 @@ from stook.service.cli._signals import Interrupted
 TYPE_CHECKING = False
 if TYPE_CHECKING:
     import argparse
-    from collections.abc import Sequence
+    from collections.abc import Callable, Sequence
     from typing import Any
 
     from stook.service.modes import Tally
@@ -39,13 +39,40 @@ def _add_logging(parser: argparse.ArgumentParser, *, default_level: str = "info"
     )
 
 
+_DISTRIBUTIONS = ("stook", "stook-sdk", "stook-proto")
+
+
+def version_text() -> str:
+    """``stook 0.1.0 (stook-sdk 0.1.0, stook-proto 0.1.0)``, from the installed metadata."""
+    from importlib.metadata import PackageNotFoundError, version
+
+    def of(distribution: str) -> str:
+        try:
+            return f"{distribution} {version(distribution)}"
+        except PackageNotFoundError:
+            return f"{distribution} not installed"
+
+    main, *others = (of(d) for d in _DISTRIBUTIONS)
+    return f"{main} ({', '.join(others)})"
+
+
 def build_parser() -> argparse.ArgumentParser:
     import argparse
     from pathlib import Path
 
+    class VersionAction(argparse.Action):
+        # argparse's own "version" action wants the text up front; reading the metadata
+        # only when asked keeps it out of every other command's start-up.
+        def __call__(self, parser: argparse.ArgumentParser, *_: object) -> None:
+            print(version_text())
+            parser.exit()
+
     parser = argparse.ArgumentParser(
         prog="stook",
         description="Fast aggregation of ReSim test, batch and report metrics.",
+    )
+    parser.add_argument(
+        "--version", action=VersionAction, nargs=0, help="print the versions and exit"
     )
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
@@ -136,6 +163,8 @@ class Voice:
                 chosen = arg.partition("=")[2]
         self.json = chosen == "json" or (chosen != "console" and not _is_tty(sys.stderr))
         self.logging_ready = False
+        self.configure_logging: Callable[[], None] | None = None
+        """Set when logging is set up on first use (`show`, `validate`), not up front."""
         self.progress: Tally | None = None
         self._lock = threading.Lock()
         self._said = False
@@ -190,6 +219,9 @@ class Voice:
         elif self.logging_ready:
             import structlog
 
+            if self.configure_logging is not None:
+                self.configure_logging()
+
             if shown is not None:
                 fields["exc_info"] = shown  # rendered into the event's "exception" text
             structlog.get_logger("stook.cli").error(event, **fields)
@@ -224,18 +256,31 @@ def run_cli(argv: Sequence[str] | None = None, *, voice: Voice | None = None) ->
         return code
 
 
+# Commands that log nothing unless they fail: structlog (~30 ms) is set up only then.
+_QUIET_COMMANDS = ("show", "validate")
+
+
 def _run_cli(argv: Sequence[str] | None, voice: Voice) -> int:
     args = build_parser().parse_args(argv)
-    from stook.service.api import configure_logging
-
     if hasattr(args, "log_format"):
+        from stook.service.api import configure_logging
+
         json_logs = None if args.log_format == "auto" else args.log_format == "json"
         configure_logging(json=json_logs, level=args.log_level)
     else:
         # Commands without logging flags still log to stderr, never onto their stdout.
         chosen = os.environ.get("STOOK_LOG_FORMAT", "auto")
         json_logs = None if chosen not in ("json", "console") else chosen == "json"
-        configure_logging(json=json_logs, level="warning")
+
+        def set_up(json_logs: bool | None = json_logs) -> None:
+            from stook.service.api import configure_logging
+
+            configure_logging(json=json_logs, level="warning")
+
+        if args.command in _QUIET_COMMANDS:
+            voice.configure_logging = set_up
+        else:
+            set_up()
     voice.json = not _is_tty(sys.stderr) if json_logs is None else json_logs
     voice.logging_ready = True
     return _dispatch(args, voice)

@@ -14,8 +14,8 @@ import time
 import uuid
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
-import polars as pl
 import structlog
 
 from stook.sdk import ReadError, read_metrics_data
@@ -31,6 +31,10 @@ from stook.service.api import (
     PresignedUrlExpiredError,
 )
 from stook.service.fetch._scalars import is_scalar, read_scalars
+
+# polars comes with the first series decoded, after the first requests are out.
+if TYPE_CHECKING:
+    import polars as pl
 
 log = structlog.get_logger("stook.fetch")
 

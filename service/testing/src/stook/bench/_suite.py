@@ -29,11 +29,14 @@ from stook.bench._measure import (
 )
 from stook.bench._plots import plots_available, write_plots
 from stook.bench._repeat import repeat_target_points
+from stook.bench._startup import measure_startup, startup_table, startup_targets
 from stook.bench._sweep import FULL, QUICK, Grid, emulator_for, run_sweep
 from stook.bench._tables import sweep_tables
 
 _DATA_FILES: Final = ("sweep.csv", "bench.json", "tables.md")
 TARGET_REPEATS: Final = 5
+STARTUP_RUNS: Final = 7
+QUICK_STARTUP_RUNS: Final = 3
 
 
 def _warm(emulator: Any) -> None:
@@ -192,6 +195,9 @@ def run_bench(
         f"sweep: concurrency {grid.concurrencies} x latency {grid.latencies_ms} ms x "
         f"batch size {grid.sizes} ({grid.points} points)"
     )
+    runs = QUICK_STARTUP_RUNS if quick else STARTUP_RUNS
+    say(f"start-up: each command as a whole process, median of {runs} ...")
+    startup = measure_startup(runs, say)
     rows = run_sweep(grid, say)
     compare = None
     memory: list[dict[str, Any]] = []
@@ -231,7 +237,7 @@ def run_bench(
                 "latency_ms": 10.0,
                 "speedup": resim["seconds"] / stook["seconds"],
             }
-    targets = evaluate_targets(rows, grid, compare, repeated)
+    targets = {**startup_targets(startup), **evaluate_targets(rows, grid, compare, repeated)}
     for name, target in targets.items():
         verdict = "met" if target["met"] else "MISSED"
         say(f"target {name}: {target['measured']} ({target['target']}) {verdict}")
@@ -240,6 +246,7 @@ def run_bench(
         "grid": dataclasses.asdict(grid),
         "seconds": round(time.perf_counter() - started, 1),
         "targets": targets,
+        "startup": startup,
         "sweep": rows,
         "compare": compare,
         "target_points_repeated": repeated,
@@ -251,7 +258,9 @@ def run_bench(
     (out_dir / f"{prefix}bench.json").write_text(
         json.dumps(results, indent=2) + "\n", encoding="utf-8"
     )
-    (out_dir / f"{prefix}tables.md").write_text(sweep_tables(rows), encoding="utf-8")
+    (out_dir / f"{prefix}tables.md").write_text(
+        startup_table(startup) + "\n" + sweep_tables(rows), encoding="utf-8"
+    )
     if plots_available():
         for path in write_plots(rows, out_dir, prefix):
             say(f"wrote {path}")

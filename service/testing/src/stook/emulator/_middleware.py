@@ -79,10 +79,12 @@ def route_name(request: web.Request) -> str:
 
 async def admit(state: EmulatorState, request: web.Request, origin: Origin) -> web.Response | None:
     """Outages, latency and rate limits, common to both origins; an answer if refused."""
+    now = time.monotonic()
     stats = state.stats
+    if stats.first_request_at is None:
+        stats.first_request_at = now
     stats.requests[origin] += 1
     stats.endpoints[f"{origin}:{route_name(request)}"] += 1
-    now = time.monotonic()
     window = state.outages.refuses(origin, stats.requests[origin] - 1, now)
     if window is not None:
         # Before the latency: a load balancer with nothing behind it answers at once.

@@ -29,6 +29,9 @@ class EmulatorStats:
     outage_refusals: Counter[str] = field(default_factory=Counter)  # 503s of outages, per origin
     # Each outage that began: (origin, start, end), in time.monotonic() seconds.
     outage_windows: list[tuple[str, float, float]] = field(default_factory=list)
+    # When the first request arrived, in time.monotonic() seconds (one clock for every
+    # process on the machine): `stook bench` times a client's start-up against it.
+    first_request_at: float | None = None
 
     def fault_count(self, kind: str | None = None, origin: str | None = None) -> int:
         total = 0
@@ -63,6 +66,7 @@ class EmulatorStats:
             "broken_job_answers": self.broken_job_answers,
             "outage_refusals": dict(self.outage_refusals),
             "outage_windows": [list(w) for w in self.outage_windows],
+            "first_request_at": self.first_request_at,
         }
 
     @classmethod
@@ -84,4 +88,5 @@ class EmulatorStats:
             outage_windows=[
                 (str(o), float(a), float(b)) for o, a, b in values.get("outage_windows", [])
             ],
+            first_request_at=values.get("first_request_at"),
         )
