@@ -28,8 +28,8 @@ from stook.service.api import (
     AuthError,
     Job,
     OriginUnavailableError,
-    PresignedUrlExpiredError,
 )
+from stook.service.fetch._presigned import fetch_listed
 from stook.service.fetch._scalars import is_scalar, read_scalars
 
 # polars comes with the first series decoded, after the first requests are out.
@@ -37,9 +37,6 @@ if TYPE_CHECKING:
     import polars as pl
 
 log = structlog.get_logger("stook.fetch")
-
-# Presigned URLs can expire between listing and download; re-listing gives fresh ones.
-_MAX_RELISTS = 2
 
 
 class InvalidDataError(ReadError):
@@ -197,20 +194,16 @@ class BatchFetcher:
 
     async def _download(self, job: Job, item: ApiMetricsData) -> pl.Series:
         source = f"job {job.job_id} / metrics data {item.name!r}"
-        for relist in range(_MAX_RELISTS + 1):
-            if item.metrics_data_url is None:
-                raise InvalidDataError(f"could not read MetricsData from {source}: it has no URL")
-            try:
-                payload = await self._api.storage.fetch_bytes(item.metrics_data_url)
-                break
-            except PresignedUrlExpiredError:
-                if relist == _MAX_RELISTS:
-                    raise
-                log.info("presigned URL expired; listing again", job_id=str(job.job_id))
-                fresh = {d.data_id: d for d in await self._list_data(job)}
-                if item.data_id not in fresh:
-                    raise
-                item = fresh[item.data_id]
+        payload, _ = await fetch_listed(
+            self._api.storage,
+            item,
+            url_of=lambda d: d.metrics_data_url,
+            id_of=lambda d: d.data_id,
+            relist=lambda: self._list_data(job),
+            source=source,
+        )
+        if payload is None:
+            raise InvalidDataError(f"could not read MetricsData from {source}: it has no URL")
         return decode_values(payload, source=source)
 
 

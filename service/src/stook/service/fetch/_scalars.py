@@ -17,14 +17,12 @@ import structlog
 
 from stook.sdk import read_metric
 from stook.sdk.aggregations import Scalar
-from stook.service.api import ApiMetric, ApiMetricType, PresignedUrlExpiredError, StorageClient
+from stook.service.api import ApiMetric, ApiMetricType, StorageClient
+from stook.service.fetch._presigned import fetch_listed
 
 __all__ = ["is_scalar", "read_scalars"]
 
 log = structlog.get_logger("stook.fetch")
-
-# Presigned URLs can expire between listing and download; listing again gives fresh ones.
-_MAX_RELISTS = 2
 
 Relist = Callable[[], Awaitable[Sequence[ApiMetric]]]
 
@@ -77,21 +75,17 @@ async def _from_message(
     storage: StorageClient, metric: ApiMetric, *, source: str, relist: Relist
 ) -> Scalar | None:
     where = f"{source} / metric {metric.name!r}"
-    for attempt in range(_MAX_RELISTS + 1):
-        if metric.metric_url is None:
-            log.debug("scalar listed without a value or a URL; absent", source=where)
-            return None
-        try:
-            payload = await storage.fetch_bytes(metric.metric_url)
-            break
-        except PresignedUrlExpiredError:
-            if attempt == _MAX_RELISTS:
-                raise
-            log.info("presigned URL expired; listing again", source=where)
-            fresh = {m.metric_id: m for m in await relist()}
-            if metric.metric_id not in fresh:
-                raise
-            metric = fresh[metric.metric_id]
+    payload, metric = await fetch_listed(
+        storage,
+        metric,
+        url_of=lambda m: m.metric_url,
+        id_of=lambda m: m.metric_id,
+        relist=relist,
+        source=where,
+    )
+    if payload is None:
+        log.debug("scalar listed without a value or a URL; absent", source=where)
+        return None
     # A message that cannot be read is invalid metrics data (ReadError, exit code 4), as
     # for a metrics-data download.
     view = read_metric(payload, source=where)
