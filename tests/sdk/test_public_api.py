@@ -67,6 +67,7 @@ PUBLIC_API: dict[str, list[str]] = {
         "AggregationConfigError",
         "BatchAggregation",
         "BatchRecord",
+        "JobEvent",
         "JobRecord",
         "JobStatusCounts",
         "JobSummary",

@@ -12,6 +12,7 @@ from stook.sdk.aggregations._histogram import MergedHistogram
 from stook.sdk.aggregations._record import (
     UNKNOWN_STATUS,
     BatchRecord,
+    JobEvent,
     JobRecord,
     JobSummary,
     Scalar,
@@ -42,6 +43,7 @@ __all__ = [
     "AggregationConfigError",
     "BatchAggregation",
     "BatchRecord",
+    "JobEvent",
     "JobRecord",
     "JobStatusCounts",
     "JobSummary",

@@ -15,9 +15,14 @@ from stook.sdk.aggregations._record import BatchRecord, JobRecord
 class Needs:
     """What an aggregation reads, so that the fetcher downloads no more than that.
 
-    Scalars usually come with the metric listings at no extra cost; each name in `data`
-    costs a download per job that has it. In report mode, `job_metrics` asks for the metric
-    listing of every job of every batch (one request per job).
+    Scalars, job parameters and the job's facts come with the listings at no extra cost.
+    Each name in `data` costs a download per job that has it (any kind of metrics data:
+    doubles, strings, statuses, timestamps, UUIDs, indexed or per category); each name in
+    `metrics` costs the job's metric blob plus the blobs of the data it references, and
+    `every_metric` asks for every metric and metrics data of every job (the load of
+    ReSim's own fetcher). `events` costs one listing per job, `experience_tags` one per
+    experience (not per job). In report mode, `job_metrics` asks for the metric listing of
+    every job of every batch (one request per job).
 
     `scalars` names the SCALAR metrics an aggregation reads, and `every_scalar` says it
     reads all of them, whatever their names. The API may list a scalar without its value
@@ -30,14 +35,26 @@ class Needs:
     data: frozenset[str] = frozenset()
     job_metrics: bool = False
     every_scalar: bool = False
+    metrics: frozenset[str] = frozenset()
+    every_metric: bool = False
+    events: bool = False
+    experience_tags: bool = False
 
     def __or__(self, other: Needs) -> Needs:
         return Needs(
-            self.scalars | other.scalars,
-            self.data | other.data,
-            self.job_metrics or other.job_metrics,
-            self.every_scalar or other.every_scalar,
+            scalars=self.scalars | other.scalars,
+            data=self.data | other.data,
+            job_metrics=self.job_metrics or other.job_metrics,
+            every_scalar=self.every_scalar or other.every_scalar,
+            metrics=self.metrics | other.metrics,
+            every_metric=self.every_metric or other.every_metric,
+            events=self.events or other.events,
+            experience_tags=self.experience_tags or other.experience_tags,
         )
+
+    def wants_metric(self, name: str) -> bool:
+        """Whether an aggregation reads the job metric `name` with the data it references."""
+        return self.every_metric or name in self.metrics
 
     def wants_scalar(self, name: str) -> bool:
         """Whether an aggregation reads the SCALAR metric `name`."""

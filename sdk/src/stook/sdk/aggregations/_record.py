@@ -11,6 +11,8 @@ from typing import TYPE_CHECKING
 if TYPE_CHECKING:
     import polars as pl
 
+    from stook.sdk._views import JobMetricsView, MetricsDataView
+
 #: The conflated status of a job the API listed without one. A status the platform adds
 #: later is kept under its own name; either way it is a category of its own in the charts,
 #: counts as not passed and makes nothing fail (see `JobStatusCounts`).
@@ -27,12 +29,39 @@ class Scalar:
 
 
 @dataclass(frozen=True, slots=True)
+class JobEvent:
+    """One event of a job, as the API lists it (`Needs.events`).
+
+    `status` is the API's spelling (PASSED, FAIL_WARN, ...; an unknown one as it came,
+    NO_STATUS_REPORTED when absent); `timestamp_type` is ABSOLUTE_TIMESTAMP or
+    RELATIVE_TIMESTAMP (or what the API sent); `timestamp` is None when absent.
+    """
+
+    event_id: uuid.UUID
+    name: str
+    status: str = "NO_STATUS_REPORTED"
+    timestamp: datetime | None = None
+    timestamp_type: str = ""
+    description: str = ""
+    tags: tuple[str, ...] = ()
+    metric_ids: tuple[uuid.UUID, ...] = ()
+
+
+@dataclass(frozen=True, slots=True)
 class JobRecord:
     """One job folded into aggregations.
 
-    `scalars` holds every SCALAR job metric by name; `series` holds the metrics
-    data the aggregation plan asked for, by data name (doubles as Float64);
-    `metric_statuses` holds the status of every job metric, scalar or not.
+    `scalars` holds every SCALAR job metric by name; `series` holds the plain (not per
+    category) double metrics data the aggregation plan asked for, by data name, as
+    Float64; `data` holds every metrics data the plan asked for (`Needs.data`), of any
+    kind, as typed views that keep indexes and category names; `metric_statuses` holds
+    the status of every job metric, scalar or not. `job_metrics` holds the metrics the
+    plan named (`Needs.metrics`, or all of them for `Needs.every_metric`) with the data
+    they reference, read as one `JobMetricsView`; None when the plan named none.
+    `parameters` are the job's parameters (from the job listing, always present);
+    `events` the job's events when the plan asked for them (`Needs.events`);
+    `experience_tags` the names of its experience's tags when asked
+    (`Needs.experience_tags`), sorted.
     Statuses are the API's spellings; one this SDK does not know is kept as it came,
     a job without a conflated status has `UNKNOWN_STATUS`, and a metric without a
     status NO_STATUS_REPORTED.
@@ -45,6 +74,11 @@ class JobRecord:
     scalars: Mapping[str, Scalar] = field(default_factory=dict)
     series: Mapping[str, pl.Series] = field(default_factory=dict)
     metric_statuses: Sequence[str] = ()
+    data: Mapping[str, MetricsDataView] = field(default_factory=dict)
+    job_metrics: JobMetricsView | None = None
+    parameters: Mapping[str, str] = field(default_factory=dict)
+    events: Sequence[JobEvent] = ()
+    experience_tags: Sequence[str] = ()
 
     def scalars_frame(self) -> pl.DataFrame:
         """The scalars as a frame with columns name, value, unit, status."""
