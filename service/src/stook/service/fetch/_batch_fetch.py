@@ -155,7 +155,7 @@ class BatchFetcher:
         listed = iter(await asyncio.gather(*listings) if len(listings) > 1 else [await listings[0]])
         metrics: list[ApiMetric] = next(listed)
         data_items: list[ApiMetricsData] = next(listed) if wants_blobs else []
-        events: list[JobEvent] = next(listed) if needs.events else []
+        events: tuple[JobEvent, ...] = tuple(next(listed)) if needs.events else ()
         tags: tuple[str, ...] = next(listed) if needs.experience_tags else ()
         if metrics:
             self.outcome.jobs_with_metrics += 1
