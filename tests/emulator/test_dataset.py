@@ -67,7 +67,13 @@ def test_variety_of_statuses_metrics_and_experiences() -> None:
     assert names[:40] == names[40:80]
 
     scalars = ds.scalar_values(ds.main_batch_id)
-    assert set(scalars) == {"Localization error", "Distance driven", "Max speed", "Collisions"}
+    assert set(scalars) == {
+        "Localization error",
+        "Distance driven",
+        "Max speed",
+        "Collisions",
+        "Braking distance",
+    }
     with_metrics = {j.id for j in jobs if j.has_metrics}
     assert set(scalars["Distance driven"]) == with_metrics
     assert set(scalars["Localization error"]) < with_metrics  # gaps
@@ -90,9 +96,16 @@ def test_job_status_agrees_with_its_metrics_and_truth_with_the_protos() -> None:
         values = {
             m.name: m.metric_values.scalar_metric_values.value
             for m in proto.job_level_metrics.metrics
-            if m.metric_values.HasField("scalar_metric_values")
+            if m.metric_values.HasField("scalar_metric_values") and not m.event_metric
         }
         assert values == truth.scalars
+        event_values = {
+            m.name: m.metric_values.scalar_metric_values.value
+            for m in proto.job_level_metrics.metrics
+            if m.event_metric
+        }
+        assert event_values == truth.event_scalars
+        assert [e.name for e in proto.events] == [e.name for e in truth.events]
         series = {d.name: list(d.series.doubles.series) for d in proto.metrics_data}
         for name, expected in truth.series.items():
             assert series[name] == list(expected)

@@ -51,7 +51,8 @@ async def test_resim_fetch_job_metrics_by_batch_gets_the_ground_truth() -> None:
                 assert metric.id is not None
                 assert _status_name(metric.status) == truth.statuses[metric.name]
                 if isinstance(metric, ScalarMetric):
-                    assert metric.value == truth.scalars[metric.name]
+                    expected_value = {**truth.scalars, **truth.event_scalars}[metric.name]
+                    assert metric.value == expected_value
             assert {d.name for d in unpacked.metrics_data} == (
                 set(truth.data_names) - set(truth.external_data_names)
             )
