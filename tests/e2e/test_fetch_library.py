@@ -75,10 +75,10 @@ async def test_what_each_plan_downloads(tmp_path: Path) -> None:
         expected_metrics = expected_data = 0
         for output in outputs.values():
             assert output is not None
-            for metric in output.metrics:
-                if metric.name == HISTOGRAM:
+            for stored in output.metrics:
+                if stored.name == HISTOGRAM:
                     expected_metrics += 1
-                    expected_data += len(metric.data_ids)
+                    expected_data += len(stored.data_ids)
         assert expected_metrics > 0
         assert _storage(emu) == Counter(
             {"storage:job_metric": expected_metrics, "storage:job_metrics_data": expected_data}
