@@ -1,5 +1,5 @@
-"""The emulated jobs' events, event metrics, event tags and parameters, read raw and
-through ReSim's generated client (the oracle for the API's shapes)."""
+"""The emulated jobs' events, event metrics, event tags, parameters and experience tags,
+read raw and through ReSim's generated client (the oracle for the API's shapes)."""
 
 from __future__ import annotations
 
@@ -281,3 +281,36 @@ async def test_resims_generated_client_reads_events_tags_and_parameters() -> Non
                 assert tags.event_tags == sorted({t for e in truth.events for t in e.tags})
                 checked += 1
             assert checked >= 5
+
+
+# ---- experience tags and requests per path ----
+
+
+async def test_every_experience_serves_its_tags_and_requests_are_counted_per_path(
+    raw: Raw,
+) -> None:
+    emu, ds = raw.emu, raw.emu.dataset
+    for experience in ds.experiences:
+        tags, _ = await raw.all_pages(
+            f"/experiences/{experience.id}/experienceTags", "experienceTags"
+        )
+        assert [t["name"] for t in tags] == [t.name for t in experience.tags]
+        assert tags
+    first = ds.experiences[0]
+    await raw.get(f"/experiences/{first.id}/experienceTags")
+    counted = emu.stats.path_requests("/experienceTags")
+    prefix = f"/v1/projects/{emu.project_id}/experiences"
+    assert counted == {
+        f"{prefix}/{e.id}/experienceTags": 2 if e is first else 1 for e in ds.experiences
+    }
+    assert sum(counted.values()) == emu.stats.endpoints["api:list_experience_tags"]
+    # The counts cross process boundaries with the rest of the statistics.
+    again = type(emu.stats).from_dict(emu.stats.to_dict())
+    assert again.api_paths == emu.stats.api_paths
+
+
+def test_the_bucket_mismatch_setting_takes_indices_only() -> None:
+    config = EmulatorConfig.from_dict({"histogram_bucket_mismatch_jobs": [1, 2]})
+    assert config.histogram_bucket_mismatch_jobs == (1, 2)
+    with pytest.raises(ValueError, match="histogram_bucket_mismatch_jobs"):
+        EmulatorConfig(histogram_bucket_mismatch_jobs=(-1,))
