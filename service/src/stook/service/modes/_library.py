@@ -63,6 +63,8 @@ def _access(
     project_id: uuid.UUID | str | None,
 ) -> tuple[ApiAccess | None, BatchInputs | ReportInputs | None]:
     """Access and (when the platform's files gave them) the inputs, from `source`."""
+    if source is not None and (api_url is not None or token is not None):
+        raise InputsError("give either a source or api_url and token, not both")
     if isinstance(source, ApiAccess):
         return source, None
     project = _uuid("project_id", project_id) if project_id is not None else None
