@@ -298,6 +298,8 @@ async def test_readme_example_runs(tmp_path: Path, example: str) -> None:
     assert done.returncode == 0, err.decode()
     lines = out.decode().splitlines()
     assert lines, err.decode()
+    # Without a structlog set-up of its own, the program's output is its own: no log lines.
+    assert "http response" not in out.decode() + err.decode()
     if example == "fetch_batch":
         assert any(HISTOGRAM in line for line in lines)
     if example == "fetch_batch_frame":

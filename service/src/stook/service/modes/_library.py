@@ -23,6 +23,7 @@ from typing import TYPE_CHECKING, Any
 import structlog
 
 from stook.sdk.aggregations import BatchRecord, JobRecord, Needs
+from stook.service.api import configure_logging
 from stook.service.fetch import BatchFetcher, MissingJob, ReportFetcher, fetch_deadline
 from stook.service.modes._config import FetchSettings, parse
 from stook.service.modes._inputs import (
@@ -48,6 +49,14 @@ Source = str | os.PathLike[str] | ApiAccess | None
 # Columns every frame has, before the scalars; a scalar or series may not take these names.
 _JOB_COLUMNS = ("job_id", "experience_name", "experience_id", "conflated_status")
 _PARAMETER_PREFIX = "parameters."
+
+
+def _default_logging() -> None:
+    """structlog left unconfigured prints every debug line of the fetch to stdout, unredacted
+    by stook's processors; a program that did not configure it gets stook's own set-up,
+    warnings and errors only, on stderr."""
+    if not structlog.is_configured():
+        configure_logging(level="warning")
 
 
 def _settings(**given: Any) -> FetchSettings:
@@ -262,6 +271,7 @@ def fetch_batch(
         adaptive=adaptive,
     )
     access, batch = _batch_target(source, api_url, token, project_id, batch_id)
+    _default_logging()
 
     async def run(hand_over: _Handover) -> None:
         started = asyncio.get_running_loop().time()
@@ -311,6 +321,7 @@ def fetch_report(
         adaptive=adaptive,
     )
     access, report = _report_target(source, api_url, token, project_id, report_id)
+    _default_logging()
 
     async def run(hand_over: _Handover) -> None:
         started = asyncio.get_running_loop().time()
