@@ -102,6 +102,11 @@ PUBLIC_API: dict[str, list[str]] = {
         "default_batch_aggregations",
         "default_report_aggregations",
     ],
+    "stook.sdk.testing": [
+        "CHECK_JOB_ID",
+        "MergeLaws",
+        "check_merge_laws",
+    ],
     "stook.sdk.aggregations.report": [
         "BatchMetricStatusCounts",
         "FlakyExperiences",
