@@ -14,6 +14,7 @@ from dataclasses import dataclass
 from datetime import UTC, datetime, timedelta
 
 from stook.emulator._config import EmulatorConfig
+from stook.emulator._steps import localization_factor, step_status
 
 _NAMESPACE = uuid.UUID("0b6f0c55-3a5e-4d0e-8c77-6f1d2b9e4a10")
 # Data is anchored to a fixed instant so that equal seeds give equal timestamps.
@@ -98,6 +99,7 @@ class JobSpec:
     has_metrics: bool
     created: datetime
     build_id: uuid.UUID
+    localization_factor: float = 1.0  # see _steps.py
 
 
 @dataclass(frozen=True, slots=True)
@@ -318,6 +320,8 @@ class World:
             conflated = "WARNING"
         else:
             conflated = "PASSED"
+        report_index = batch.index if batch.kind is BatchKind.REPORT else None
+        conflated = step_status(self.config, report_index, experience.index, conflated)
         has_metrics = conflated != "CANCELLED" and not (conflated == "ERROR" and rng.random() < 0.6)
         if i == _ERROR_WITHOUT_METRICS and batch.job_count >= 8:
             # Every sizeable batch has a job that died before writing any metrics, so
@@ -340,4 +344,7 @@ class World:
             has_metrics,
             batch.created + timedelta(milliseconds=50 * i),
             batch.build_id,
+            localization_factor(self.config, experience.index, str(batch.id))
+            if report_index is not None
+            else 1.0,
         )
