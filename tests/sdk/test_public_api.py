@@ -87,6 +87,8 @@ PUBLIC_API: dict[str, list[str]] = {
     ],
     "stook.sdk.aggregations.report": [
         "BatchMetricStatusCounts",
+        "ChangePointSummary",
+        "ChangePoints",
         "FlakyExperiences",
         "JobMetricStatusCounts",
         "JobScalarDistributions",
@@ -94,6 +96,7 @@ PUBLIC_API: dict[str, list[str]] = {
         "RegressionSummary",
         "ScalarLines",
         "TestStatusOverTime",
+        "UnstableExperiences",
         "Verdict",
         "check",
     ],

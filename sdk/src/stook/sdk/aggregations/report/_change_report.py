@@ -182,9 +182,11 @@ class ChangePoints(Aggregation[BatchRecord]):
             what += f" and {len(rate_moves)} of {judged} experiences' failure rates"
         method = (
             f"PELT change points, penalty {self.penalty:g} ln n + {PENALTY_CONSTANT:g} for n "
-            f"batches (batch metrics on a robust noise scale; failure rates binomial, plus "
-            f"2 ln {max(judged, 1)} across the experiences); see docs/change-points.md."
+            "batches (batch metrics on a robust noise scale"
         )
+        if self.experiences:
+            method += f"; failure rates binomial, plus 2 ln {max(judged, 1)} across experiences"
+        method += "); see docs/change-points.md."
         if not moves:
             return ChangePointSummary(
                 MetricStatus.PASSED,
