@@ -104,7 +104,7 @@ def test_without_the_constant_short_noise_is_flagged_more_often() -> None:
 
     def flagged() -> int:
         return sum(
-            bool(level_shifts(list(np.random.default_rng(s).normal(0.0, 1.0, 8)) + [0.0]))
+            bool(level_shifts([*list(np.random.default_rng(s).normal(0.0, 1.0, 8)), 0.0]))
             for s in range(60)
         )
 

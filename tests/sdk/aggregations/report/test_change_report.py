@@ -158,7 +158,8 @@ def test_the_penalty_is_read() -> None:
     strict = fold(ChangePoints(penalty=5000.0), _records())
     assert isinstance(strict, ChangePoints)
     summary = strict.summary()
-    assert summary is not None and summary.moves == ()
+    assert summary is not None
+    assert summary.moves == ()
     with pytest.raises(ValueError, match="penalty"):
         ChangePoints(penalty=0.0)
     with pytest.raises(ValueError, match="top_n"):
