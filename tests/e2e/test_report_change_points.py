@@ -118,3 +118,16 @@ def test_turned_off_the_report_has_neither(stepped: Emulator, tmp_path: Path) ->
     metrics = by_name(view)
     assert not {"Change points", "Unstable experiences", "Failure rate over time"} & set(metrics)
     assert len(lines(view, metrics[f"{DIST} over time"])) == 1
+
+
+@pytest.mark.slow
+def test_the_demo_shows_a_change_point(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from stook.emulator import Dataset, EmulatorConfig
+    from stook.testing._demo import REPORT_BATCHES, run_demo
+
+    assert run_demo(jobs=12, output=tmp_path, seed=7) == 0
+    out = capsys.readouterr().out
+    world = Dataset(EmulatorConfig(seed=7, report_batches=REPORT_BATCHES))
+    step = world.report_batches()[REPORT_BATCHES // 2]
+    assert "  Change points: " in out
+    assert f"- {DIST!r} moved at {step.friendly_name} (build {str(step.build_id)[:8]}, " in out
