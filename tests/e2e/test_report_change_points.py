@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 
 from stook.emulator import Emulator
-from tests.e2e.support import EmulatorThread, bar_chart, by_name, config, text_of
+from tests.e2e.support import EmulatorThread, bar_chart, by_name, config, outputs_left, text_of
 from tests.e2e.test_report_metrics import (
     assert_report_matches,
     expected_report,
@@ -19,6 +19,7 @@ from tests.e2e.test_report_metrics import (
     run_report_cli,
     status_name,
 )
+from tests.failures import failure_lines
 
 DIST = "Mean distance driven"
 LOC = "Mean localization error"
@@ -131,3 +132,22 @@ def test_the_demo_shows_a_change_point(tmp_path: Path, capsys: pytest.CaptureFix
     step = world.report_batches()[REPORT_BATCHES // 2]
     assert "  Change points: " in out
     assert f"- {DIST!r} moved at {step.friendly_name} (build {str(step.build_id)[:8]}, " in out
+
+
+@pytest.mark.parametrize(
+    ("toml", "said"),
+    [
+        ("[report]\nchange_penalty = -2\n", "[report] change_penalty must be a positive number"),
+        ("[report]\nchange_points = 1\n", "[report] change_points must be true or false"),
+        ("[[report.unstable_experiences]]\ntop_n = 0\n", "top_n must be at least 1"),
+    ],
+)
+def test_a_bad_setting_exits_2_before_any_request(toml: str, said: str, tmp_path: Path) -> None:
+    with EmulatorThread(config(**SETTINGS)) as emu:
+        run = run_report_cli(emu, tmp_path, toml)
+        requests = sum(emu.stats.requests.values())
+    assert run.code == 2, run.err
+    (line,) = failure_lines(run.err)
+    assert said in line
+    assert requests == 0
+    assert outputs_left(run.outputs) == []
