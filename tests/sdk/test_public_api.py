@@ -109,6 +109,8 @@ PUBLIC_API: dict[str, list[str]] = {
     ],
     "stook.sdk.aggregations.report": [
         "BatchMetricStatusCounts",
+        "ChangePointSummary",
+        "ChangePoints",
         "FlakyExperiences",
         "JobMetricStatusCounts",
         "JobScalarDistributions",
@@ -116,6 +118,7 @@ PUBLIC_API: dict[str, list[str]] = {
         "RegressionSummary",
         "ScalarLines",
         "TestStatusOverTime",
+        "UnstableExperiences",
         "Verdict",
         "check",
     ],

@@ -115,12 +115,17 @@ class JobRecord:
 
 @dataclass(frozen=True, slots=True)
 class JobSummary:
-    """One job of a report's batch: what report aggregations read of it."""
+    """One job of a report's batch: what report aggregations read of it.
+
+    `scalars` holds the job's SCALAR job metric values by name when the plan asks for job
+    metrics (`Needs.job_metrics`), as `BatchRecord.job_scalars` pools them; else empty.
+    """
 
     job_id: uuid.UUID
     experience_name: str
     conflated_status: str
     experience_id: uuid.UUID | None = None
+    scalars: Mapping[str, float] = field(default_factory=dict, hash=False)
 
 
 @dataclass(frozen=True, slots=True)
@@ -130,7 +135,8 @@ class BatchRecord:
     `scalars` holds the batch's SCALAR batch metrics by name; `metric_statuses` the
     status of every batch metric. `jobs` lists its jobs. When the plan asks for job
     metrics, `job_scalars` holds each SCALAR job metric's values across the batch's
-    jobs and `job_metric_statuses` every job metric's status.
+    jobs and `job_metric_statuses` every job metric's status. `build_id` is the build the
+    batch ran, when the API said.
     """
 
     batch_id: uuid.UUID
@@ -143,3 +149,4 @@ class BatchRecord:
     job_scalars: Mapping[str, Sequence[float]] = field(default_factory=dict)
     job_scalar_units: Mapping[str, str] = field(default_factory=dict)
     job_metric_statuses: Sequence[str] = ()
+    build_id: uuid.UUID | None = None

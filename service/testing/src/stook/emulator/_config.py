@@ -59,6 +59,10 @@ class EmulatorConfig:
     # and of report batches whose batch metrics lack "Mean localization error" (gaps).
     report_batches_without_metrics: tuple[int, ...] = ()
     report_partial_metric_batches: tuple[int, ...] = ()
+    # From this report batch on, a step change: see _steps.py. None: no step.
+    report_step_change_batch: int | None = None
+    # Indices of experiences whose localization error varies wildly (see _steps.py).
+    report_unstable_experiences: tuple[int, ...] = ()
     cache_jobs: int = 256  # generated job outputs kept (an LRU); the rest is regenerated
 
     # ---- answers the API spec allows (see _quirks.py) ----
@@ -134,6 +138,9 @@ class EmulatorConfig:
                 raise ValueError("a rate limit must be positive (or None)")
         if any(o not in ORIGINS for o in self.fault_origins):
             raise ValueError(f"fault_origins must be drawn from {ORIGINS}")
+        step = self.report_step_change_batch
+        if step is not None and (isinstance(step, bool) or not isinstance(step, int) or step < 0):
+            raise ValueError("report_step_change_batch must be a batch index (from 0) or None")
         if self.revoke_token_after_requests is not None and self.revoke_token_after_requests < 0:
             raise ValueError("revoke_token_after_requests cannot be negative")
         for name in (
@@ -144,6 +151,7 @@ class EmulatorConfig:
             "report_partial_metric_batches",
             "future_status_jobs",
             "unreported_status_jobs",
+            "report_unstable_experiences",
         ):
             indices = getattr(self, name)
             if any(isinstance(i, bool) or not isinstance(i, int) or i < 0 for i in indices):
@@ -179,6 +187,7 @@ class EmulatorConfig:
             "report_partial_metric_batches",
             "future_status_jobs",
             "unreported_status_jobs",
+            "report_unstable_experiences",
         ):
             if name in clean:
                 clean[name] = tuple(clean[name])

@@ -14,6 +14,7 @@ import uuid
 from dataclasses import dataclass, field
 
 from stook.emulator._config import EmulatorConfig
+from stook.emulator._steps import distance_factor
 from stook.emulator._world import BatchKind, BatchSpec, JobSpec
 from stook.proto import metrics_pb2 as pb
 from stook.sdk import MetricHandle, MetricStatus, MetricsWriter, SeriesKind, data
@@ -212,6 +213,7 @@ def generate_job(seed: int, job: JobSpec) -> WrittenMetrics:
             loc_error = abs(rng.gauss(0.12, 0.04))
             na = rng.random() < 0.03
             loc_status = MetricStatus.NOT_APPLICABLE if na else MetricStatus.PASSED
+        loc_error *= job.localization_factor
         _scalar(writer, truth, "Localization error", loc_error, loc_status)
     _scalar(writer, truth, "Distance driven", sum(speeds) * dt, MetricStatus.RAW)
     top = max(speeds)
@@ -375,6 +377,7 @@ class BatchMetricsPlan:
     with_metrics: bool = True
     with_localization: bool = True
     regressed: bool = False
+    distance_factor: float = 1.0  # a step change (see _steps.py)
 
 
 def batch_metrics_plan(config: EmulatorConfig, batch: BatchSpec) -> BatchMetricsPlan:
@@ -386,6 +389,7 @@ def batch_metrics_plan(config: EmulatorConfig, batch: BatchSpec) -> BatchMetrics
         with_metrics=batch.index not in c.report_batches_without_metrics,
         with_localization=batch.index not in c.report_partial_metric_batches,
         regressed=c.report_regression and batch.index == c.report_batches - 1,
+        distance_factor=distance_factor(c, batch.index),
     )
 
 
@@ -417,6 +421,7 @@ def generate_batch(
     distance = distance_level * (1.0 + rng.uniform(-STABLE_NOISE, STABLE_NOISE))
     if plan.regressed:
         loc *= REGRESSION_FACTOR
+    distance *= plan.distance_factor
     if plan.with_localization:
         writer.scalar("Mean localization error", loc, unit="m", fails_above=LOCALIZATION_LIMIT)
         truth.scalars["Mean localization error"] = loc

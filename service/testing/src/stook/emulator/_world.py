@@ -14,6 +14,7 @@ from dataclasses import dataclass
 from datetime import UTC, datetime, timedelta
 
 from stook.emulator._config import EmulatorConfig
+from stook.emulator._steps import localization_factor, step_status
 
 _NAMESPACE = uuid.UUID("0b6f0c55-3a5e-4d0e-8c77-6f1d2b9e4a10")
 # Data is anchored to a fixed instant so that equal seeds give equal timestamps.
@@ -109,6 +110,7 @@ class JobSpec:
     # Its "Acceleration distribution" uses other buckets than every other job's
     # (EmulatorConfig.histogram_bucket_mismatch_jobs).
     odd_histogram_buckets: bool = False
+    localization_factor: float = 1.0  # see _steps.py
 
     @property
     def parameter_map(self) -> dict[str, str]:
@@ -333,6 +335,8 @@ class World:
             conflated = "WARNING"
         else:
             conflated = "PASSED"
+        report_index = batch.index if batch.kind is BatchKind.REPORT else None
+        conflated = step_status(self.config, report_index, experience.index, conflated)
         has_metrics = conflated != "CANCELLED" and not (conflated == "ERROR" and rng.random() < 0.6)
         if i == _ERROR_WITHOUT_METRICS and batch.job_count >= 8:
             # Every sizeable batch has a job that died before writing any metrics, so
@@ -357,6 +361,9 @@ class World:
             batch.build_id,
             _sweep_parameters(batch, i),
             batch.kind is BatchKind.MAIN and i in self.config.histogram_bucket_mismatch_jobs,
+            localization_factor(self.config, experience.index, str(batch.id))
+            if report_index is not None
+            else 1.0,
         )
 
 
