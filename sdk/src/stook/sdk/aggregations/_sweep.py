@@ -97,10 +97,10 @@ class ParameterSweep(Aggregation[JobRecord]):
             self.units.setdefault(metric, Counter()).update(units)
 
     def _sorted_keys(self) -> list[Key]:
-        orders = [
-            {v: i for i, v in enumerate(value_order(k[p] for k in self.jobs if k[p] is not None))}
-            for p in range(len(self.parameters))
-        ]
+        orders = []
+        for p in range(len(self.parameters)):
+            present = [v for k in self.jobs if (v := k[p]) is not None]
+            orders.append({v: i for i, v in enumerate(value_order(present))})
         # An unset value sorts after every value of its parameter.
         return sorted(
             self.jobs,
@@ -128,8 +128,8 @@ class ParameterSweep(Aggregation[JobRecord]):
         p = list(self.parameters).index(parameter)
         pooled: dict[str, list[float]] = {}
         for key, row in self.values.items():
-            if key[p] is not None and row.get(metric):
-                pooled.setdefault(key[p], []).extend(row[metric])
+            if (value := key[p]) is not None and row.get(metric):
+                pooled.setdefault(value, []).extend(row[metric])
         return {v: exact_mean(pooled[v]) for v in value_order(pooled)}
 
     def finish(self, writer: MetricsWriter) -> None:
