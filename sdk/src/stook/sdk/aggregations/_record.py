@@ -6,12 +6,16 @@ import uuid
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from datetime import datetime
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, TypeVar, overload
+
+from stook.sdk._metric_views import TypedMetric
 
 if TYPE_CHECKING:
     import polars as pl
 
     from stook.sdk._views import JobMetricsView, MetricsDataView
+
+_T = TypeVar("_T", bound=TypedMetric)
 
 #: The conflated status of a job the API listed without one. A status the platform adds
 #: later is kept under its own name; either way it is a category of its own in the charts,
@@ -79,6 +83,20 @@ class JobRecord:
     parameters: Mapping[str, str] = field(default_factory=dict)
     events: Sequence[JobEvent] = ()
     experience_tags: Sequence[str] = ()
+
+    @overload
+    def metric(self, name: str) -> TypedMetric | None: ...
+    @overload
+    def metric(self, name: str, kind: type[_T]) -> _T | None: ...
+    def metric(self, name: str, kind: type[TypedMetric] | None = None) -> TypedMetric | None:
+        """The typed view of the job metric `name` (`JobMetricsView.metric`), or None when
+        the job has no such metric or `job_metrics` is None. With `kind`, the view must be
+        of that class (TypeError otherwise)."""
+        if self.job_metrics is None or self.job_metrics.find_metric(name) is None:
+            return None
+        if kind is None:
+            return self.job_metrics.metric(name)
+        return self.job_metrics.metric(name, kind)
 
     def scalars_frame(self) -> pl.DataFrame:
         """The scalars as a frame with columns name, value, unit, status."""
