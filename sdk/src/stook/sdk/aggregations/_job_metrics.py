@@ -9,21 +9,23 @@ the job, exit code 4: the config is right, the job's data is not.
 from __future__ import annotations
 
 import math
-import uuid
 from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, TypeVar
 
-from stook.proto import metrics_pb2 as pb
 from stook.sdk._buckets import Bucket
 from stook.sdk._enums import MetricType, SeriesKind
+from stook.sdk._errors import ReadError
+from stook.sdk._metric_views import BarChartMetric, HistogramMetric, TypedMetric
 from stook.sdk.aggregations._errors import JobDataError
 from stook.sdk.aggregations._record import JobRecord
 
 if TYPE_CHECKING:
     import polars as pl
 
-    from stook.sdk._views import MetricsDataView, MetricView
+    from stook.sdk._views import MetricsDataView
+
+_T = TypeVar("_T", bound=TypedMetric)
 
 
 @dataclass(frozen=True, slots=True)
@@ -35,11 +37,12 @@ class HistogramOfJob:
     x_axis_name: str
 
 
-def job_metric(job: JobRecord, name: str, kind: MetricType) -> MetricView | None:
-    """The job's metric `name`, None when it has none; JobDataError when of another type."""
+def job_metric(job: JobRecord, name: str, kind: MetricType, view: type[_T]) -> _T | None:
+    """The job's metric `name` as a typed view, None when it has none; JobDataError when
+    it is of another type or cannot be read (data it references missing, say)."""
     if job.job_metrics is None:
         return None
-    found = next((m for m in job.job_metrics.metrics if m.name == name), None)
+    found = job.job_metrics.find_metric(name)
     if found is None:
         return None
     if found.type is not kind:
@@ -48,52 +51,47 @@ def job_metric(job: JobRecord, name: str, kind: MetricType) -> MetricView | None
             f"job {job.job_id}: metric {name!r} is a {shown}, not a {kind.name}; "
             "check the metric named in the config"
         )
-    return found
+    try:
+        return job.job_metrics.metric(name, view)
+    except ReadError as exc:
+        raise JobDataError(f"job {job.job_id}: {exc}") from None
 
 
-def _data_of(job: JobRecord, metric: str, ref: pb.MetricsDataId) -> MetricsDataView:
-    data_id = uuid.UUID(ref.id.data) if ref.id.data else None
-    found = None
-    if job.job_metrics is not None and data_id is not None:
-        found = job.job_metrics.data_by_id.get(data_id)
-    if found is None:
-        raise JobDataError(
-            f"job {job.job_id}: metric {metric!r} references metrics data {data_id} "
-            "that the job does not have"
-        )
-    return found
-
-
-def _require_doubles(job: JobRecord, what: str, view: MetricsDataView) -> None:
+def _require_doubles(job: JobRecord, what: str, view: MetricsDataView | None) -> MetricsDataView:
+    if view is None:
+        raise JobDataError(f"job {job.job_id}: {what} has no values data")
     if view.kind is not SeriesKind.DOUBLE:
         shown = view.kind.value if view.kind is not None else f"type {view.raw.data_type}"
         raise JobDataError(f"job {job.job_id}: {what} {view.name!r} holds {shown}, not doubles")
+    return view
 
 
 def histogram_of(job: JobRecord, name: str) -> HistogramOfJob | None:
     """The job's HISTOGRAM metric `name` with its values and buckets; None without it."""
-    metric = job_metric(job, name, MetricType.HISTOGRAM)
+    metric = job_metric(job, name, MetricType.HISTOGRAM, HistogramMetric)
     if metric is None:
         return None
-    hv = metric.raw.metric_values.histogram_metric_values
-    values = _data_of(job, name, hv.values_data_id)
-    _require_doubles(job, f"the values of histogram {name!r},", values)
+    values = _require_doubles(job, f"histogram {name!r}", metric.values_data)
     if values.per_category:
         raise JobDataError(
             f"job {job.job_id}: the values of histogram {name!r} are per category; "
             "a histogram bins one series"
         )
-    buckets = tuple((b.lower, b.upper) for b in hv.buckets)
+    buckets = tuple((b.lower, b.upper) for b in metric.buckets)
     if not buckets:
         raise JobDataError(f"job {job.job_id}: histogram {name!r} has no buckets")
-    return HistogramOfJob(values.series(), buckets, hv.x_axis_name)
+    checked: list[Bucket] = []
+    for i, (lower, upper) in enumerate(buckets):
+        if lower is None or upper is None:
+            raise JobDataError(f"job {job.job_id}: bucket {i} of histogram {name!r} has no bounds")
+        checked.append((lower, upper))
+    return HistogramOfJob(values.series(), tuple(checked), metric.x_axis_name or "")
 
 
 def _index_of(job: JobRecord, view: MetricsDataView) -> MetricsDataView | None:
-    if view.index_id is None:
-        return None
-    if job.job_metrics is not None and (found := job.job_metrics.data_by_id.get(view.index_id)):
-        return found
+    if view.index is not None or view.index_id is None:
+        return view.index
+    # Data read alone (not with the output holding its index): look among the job's data.
     return next((d for d in job.data.values() if d.id == view.index_id), None)
 
 
@@ -107,9 +105,8 @@ def labelled_doubles(job: JobRecord, view: MetricsDataView, what: str) -> dict[s
     _require_doubles(job, what, view)
     found: dict[str, list[float]] = {}
     if view.per_category:
-        for category in view.raw.series_per_category.category_to_series:
-            for value in view.category_series(category).to_list():
-                _add(found, category, value)
+        for category, series in view.by_category().items():
+            found[category] = series.to_list()
         for category in view.categories:
             found.setdefault(category, [])
         return found
@@ -119,8 +116,13 @@ def labelled_doubles(job: JobRecord, view: MetricsDataView, what: str) -> dict[s
             f"job {job.job_id}: {what} {view.name!r} is neither per category nor doubles "
             "indexed by string labels, so it has no categories to total"
         )
-    labels = index.series().to_list()
-    for label, value in zip(labels, view.series().to_list(), strict=True):
+    labels, values = index.values(), view.values()
+    if len(labels) != len(values):
+        raise JobDataError(
+            f"job {job.job_id}: {what} {view.name!r} has {len(values)} values but its "
+            f"labels {index.name!r} have {len(labels)}"
+        )
+    for label, value in zip(labels, values, strict=True):
         _add(found, label, value)
     return found
 
@@ -128,16 +130,13 @@ def labelled_doubles(job: JobRecord, view: MetricsDataView, what: str) -> dict[s
 def bar_chart_of(job: JobRecord, name: str) -> dict[str, dict[str, list[float]]] | None:
     """The job's BAR_CHART `name` as legend → label → values; None without it. A series
     without a legend name is called after its data."""
-    metric = job_metric(job, name, MetricType.BAR_CHART)
+    metric = job_metric(job, name, MetricType.BAR_CHART, BarChartMetric)
     if metric is None:
         return None
-    bv = metric.raw.metric_values.bar_chart_metric_values
-    legend = list(bv.legend_series_names)
     found: dict[str, dict[str, list[float]]] = {}
-    for i, ref in enumerate(bv.values_data_id):
-        view = _data_of(job, name, ref)
-        series_name = legend[i] if i < len(legend) and legend[i] else view.name
-        merged = found.setdefault(series_name, {})
+    for i, view in enumerate(metric.values_data):
+        legend = metric.legend[i] if i < len(metric.legend) else ""
+        merged = found.setdefault(legend or view.name, {})
         for label, values in labelled_doubles(job, view, f"bar chart {name!r} data").items():
             merged.setdefault(label, []).extend(values)
     return found
