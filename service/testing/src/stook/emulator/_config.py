@@ -88,14 +88,18 @@ class EmulatorConfig:
     fault_origins: tuple[Origin, ...] = ORIGINS
     retry_after_max_s: int = 1  # a fault 429 carries Retry-After 0..this (whole seconds)
     max_consecutive_faults: int = 2  # the same request never faults more often in a row
-    # Indices of main-batch jobs whose metrics and metrics-data listings always answer 500:
-    # permanent, unlike the faults above, so a client exhausts its retries on them.
+    # Indices of main-batch jobs whose metrics, metrics-data and event listings always
+    # answer 500: permanent, unlike the faults above, so a client exhausts its retries.
     broken_jobs: tuple[int, ...] = ()
     # Whole-origin outages (503 to everything for a while); see Outage.
     outages: tuple[Outage, ...] = ()
     # Indices of main-batch jobs whose metrics-data blobs are garbage (not a MetricsData
     # message), every time: a client that downloads one must fail with invalid data.
     corrupt_data_jobs: tuple[int, ...] = ()
+    # Indices of main-batch jobs whose "Acceleration distribution" histogram uses other
+    # buckets than the rest (20 over -10..10 instead of 16 over -8..8): a client merging
+    # the jobs' histograms must refuse, naming two jobs.
+    histogram_bucket_mismatch_jobs: tuple[int, ...] = ()
     # After this many API requests the token counts as expired: every later API request is
     # answered 401, as when a platform token runs out mid-run. None: it never expires.
     revoke_token_after_requests: int | None = None
@@ -135,6 +139,7 @@ class EmulatorConfig:
         for name in (
             "broken_jobs",
             "corrupt_data_jobs",
+            "histogram_bucket_mismatch_jobs",
             "report_batches_without_metrics",
             "report_partial_metric_batches",
             "future_status_jobs",
@@ -169,6 +174,7 @@ class EmulatorConfig:
             "fault_origins",
             "broken_jobs",
             "corrupt_data_jobs",
+            "histogram_bucket_mismatch_jobs",
             "report_batches_without_metrics",
             "report_partial_metric_batches",
             "future_status_jobs",

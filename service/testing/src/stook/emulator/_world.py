@@ -32,6 +32,12 @@ _SCENARIOS = (
     "Construction zone",
 )
 _TAG_NAMES = ("highway", "urban", "night", "rain", "merge", "pedestrian", "regression")
+# A parameter sweep: each job of a main or report batch runs with one value of each, cycled
+# by job index (max_speed fastest), so that every sizeable batch covers every combination.
+SWEEP_PARAMETERS: dict[str, tuple[str, ...]] = {
+    "max_speed": ("10", "15", "20", "25"),
+    "planner_mode": ("cautious", "assertive"),
+}
 
 # A fixed job slot that makes every seed show a job without metrics (in batches of 8 or
 # more jobs); `_generate` has the slots of the other cases every seed shows.
@@ -98,6 +104,15 @@ class JobSpec:
     has_metrics: bool
     created: datetime
     build_id: uuid.UUID
+    # The job's batch parameters (name, value), sorted by name; () for a job run without.
+    parameters: tuple[tuple[str, str], ...] = ()
+    # Its "Acceleration distribution" uses other buckets than every other job's
+    # (EmulatorConfig.histogram_bucket_mismatch_jobs).
+    odd_histogram_buckets: bool = False
+
+    @property
+    def parameter_map(self) -> dict[str, str]:
+        return dict(self.parameters)
 
 
 @dataclass(frozen=True, slots=True)
@@ -340,4 +355,19 @@ class World:
             has_metrics,
             batch.created + timedelta(milliseconds=50 * i),
             batch.build_id,
+            _sweep_parameters(batch, i),
+            batch.kind is BatchKind.MAIN and i in self.config.histogram_bucket_mismatch_jobs,
         )
+
+
+def _sweep_parameters(batch: BatchSpec, i: int) -> tuple[tuple[str, str], ...]:
+    """A job's parameters: the sweep's values for its index; none in decoy batches, which
+    ran without a sweep."""
+    if batch.kind is BatchKind.DECOY:
+        return ()
+    out: list[tuple[str, str]] = []
+    stride = 1
+    for name, values in SWEEP_PARAMETERS.items():
+        out.append((name, values[(i // stride) % len(values)]))
+        stride *= len(values)
+    return tuple(sorted(out))
