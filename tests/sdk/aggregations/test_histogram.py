@@ -7,12 +7,21 @@ validator and by ReSim's own (the platform's oracle); see `support.Output`.
 from __future__ import annotations
 
 import math
+import uuid
 
 import pytest
 
-from stook.sdk import MetricStatus, MetricType, WriterError
+from stook.sdk import (
+    MetricStatus,
+    MetricsWriter,
+    MetricType,
+    SeriesKind,
+    WriterError,
+    data,
+    read_metrics_data,
+)
 from stook.sdk._buckets import histogram_buckets
-from stook.sdk.aggregations import MergedHistogram
+from stook.sdk.aggregations import JobRecord, MergedHistogram
 from tests.sdk.aggregations.support import Output, fold, job, reference_counts
 
 
@@ -159,3 +168,32 @@ def test_histogram_needs_its_data_and_checks_its_bounds() -> None:
         MergedHistogram(name="H", data="d", lower=1, upper=1)
     with pytest.raises(ValueError, match="max_values must be at least 1"):
         MergedHistogram(name="H", data="d", lower=0, upper=1, max_values=0)
+
+
+def _per_category_record(name: str, values: dict[str, list[float]]) -> JobRecord:
+    """A job whose data `name` is per category, as the fetcher hands it: in `data`, with
+    no single series."""
+    index = data.per_category(
+        f"{name} index", SeriesKind.STRING, {k: ["x"] * len(v) for k, v in values.items()}
+    )
+    per_class = data.per_category(name, SeriesKind.DOUBLE, values, index=index)
+    writer = MetricsWriter(uuid.uuid4(), deterministic=True)
+    writer.bar_chart("bars", per_class)
+    msg = next(d for d in writer.to_proto().metrics_data if d.name == name)
+    return JobRecord(
+        job_id=uuid.uuid4(),
+        conflated_status="PASSED",
+        data={name: read_metrics_data(msg.SerializeToString())},
+    )
+
+
+def test_histogram_of_per_category_data_pools_the_categories() -> None:
+    jobs = [
+        _per_category_record("per class", {"car": [1.0, 3.0], "truck": [2.0]}),
+        job(series={"per class": [0.5]}),  # plain doubles of that name still count
+        _per_category_record("other", {"car": [9.0]}),
+    ]
+    agg = fold(MergedHistogram(name="H", data="per class", lower=0.0, upper=4.0, buckets=4), jobs)
+    assert isinstance(agg, MergedHistogram)
+    assert (agg.total, agg.jobs) == (4, 2)
+    assert agg.values().to_list() == [0.5, 1.0, 2.0, 3.0]

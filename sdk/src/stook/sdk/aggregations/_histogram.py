@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING, Self
 
 from stook.sdk import _data
 from stook.sdk._buckets import Bucket, histogram_buckets
-from stook.sdk._enums import MetricStatus
+from stook.sdk._enums import MetricStatus, SeriesKind
 from stook.sdk._writer import MetricsWriter
 from stook.sdk.aggregations._base import Aggregation, Needs
 from stook.sdk.aggregations._errors import JobDataError
@@ -26,6 +26,16 @@ _CONSOLIDATE_AT = 256
 _BIN_BATCH = 1 << 16
 
 
+def _pooled_categories(job: JobRecord, name: str) -> pl.Series | None:
+    """Per-category doubles have no single series: the histogram pools every category's
+    values, on purpose (one distribution across categories; `category_totals` keeps them
+    apart)."""
+    view = job.data.get(name)
+    if view is None or not view.per_category or view.kind is not SeriesKind.DOUBLE:
+        return None
+    return view.frame().get_column("value").alias(name)
+
+
 @dataclass
 class MergedHistogram(Aggregation[JobRecord]):
     """Appends the series `data` of every job and writes it as a HISTOGRAM.
@@ -33,7 +43,8 @@ class MergedHistogram(Aggregation[JobRecord]):
     With `metric` instead of `data` (exactly one of them), it appends the values of the
     jobs' own HISTOGRAM metric of that name and writes them on the buckets the jobs used,
     which every job must share (JobDataError naming two jobs otherwise); `lower`, `upper`
-    and `buckets` then come from the jobs and cannot be given.
+    and `buckets` then come from the jobs and cannot be given. Per-category `data`
+    (doubles) contributes the values of all its categories, pooled.
 
     While the appended values number at most `max_values`, the histogram's values
     are exactly the appended series. Past that, memory must stay bounded, so the
@@ -195,6 +206,8 @@ class MergedHistogram(Aggregation[JobRecord]):
         else:
             assert self.data is not None
             series = job.series.get(self.data)
+            if series is None:
+                series = _pooled_categories(job, self.data)
             if series is None:
                 return
             s = series
