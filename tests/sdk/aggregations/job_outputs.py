@@ -6,7 +6,14 @@ from __future__ import annotations
 import uuid
 from collections.abc import Mapping, Sequence
 
-from stook.sdk import MetricsWriter, MetricType, SeriesKind, data, read_job_metrics
+from stook.sdk import (
+    MetricsWriter,
+    MetricType,
+    SeriesKind,
+    data,
+    read_job_metrics,
+    read_metrics_data,
+)
 from stook.sdk.aggregations import JobEvent, JobRecord, Scalar
 from tests.sdk.aggregations.support import Output
 
@@ -20,6 +27,7 @@ def job_with(
     bars: tuple[str, Mapping[str, Mapping[str, float]]] | None = None,
     per_category: tuple[str, Mapping[str, Sequence[float]]] | None = None,
     labelled: tuple[str, Sequence[str], Sequence[float]] | None = None,
+    with_labels: bool = True,
     scalars: Mapping[str, Scalar | float] | None = None,
     parameters: Mapping[str, str] | None = None,
     events: Sequence[tuple[str, str]] = (),
@@ -29,7 +37,8 @@ def job_with(
 ) -> JobRecord:
     """A job with (some of): a HISTOGRAM metric (name, values, buckets); a BAR_CHART
     (name, legend → label → value); per-category doubles (name, category → values);
-    doubles indexed by string labels (name, labels, values); events (name, status)."""
+    doubles indexed by string labels (name, labels, values), its labels' data named
+    "<name> labels" and included unless `with_labels` is false; events (name, status)."""
     job_id = job_id or uuid.uuid4()
     w = MetricsWriter(job_id, deterministic=True)
     names: list[str] = []
@@ -55,7 +64,7 @@ def job_with(
     if labelled is not None:
         name, labels, values = labelled
         w.add_data(data.doubles(name, values, index=data.strings(f"{name} labels", labels)))
-        names += [name, f"{name} labels"]  # the index comes with the data it indexes
+        names += [name, f"{name} labels"] if with_labels else [name]
     view = read_job_metrics(w.serialize())
     return JobRecord(
         job_id=job_id,
@@ -63,7 +72,11 @@ def job_with(
         scalars={
             k: v if isinstance(v, Scalar) else Scalar(float(v)) for k, v in (scalars or {}).items()
         },
-        data={name: view.data_by_name[name] for name in names},
+        # Data asked for by name is read alone, as the fetcher does: without its index.
+        data={
+            name: read_metrics_data(view.data_by_name[name].raw.SerializeToString())
+            for name in names
+        },
         job_metrics=view if view.metrics else None,
         parameters=dict(parameters or {}),
         events=tuple(

@@ -38,8 +38,16 @@ def test_doubles_indexed_by_string_labels_are_summed_per_label() -> None:
         job_with(labelled=("per class", ["car", "bus", "car"], [1.0, 2.0, 3.0])),
         job_with(labelled=("per class", ["bus"], [10.0])),
     ]
-    out = Output(fold(CategoryTotals(data="per class", name="Per class"), jobs))
+    agg = CategoryTotals(data="per class", labels="per class labels", name="Per class")
+    assert agg.needs() == Needs(data=frozenset({"per class", "per class labels"}))
+    out = Output(fold(agg, jobs))
     assert bar_series(out, "Per class") == {"per class": {"bus": 12.0, "car": 4.0}}
+
+
+def test_labels_not_fetched_are_named_as_the_fix() -> None:
+    record = job_with(labelled=("per class", ["car"], [1.0]), with_labels=False)
+    with pytest.raises(JobDataError, match=r"not fetched; name the labels' data in the table"):
+        CategoryTotals(data="per class").update(record)
 
 
 def test_a_bar_chart_metric_keeps_one_series_per_legend_name() -> None:
@@ -90,3 +98,5 @@ def test_needs_and_the_choice_of_source() -> None:
     for options in ({}, {"data": "d", "metric": "m"}):
         with pytest.raises(ValueError, match="exactly one of 'data'"):
             CategoryTotals(**options)
+    with pytest.raises(ValueError, match="'labels' goes with 'data'"):
+        CategoryTotals(metric="m", labels="l")

@@ -110,11 +110,21 @@ def labelled_doubles(job: JobRecord, view: MetricsDataView, what: str) -> dict[s
         for category in view.categories:
             found.setdefault(category, [])
         return found
-    index = _index_of(job, view)
-    if index is None or index.kind is not SeriesKind.STRING:
+    if view.index_id is None:
         raise JobDataError(
             f"job {job.job_id}: {what} {view.name!r} is neither per category nor doubles "
             "indexed by string labels, so it has no categories to total"
+        )
+    index = _index_of(job, view)
+    if index is None:
+        raise JobDataError(
+            f"job {job.job_id}: {what} {view.name!r} is indexed by data {view.index_id} "
+            'that was not fetched; name the labels\' data in the table (labels = "...")'
+        )
+    if index.kind is not SeriesKind.STRING:
+        raise JobDataError(
+            f"job {job.job_id}: {what} {view.name!r} is indexed by {index.kind}, not by "
+            "string labels, so it has no categories to total"
         )
     labels, values = index.values(), view.values()
     if len(labels) != len(values):
