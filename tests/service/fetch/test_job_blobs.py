@@ -205,6 +205,7 @@ async def test_a_named_metric_costs_its_blob_and_its_data_with_their_index(
     assert metric.name == "Offset over time"
     assert metric.type is MetricType.DOUBLE_OVER_TIME
     offsets = view.data_by_name["offsets"]
+    assert offsets.index_id is not None
     assert offsets.index_id in view.data_by_id  # the index came with it
     assert view.data_by_id[offsets.index_id].kind is SeriesKind.TIMESTAMP
     (over_time,) = (m for m in output.job_level_metrics.metrics if m.name == "Offset over time")

@@ -25,6 +25,7 @@ from stook.sdk import (
     ReadError,
     SeriesKind,
     parse_job_metrics,
+    parse_metrics_data,
     read_metric,
     read_metrics_data,
 )
@@ -79,6 +80,7 @@ class JobBlobs:
         self._relist_metrics = relist_metrics
         self._relist_data = relist_data
         self._listed = {d.data_id: d for d in data if d.is_standard}
+        self._files = {d.data_id: d for d in data if not d.is_standard}
         self._views: dict[uuid.UUID, MetricsDataView] = {}
 
     @property
@@ -172,6 +174,9 @@ class JobBlobs:
         for data_id, owner in ids.items():
             if data_id in self._views:
                 continue
+            if data_id in self._files:
+                self._views[data_id] = self._file(self._files[data_id])
+                continue
             item = self._listed.get(data_id)
             if item is None:
                 if index:
@@ -205,6 +210,18 @@ class JobBlobs:
             raise InvalidDataError(f"could not read MetricsData from {source}: it has no URL")
         try:
             return read_metrics_data(payload, source=source)
+        except ReadError as exc:
+            raise InvalidDataError(str(exc)) from None
+
+    def _file(self, item: ApiMetricsData) -> MetricsDataView:
+        """An external file (an image, a video) as the MetricsData that references it: its
+        URL serves the file itself, not a message, and the file is no metrics data to
+        download."""
+        msg = pb.MetricsData(name=item.name, data_type=pb.EXTERNAL_FILE_DATA_TYPE)
+        msg.metrics_data_id.id.data = str(item.data_id)
+        msg.external_file.path = item.filename or item.name
+        try:
+            return parse_metrics_data(msg, source=self._where(f"metrics data {item.name!r}"))
         except ReadError as exc:
             raise InvalidDataError(str(exc)) from None
 
