@@ -117,7 +117,7 @@ def test_histogram_metrics_merge_on_the_jobs_buckets(ran: tuple[JobMetricsView, 
     metric = by_name(view)["Accelerations (all jobs)"]
     assert histogram_values(view, metric) == expected
     (buckets,) = {t.histograms[HISTOGRAM].buckets for t in truths}
-    lower, upper, written = histogram_bounds(metric)
+    lower, upper, written = histogram_bounds(view, metric)
     assert written == list(buckets)
     assert (lower, upper, len(written)) == (-8.0, 8.0, 16)
     x_axis = metric.raw.metric_values.histogram_metric_values.x_axis_name

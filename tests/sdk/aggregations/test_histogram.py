@@ -12,10 +12,12 @@ import uuid
 import pytest
 
 from stook.sdk import (
+    HistogramMetric,
     MetricStatus,
     MetricsWriter,
     MetricType,
     SeriesKind,
+    TextMetric,
     WriterError,
     data,
     read_metrics_data,
@@ -45,8 +47,7 @@ def test_histogram_exact_mode_holds_exactly_the_appended_values() -> None:
     values, buckets, m = out.histogram("Speed")
     assert values == [0.5, 1.0, 1.0, 2.5, 3.0, 3.75]
     assert buckets == [(0.0, 1.0), (1.0, 2.0), (2.0, 3.0), (3.0, 4.0)]
-    hv = m.raw.metric_values.histogram_metric_values
-    assert hv.x_axis_name == "v [m/s]"
+    assert out.view.metric("Speed", HistogramMetric).x_axis_name == "v [m/s]"
     assert m.description == "Histogram of 6 values of 'speed' from 3 jobs (1 NaN values dropped)."
     assert out.names == ["Speed"]
     assert out.view.data_by_name["Speed values"].series().to_list() == values
@@ -157,7 +158,7 @@ def test_histogram_without_values_is_not_applicable() -> None:
     out = Output(agg)
     m = out.metric("H", MetricType.TEXT)
     assert m.status is MetricStatus.NOT_APPLICABLE
-    assert m.raw.metric_values.text_metric_values.text == (
+    assert out.view.metric("H", TextMetric).text == (
         "No job wrote values for 'd'; nothing to draw."
     )
 

@@ -35,10 +35,11 @@ if TYPE_CHECKING:
 
 
 class Bucket(NamedTuple):
-    """One histogram bucket, ``[lower, upper)``; None for a bound that is unset."""
+    """One histogram bucket, ``[lower, upper)``. A bound that is unset reads as 0.0, as the
+    platform's validator reads it (a tuple, so ``writer.histogram(buckets=...)`` takes it)."""
 
-    lower: float | None
-    upper: float | None
+    lower: float
+    upper: float
 
 
 class FailureLimits(NamedTuple):
@@ -351,7 +352,7 @@ def _histogram(m: MetricView, v: pb.HistogramMetricValues, r: _Resolver) -> Hist
         m,
         values_data=r.one(v, "values_data_id"),
         statuses_data=r.one(v, "statuses_data_id"),
-        buckets=tuple(Bucket(_optional(b, "lower"), _optional(b, "upper")) for b in v.buckets),
+        buckets=tuple(Bucket(b.lower, b.upper) for b in v.buckets),
         lower_bound=_optional(v, "lower_bound"),
         upper_bound=_optional(v, "upper_bound"),
         x_axis_name=_optional(v, "x_axis_name"),
