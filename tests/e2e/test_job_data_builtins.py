@@ -261,3 +261,22 @@ def test_histograms_on_differing_buckets_are_exit_4_naming_two_jobs(
     )
     assert "Traceback" not in err
     assert outputs_left(tmp_path / "out") == []
+
+
+@pytest.mark.usefixtures("isolated")
+def test_a_metric_no_job_has_is_exit_2_with_a_suggestion(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path, mismatched: Emulator
+) -> None:
+    write_batch_inputs(tmp_path / "inputs", mismatched)
+    toml = tmp_path / "stook.toml"
+    toml.write_text('[[batch.category_totals]]\nmetric = "Detections per clas"\n')
+    argv = ["run", "--inputs", str(tmp_path / "inputs"), "--outputs", str(tmp_path / "out")]
+    code = run_cli([*argv, "--config", str(toml), "--log-format", "json"])
+    err = capsys.readouterr().err
+    assert code == 2, err
+    (message,) = failure_lines(err)
+    assert message.endswith(
+        "no job in the batch has a job metric named 'Detections per clas'; "
+        "did you mean 'Detections per class'?"
+    ), message
+    assert outputs_left(tmp_path / "out") == []
