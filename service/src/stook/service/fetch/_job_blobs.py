@@ -88,27 +88,30 @@ class JobBlobs:
         return bool(self._needs.metrics) or self._needs.every_metric
 
     async def fetch(self) -> JobBlobsResult:
-        # Named data and wanted metric blobs go out together; the metrics' data follow.
         named = [d for d in self._data if d.name in self._needs.data and d.is_standard]
         wanted = self._wanted_metrics()
-        if wanted and named:
+        # The data the listing says the wanted metrics reference go out with their Metric
+        # blobs and the named data, in one round; what only a blob names follows.
+        referenced: dict[uuid.UUID, str] = {}
+        for listed in wanted:
+            for data_id in listed.data_ids:
+                referenced.setdefault(data_id, listed.name)
+        if self._needs.every_metric:
+            for data_id in self._listed:
+                referenced.setdefault(data_id, "")
+        first = {d.data_id: d for d in (*named, *self._resolve(referenced))}
+        if wanted:
             metric_views, _ = await asyncio.gather(
-                _gather(*(self._metric(m) for m in wanted)), self._download_all(named)
+                _gather(*(self._metric(m) for m in wanted)), self._download_all(first.values())
             )
-        elif wanted:
-            metric_views = await _gather(*(self._metric(m) for m in wanted))
         else:
             metric_views = []
-            await self._download_all(named)
+            await self._download_all(first.values())
         if wanted or self._needs.every_metric:
-            referenced: dict[uuid.UUID, str] = {}
             for listed, metric_view in zip(wanted, metric_views, strict=True):
-                for data_id in (*listed.data_ids, *metric_view.data_ids):
+                for data_id in metric_view.data_ids:
                     referenced.setdefault(data_id, listed.name)
-            if self._needs.every_metric:
-                for data_id in self._listed:
-                    referenced.setdefault(data_id, "")
-            await self._download_ids(referenced)
+            await self._download_all(self._resolve(referenced))
             # A metric's data comes with its index data (a series' timestamps), fetched
             # until none is missing. Data asked for by name alone does not: its index
             # would be a download no aggregation declared.
@@ -118,7 +121,7 @@ class JobBlobs:
                 for view in (self._views[i] for i in pending)
                 if view.index_id is not None and view.index_id not in self._views
             }:
-                await self._download_ids(missing, index=True)
+                await self._download_all(self._resolve(missing, index=True))
                 pending = list(missing)
         data: dict[str, MetricsDataView] = {}
         series: dict[str, pl.Series] = {}
@@ -169,7 +172,13 @@ class JobBlobs:
         except ReadError as exc:
             raise InvalidDataError(str(exc)) from None
 
-    async def _download_ids(self, ids: Mapping[uuid.UUID, str], *, index: bool = False) -> None:
+    def _resolve(
+        self, ids: Mapping[uuid.UUID, str], *, index: bool = False
+    ) -> list[ApiMetricsData]:
+        """The listed data of `ids` not read yet; an ID the listing lacks is invalid data.
+
+        An external file is read from its listing: its URL serves the file, not a message.
+        """
         items: list[ApiMetricsData] = []
         for data_id, owner in ids.items():
             if data_id in self._views:
@@ -187,7 +196,7 @@ class JobBlobs:
                     f"{self._where(what)}, which the job's metrics data listing does not have"
                 )
             items.append(item)
-        await self._download_all(items)
+        return items
 
     async def _download_all(self, items: Iterable[ApiMetricsData]) -> None:
         todo = {i.data_id: i for i in items if i.data_id not in self._views}
