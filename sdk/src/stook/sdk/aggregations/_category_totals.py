@@ -39,7 +39,9 @@ class CategoryTotals(Aggregation[JobRecord]):
     x_axis_name: str | None = None
     y_axis_name: str | None = None
 
-    # series (legend name, "" for data) → label → every value seen under it
+    # series (legend name, "" for data) → label → one exact sum per job that had the label:
+    # a job's values summed at once keep memory at jobs x labels, and the total of the
+    # per-job sums (exact, correctly rounded) does not depend on the order jobs arrive in.
     values: dict[str, dict[str, list[float]]] = field(default_factory=dict, init=False)
     jobs: int = field(default=0, init=False)
     dropped: int = field(default=0, init=False)
@@ -80,7 +82,7 @@ class CategoryTotals(Aggregation[JobRecord]):
             self.dropped += dropped
             mine = self.values.setdefault(series, {})
             for label, values in kept.items():
-                mine.setdefault(label, []).extend(values)
+                mine.setdefault(label, []).append(exact_sum(values))
 
     def merge(self, other: Self) -> None:
         self.jobs += other.jobs

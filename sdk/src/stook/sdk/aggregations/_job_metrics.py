@@ -13,9 +13,9 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, TypeVar
 
-from stook.sdk._buckets import Bucket
+from stook.sdk._buckets import Bucket, histogram_buckets
 from stook.sdk._enums import MetricType, SeriesKind
-from stook.sdk._errors import ReadError
+from stook.sdk._errors import ReadError, WriterError
 from stook.sdk._metric_views import BarChartMetric, HistogramMetric, TypedMetric
 from stook.sdk.aggregations._errors import JobDataError
 from stook.sdk.aggregations._record import JobRecord
@@ -85,6 +85,10 @@ def histogram_of(job: JobRecord, name: str) -> HistogramOfJob | None:
         if lower is None or upper is None:
             raise JobDataError(f"job {job.job_id}: bucket {i} of histogram {name!r} has no bounds")
         checked.append((lower, upper))
+    try:  # contiguous, each lower < upper: what the output's histogram will need
+        checked = histogram_buckets(name, checked, None, None)
+    except WriterError as exc:
+        raise JobDataError(f"job {job.job_id}: {exc}") from None
     return HistogramOfJob(values.series(), tuple(checked), metric.x_axis_name or "")
 
 
