@@ -58,7 +58,13 @@ stats = {json.dumps(list(STATS))}
 """
 
 # The units the emulator's jobs write, stated here rather than read from the emulator.
-UNITS = {"Localization error": "m", "Distance driven": "m", "Max speed": "m/s", "Collisions": ""}
+UNITS = {
+    "Localization error": "m",
+    "Distance driven": "m",
+    "Max speed": "m/s",
+    "Collisions": "",
+    "Braking distance": "m",
+}
 
 STATUS_RANK = {"PASSED": 0, "NOT_APPLICABLE": 0, "RAW": 0, "FAIL_WARN": 1, "FAIL_BLOCK": 2}
 
