@@ -11,6 +11,7 @@ import subprocess
 import sys
 import uuid
 from collections import Counter
+from collections.abc import AsyncIterator
 from pathlib import Path
 
 import polars as pl
@@ -19,14 +20,15 @@ import pytest
 from stook.emulator import Emulator
 from stook.emulator._store import MetricsOutput
 from stook.sdk import MetricType
-from stook.sdk.aggregations import JobRecord, Needs
+from stook.sdk.aggregations import JobRecord, Needs, default_batch_aggregations
 from stook.service import (
     AuthError,
     fetch_batch,
     fetch_batch_frame,
     fetch_report,
 )
-from stook.service.modes import ApiAccess, ConfigError, InputsError
+from stook.service.fetch import DeadlineReachedError
+from stook.service.modes import ApiAccess, ConfigError, InputsError, MissingJobsError
 from stook.testing import emulated_batch
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -61,8 +63,11 @@ async def test_what_each_plan_downloads(tmp_path: Path) -> None:
         outputs = {
             j.id: emu.dataset.job_output(emu.batch_id, j.id) for j in emu.dataset.jobs(emu.batch_id)
         }
-        # Defaults: listings only, no blob at all.
-        records = await _collect(Needs(every_scalar=True), emu)
+        # The default batch metrics' plan: listings only, no blob at all.
+        defaults = Needs()
+        for aggregation in default_batch_aggregations():
+            defaults = defaults | aggregation.needs()
+        records = await _collect(defaults, emu)
         assert len(records) == JOBS
         assert _storage(emu) == Counter()
         assert emu.stats.endpoints["api:list_job_metrics"] == JOBS
@@ -176,14 +181,14 @@ async def test_leaving_early_stops_the_fetch_and_closes_the_client(tmp_path: Pat
 
 async def test_errors_are_stooks_own_and_never_show_the_token(tmp_path: Path) -> None:
     async with emulated_batch(tmp_path / "inputs", jobs_per_batch=4, seed=6) as emu:
+        stream = fetch_batch(
+            api_url=emu.api_url,
+            token="wrong-secret-token",
+            project_id=emu.project_id,
+            batch_id=emu.batch_id,
+        )
         with pytest.raises(AuthError) as refused:
-            async for _ in fetch_batch(
-                api_url=emu.api_url,
-                token="wrong-secret-token",
-                project_id=emu.project_id,
-                batch_id=emu.batch_id,
-            ):
-                pass
+            await _drain(stream)
         assert "wrong-secret-token" not in str(refused.value)
         emu.stats.reset()
         # Settings and inputs are checked before any request.
@@ -197,6 +202,48 @@ async def test_errors_are_stooks_own_and_never_show_the_token(tmp_path: Path) ->
         # The platform's config file itself is a source too.
         config_file = tmp_path / "inputs" / "batch_metrics_config.json"
         assert len([j async for j in fetch_batch(config_file)]) == 4
+
+
+async def test_unavailable_jobs_raise_at_the_end_unless_allowed(tmp_path: Path) -> None:
+    async with emulated_batch(
+        tmp_path / "inputs", jobs_per_batch=8, seed=9, broken_jobs=(2, 5)
+    ) as emu:
+        seen: list[JobRecord] = []
+
+        async def consume() -> None:
+            async for job in fetch_batch(tmp_path / "inputs", retry_for=0.5):
+                seen.append(job)
+
+        with pytest.raises(MissingJobsError, match="2 of 8 jobs missing"):
+            await consume()
+        assert len(seen) == 6  # every other job was handed over first
+        allowed = [
+            j async for j in fetch_batch(tmp_path / "inputs", retry_for=0.5, allow_missing=2)
+        ]
+        assert len(allowed) == 6
+        assert emu.stats.broken_job_answers > 0
+
+
+async def test_the_deadline_bounds_the_whole_fetch(tmp_path: Path) -> None:
+    async with emulated_batch(tmp_path / "inputs", jobs_per_batch=30, seed=10, latency_ms=200):
+        stream = fetch_batch(tmp_path / "inputs", deadline=0.3, concurrency=2)
+        with pytest.raises(DeadlineReachedError, match=r"deadline of 0\.3 s"):
+            await _drain(stream)
+
+
+async def test_a_source_and_access_keywords_do_not_mix(tmp_path: Path) -> None:
+    async with emulated_batch(tmp_path / "inputs", jobs_per_batch=2, seed=11) as emu:
+        with pytest.raises(InputsError, match="not both"):
+            fetch_batch(tmp_path / "inputs", token=emu.token)
+        with pytest.raises(InputsError, match="fetch_batch"):
+            fetch_report(tmp_path / "inputs")
+        with pytest.raises(InputsError, match="neither"):
+            fetch_batch(tmp_path / "nowhere")
+
+
+async def _drain(stream: AsyncIterator[object]) -> None:
+    async for _ in stream:
+        pass
 
 
 def _report_inputs(emu: Emulator, tmp_path: Path) -> Path:
@@ -251,6 +298,8 @@ async def test_readme_example_runs(tmp_path: Path, example: str) -> None:
     assert done.returncode == 0, err.decode()
     lines = out.decode().splitlines()
     assert lines, err.decode()
+    # Without a structlog set-up of its own, the program's output is its own: no log lines.
+    assert "http response" not in out.decode() + err.decode()
     if example == "fetch_batch":
         assert any(HISTOGRAM in line for line in lines)
     if example == "fetch_batch_frame":

@@ -37,8 +37,8 @@ class JobEvent:
     """One event of a job, as the API lists it (`Needs.events`).
 
     `status` is the API's spelling (PASSED, FAIL_WARN, ...; an unknown one as it came,
-    NO_STATUS_REPORTED when absent); `timestamp_type` is ABSOLUTE_TIMESTAMP or
-    RELATIVE_TIMESTAMP (or what the API sent); `timestamp` is None when absent.
+    NO_STATUS_REPORTED when absent); `timestamp_type` is the API's ABSOLUTE or RELATIVE
+    (or what the API sent; "" when absent); `timestamp` is None when absent.
     """
 
     event_id: uuid.UUID

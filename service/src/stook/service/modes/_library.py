@@ -23,6 +23,7 @@ from typing import TYPE_CHECKING, Any
 import structlog
 
 from stook.sdk.aggregations import BatchRecord, JobRecord, Needs
+from stook.service.api import configure_logging
 from stook.service.fetch import BatchFetcher, MissingJob, ReportFetcher, fetch_deadline
 from stook.service.modes._config import FetchSettings, parse
 from stook.service.modes._inputs import (
@@ -50,6 +51,14 @@ _JOB_COLUMNS = ("job_id", "experience_name", "experience_id", "conflated_status"
 _PARAMETER_PREFIX = "parameters."
 
 
+def _default_logging() -> None:
+    """structlog left unconfigured prints every debug line of the fetch to stdout, unredacted
+    by stook's processors; a program that did not configure it gets stook's own set-up,
+    warnings and errors only, on stderr."""
+    if not structlog.is_configured():
+        configure_logging(level="warning")
+
+
 def _settings(**given: Any) -> FetchSettings:
     """`[fetch]` settings from keywords, checked as stook.toml's are (ConfigError, exit 2)."""
     table = {key: value for key, value in given.items() if value is not None}
@@ -63,6 +72,8 @@ def _access(
     project_id: uuid.UUID | str | None,
 ) -> tuple[ApiAccess | None, BatchInputs | ReportInputs | None]:
     """Access and (when the platform's files gave them) the inputs, from `source`."""
+    if source is not None and (api_url is not None or token is not None):
+        raise InputsError("give either a source or api_url and token, not both")
     if isinstance(source, ApiAccess):
         return source, None
     project = _uuid("project_id", project_id) if project_id is not None else None
@@ -260,6 +271,7 @@ def fetch_batch(
         adaptive=adaptive,
     )
     access, batch = _batch_target(source, api_url, token, project_id, batch_id)
+    _default_logging()
 
     async def run(hand_over: _Handover) -> None:
         started = asyncio.get_running_loop().time()
@@ -309,6 +321,7 @@ def fetch_report(
         adaptive=adaptive,
     )
     access, report = _report_target(source, api_url, token, project_id, report_id)
+    _default_logging()
 
     async def run(hand_over: _Handover) -> None:
         started = asyncio.get_running_loop().time()
