@@ -4,6 +4,7 @@ data resolved, and the errors for a missing metric, missing data and mismatched 
 from __future__ import annotations
 
 import uuid
+from collections.abc import Callable
 
 import polars as pl
 import pytest
@@ -183,6 +184,10 @@ def test_labels_need_an_index(view: JobMetricsView) -> None:
     assert alone.index is None
     with pytest.raises(ValueError, match="not at hand"):
         alone.labelled()
+    index = read_metrics_data(view.data_by_name["bar names"].raw.SerializeToString())
+    assert alone.with_index(index).by_label() == {"a": 1.0, "b": 2.0}
+    with pytest.raises(ValueError, match=r"'xs' .* is not the index of 'bar values'"):
+        alone.with_index(view.data_by_name["xs"])
 
 
 def test_repeated_labels() -> None:
@@ -301,3 +306,63 @@ def test_typed_views_of_writer_output_round_trip() -> None:
     assert summary.value_data.by_label()["y"] == 4.0
     s = view.metric("S", ScalarMetric)
     assert (s.fails_above, s.fails_below, s.unit) == (2.0, 0.0, None)
+
+
+def _with_data(
+    view: JobMetricsView, name: str, edit: Callable[[pb.MetricsData], None]
+) -> JobMetricsView:
+    msg = pb.JobMetrics()
+    msg.CopyFrom(view.raw)
+    for d in msg.metrics_data:
+        if d.name == name:
+            edit(d)
+    return parse_job_metrics(msg, source="edited")
+
+
+def test_plain_values_of_odd_elements(view: JobMetricsView) -> None:
+    def odd_statuses(d: pb.MetricsData) -> None:
+        d.series.statuses.series[:] = [pb.NO_METRIC_STATUS, 42, pb.RAW_METRIC_STATUS]  # type: ignore[list-item]
+
+    edited = _with_data(view, "speed statuses", odd_statuses)
+    assert edited.data_by_name["speed statuses"].values() == (None, 42, MetricStatus.RAW)
+
+    def bad_uuid(d: pb.MetricsData) -> None:
+        d.series.uuids.series[0].data = "not-a-uuid"
+
+    edited = _with_data(view, "batch ids", bad_uuid)
+    with pytest.raises(ReadError, match=r"'edited'.*'batch ids'.*'not-a-uuid' is not a UUID"):
+        edited.data_by_name["batch ids"].values()
+
+
+def test_labels_and_values_of_different_lengths_are_a_read_error(view: JobMetricsView) -> None:
+    def shorter(d: pb.MetricsData) -> None:
+        del d.series.strings.series[1]
+
+    edited = _with_data(view, "bar names", shorter)
+    with pytest.raises(
+        ReadError, match="'bar values' has 2 values but its index 'bar names' has 1"
+    ):
+        edited.metric("Bars", BarChartMetric).values_data[0].labelled()
+
+
+def test_a_bad_index_uuid_in_a_summary_is_a_read_error() -> None:
+    w = MetricsWriter(uuid.uuid4())
+    ids = data.uuids("ids", [uuid.UUID(int=1)])
+    w.double_summary("By id", data.doubles("v", [1.0], index=ids), index=uuid.UUID(int=1))
+    msg = w.to_proto()
+    msg.job_level_metrics.metrics[0].metric_values.double_metric_values.uuid_index.data = "zz"
+    with pytest.raises(ReadError, match="metric 'By id': 'zz' is not a UUID"):
+        parse_job_metrics(msg).metric("By id")
+
+
+def test_an_unknown_metric_missing_its_data(view: JobMetricsView) -> None:
+    msg = pb.JobMetrics()
+    msg.CopyFrom(view.raw)
+    for m in msg.job_level_metrics.metrics:
+        if m.name == "Histogram":
+            m.type = 99  # type: ignore[assignment]
+    kept = [d for d in msg.metrics_data if d.name != "hist statuses"]
+    del msg.metrics_data[:]
+    msg.metrics_data.extend(kept)
+    with pytest.raises(MissingDataError, match="metric 'Histogram' references metrics data"):
+        parse_job_metrics(msg).metric("Histogram")

@@ -163,3 +163,16 @@ def test_the_module_needs_no_pytest() -> None:
         "assert 'pytest' not in sys.modules and 'hypothesis' not in sys.modules"
     )
     subprocess.run([sys.executable, "-c", code], check=True)
+
+
+@dataclass
+class FreshOfAnotherClass(Total):
+    def fresh(self) -> Total:  # type: ignore[override]
+        return Total(self.name)
+
+
+def test_a_fresh_of_another_class_is_caught() -> None:
+    with pytest.raises(
+        AssertionError, match=r"fresh\(\) returned a Total, not a FreshOfAnotherClass"
+    ):
+        check_merge_laws(FreshOfAnotherClass, RECORDS)

@@ -9,6 +9,7 @@ parse raises `MalformedError`; the views turn it into a `ReadError` naming the d
 from __future__ import annotations
 
 import uuid
+from collections.abc import Callable
 from typing import Any
 
 from stook.proto import metrics_pb2 as pb
@@ -18,19 +19,7 @@ from stook.sdk._errors import MalformedError
 
 def plain_values(series: pb.Series, kind: SeriesKind) -> tuple[Any, ...]:
     """The elements of `series`, which holds elements of `kind` (not an external file)."""
-    match kind:
-        case SeriesKind.DOUBLE:
-            return tuple(series.doubles.series)
-        case SeriesKind.STRING:
-            return tuple(series.strings.series)
-        case SeriesKind.TIMESTAMP:
-            return tuple(t.seconds * NANOS_PER_SECOND + t.nanos for t in series.timestamps.series)
-        case SeriesKind.UUID:
-            return tuple(_uuid(u.data) for u in series.uuids.series)
-        case SeriesKind.STATUS:
-            return tuple(_status(s) for s in series.statuses.series)
-        case SeriesKind.EXTERNAL_FILE:
-            raise ValueError("an external file has no series")
+    return _CONVERTERS[kind](series)
 
 
 def _uuid(text: str) -> uuid.UUID:
@@ -47,3 +36,14 @@ def _status(value: int) -> MetricStatus | int | None:
         return MetricStatus(value)
     except ValueError:
         return value
+
+
+_CONVERTERS: dict[SeriesKind, Callable[[pb.Series], tuple[Any, ...]]] = {
+    SeriesKind.DOUBLE: lambda s: tuple(s.doubles.series),
+    SeriesKind.STRING: lambda s: tuple(s.strings.series),
+    SeriesKind.TIMESTAMP: lambda s: tuple(
+        t.seconds * NANOS_PER_SECOND + t.nanos for t in s.timestamps.series
+    ),
+    SeriesKind.UUID: lambda s: tuple(_uuid(u.data) for u in s.uuids.series),
+    SeriesKind.STATUS: lambda s: tuple(_status(v) for v in s.statuses.series),
+}

@@ -32,7 +32,6 @@ Views keep the message they were read from as ``raw``; do not mutate it.
 
 from __future__ import annotations
 
-import dataclasses
 import uuid
 from collections.abc import Callable, Iterable, Mapping
 from types import MappingProxyType
@@ -353,9 +352,7 @@ def _with_indexes(data: tuple[MetricsDataView, ...]) -> tuple[MetricsDataView, .
     that `MetricsDataView.labelled` needs nothing else."""
     by_id = _first_wins((d.id, d) for d in data)
     return tuple(
-        dataclasses.replace(d, index=by_id[d.index_id])
-        if d.index_id is not None and d.index_id in by_id
-        else d
+        d.with_index(by_id[d.index_id]) if d.index_id is not None and d.index_id in by_id else d
         for d in data
     )
 

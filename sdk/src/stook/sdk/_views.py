@@ -9,6 +9,7 @@ messages, and deciding what is readable, is `_reader`'s job.
 
 from __future__ import annotations
 
+import dataclasses
 import uuid
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -58,6 +59,17 @@ class MetricsDataView:
     @property
     def is_external(self) -> bool:
         return self.kind is SeriesKind.EXTERNAL_FILE
+
+    def with_index(self, index: MetricsDataView) -> MetricsDataView:
+        """This data holding `index` as its index view (for data read on their own, e.g.
+        with `read_metrics_data`); ValueError when `index` is not the data its
+        ``index_id`` names."""
+        if index.id != self.index_id:
+            raise ValueError(
+                f"metrics data {index.name!r} ({index.id}) is not the index of {self.name!r} "
+                f"({self.index_id})"
+            )
+        return dataclasses.replace(self, index=index)
 
     def values(self) -> tuple[Any, ...]:
         """The values of a plain (not per-category) series as Python values.
