@@ -65,13 +65,14 @@ def test_an_unknown_key_of_a_builtin_lists_the_known_ones() -> None:
     table = {"name": "H", "data": "d", "lower": 0, "upper": 1, "bins": 4}
     assert build_error("histogram", table) == (
         "[[batch.histogram]] #1: unknown key 'bins' "
-        "(known: buckets, data, lower, max_values, name, upper, x_axis_name)"
+        "(known: buckets, data, lower, max_values, metric, name, upper, x_axis_name)"
     )
 
 
 def test_missing_keys_of_a_builtin_are_named() -> None:
-    assert build_error("histogram", {"name": "H", "lower": 0}) == (
-        "[[batch.histogram]] #1: missing keys 'data', 'upper'"
+    assert build_error("histogram", {"name": "H", "data": "d"}) == (
+        "[[batch.histogram]] #1: missing keys 'lower', 'upper' "
+        "(the histogram's bounds, needed with 'data')"
     )
     assert build_error("weighted_mean", {"name": "W"}) == (
         "[[batch.weighted_mean]] #1: missing key 'metric'"

@@ -8,6 +8,10 @@ or register it under the ``stook.aggregations`` entry-point group.
 """
 
 from stook.sdk.aggregations._base import Aggregation, BatchAggregation, Needs, ReportAggregation
+from stook.sdk.aggregations._by_tag import ByExperienceTag
+from stook.sdk.aggregations._category_totals import CategoryTotals
+from stook.sdk.aggregations._errors import JobDataError
+from stook.sdk.aggregations._event_counts import EventCounts
 from stook.sdk.aggregations._histogram import MergedHistogram
 from stook.sdk.aggregations._record import (
     UNKNOWN_STATUS,
@@ -33,6 +37,7 @@ from stook.sdk.aggregations._status_counts import (
     MetricStatusCounts,
     PassRate,
 )
+from stook.sdk.aggregations._sweep import ParameterSweep
 from stook.sdk.aggregations._weighted_mean import WeightedMean
 
 __all__ = [
@@ -43,6 +48,10 @@ __all__ = [
     "AggregationConfigError",
     "BatchAggregation",
     "BatchRecord",
+    "ByExperienceTag",
+    "CategoryTotals",
+    "EventCounts",
+    "JobDataError",
     "JobEvent",
     "JobRecord",
     "JobStatusCounts",
@@ -50,6 +59,7 @@ __all__ = [
     "MergedHistogram",
     "MetricStatusCounts",
     "Needs",
+    "ParameterSweep",
     "PassRate",
     "ReportAggregation",
     "Scalar",

@@ -1,22 +1,27 @@
-"""A histogram of one double series that every test wrote, appended across all jobs."""
+"""A histogram of one double series that every test wrote, or of the values of one HISTOGRAM
+metric that every test wrote (on the buckets the tests used), appended across all jobs."""
 
 from __future__ import annotations
 
 import math
+import uuid
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Self
 
 from stook.sdk import _data
-from stook.sdk._buckets import histogram_buckets
+from stook.sdk._buckets import Bucket, histogram_buckets
 from stook.sdk._enums import MetricStatus, SeriesKind
 from stook.sdk._writer import MetricsWriter
 from stook.sdk.aggregations._base import Aggregation, Needs
+from stook.sdk.aggregations._errors import JobDataError
+from stook.sdk.aggregations._job_metrics import histogram_of
 from stook.sdk.aggregations._record import JobRecord
 
 if TYPE_CHECKING:
     import polars as pl
 
 DEFAULT_MAX_VALUES = 2_000_000
+DEFAULT_BUCKETS = 20
 _CONSOLIDATE_AT = 256
 _BIN_BATCH = 1 << 16
 
@@ -35,7 +40,11 @@ def _pooled_categories(job: JobRecord, name: str) -> pl.Series | None:
 class MergedHistogram(Aggregation[JobRecord]):
     """Appends the series `data` of every job and writes it as a HISTOGRAM.
 
-    Per-category data (doubles) contributes the values of all its categories, pooled.
+    With `metric` instead of `data` (exactly one of them), it appends the values of the
+    jobs' own HISTOGRAM metric of that name and writes them on the buckets the jobs used,
+    which every job must share (JobDataError naming two jobs otherwise); `lower`, `upper`
+    and `buckets` then come from the jobs and cannot be given. Per-category `data`
+    (doubles) contributes the values of all its categories, pooled.
 
     While the appended values number at most `max_values`, the histogram's values
     are exactly the appended series. Past that, memory must stay bounded, so the
@@ -45,12 +54,13 @@ class MergedHistogram(Aggregation[JobRecord]):
     """
 
     name: str
-    data: str
-    lower: float
-    upper: float
-    buckets: int = 20
+    data: str | None = None
+    lower: float | None = None
+    upper: float | None = None
+    buckets: int | None = None
     max_values: int = DEFAULT_MAX_VALUES
     x_axis_name: str | None = None
+    metric: str | None = None
 
     chunks: list[pl.Series] = field(default_factory=list, init=False)
     bucket_counts: list[int] | None = field(default=None, init=False)
@@ -62,15 +72,62 @@ class MergedHistogram(Aggregation[JobRecord]):
     unbinned_values: int = field(default=0, init=False)
     dropped_nan: int = field(default=0, init=False)
     jobs: int = field(default=0, init=False)
+    # Metric mode: the buckets the jobs used, learnt from the first job that had the metric
+    # (`edges_job`), and the x-axis names they gave.
+    edges: list[Bucket] | None = field(default=None, init=False)
+    edges_job: uuid.UUID | None = field(default=None, init=False)
+    axis_names: set[str] = field(default_factory=set, init=False)
 
     def __post_init__(self) -> None:
-        # Raises WriterError on bad bounds now, at configuration time, not at the end.
-        self._edges = histogram_buckets(self.name, self.buckets, self.lower, self.upper)
+        if (self.data is None) == (self.metric is None):
+            raise ValueError("give exactly one of 'data' (a double series) or 'metric'")
         if self.max_values < 1:
             raise ValueError(f"{self.name!r}: max_values must be at least 1")
+        if self.metric is not None:
+            given = [k for k in ("lower", "upper", "buckets") if getattr(self, k) is not None]
+            if given:
+                raise ValueError(
+                    f"{given[0]!r} cannot be given with 'metric': the buckets are the ones "
+                    f"the jobs' histogram {self.metric!r} used"
+                )
+            return
+        missing = [k for k in ("lower", "upper") if getattr(self, k) is None]
+        if missing:
+            raise ValueError(
+                f"missing key{'s' if len(missing) > 1 else ''} "
+                + ", ".join(repr(k) for k in missing)
+                + " (the histogram's bounds, needed with 'data')"
+            )
+        # Raises WriterError on bad bounds now, at configuration time, not at the end.
+        if self.buckets is None:
+            self.buckets = DEFAULT_BUCKETS
+        self.edges = histogram_buckets(self.name, self.buckets, self.lower, self.upper)
+
+    @property
+    def source(self) -> str:
+        """What is appended, for messages: the data or the histogram metric."""
+        return repr(self.data) if self.data is not None else f"histogram metric {self.metric!r}"
 
     def needs(self) -> Needs:
+        if self.metric is not None:
+            return Needs(metrics=frozenset({self.metric}))
+        assert self.data is not None
         return Needs(data=frozenset({self.data}))
+
+    def _edges(self) -> list[Bucket]:
+        assert self.edges is not None  # known before any value is added
+        return self.edges
+
+    def _adopt_edges(self, edges: list[Bucket], job: uuid.UUID | None) -> None:
+        """Metric mode: the first buckets seen are the histogram's; others are an error."""
+        if self.edges is None:
+            self.edges, self.edges_job = edges, job
+        elif edges != self.edges:
+            raise JobDataError(
+                f"{self.name!r}: jobs {self.edges_job} and {job} wrote histogram "
+                f"{self.metric!r} with different buckets ({_difference(self.edges, edges)}); "
+                "values binned differently cannot be merged"
+            )
 
     @property
     def binned(self) -> bool:
@@ -100,21 +157,22 @@ class MergedHistogram(Aggregation[JobRecord]):
 
         assert self.bucket_counts is not None  # only called once binned
         values = s.to_numpy()
-        outside = (values < self.lower) | (values > self.upper)
+        edges = self._edges()
+        outside = (values < edges[0][0]) | (values > edges[-1][1])
         self.outside_counted += int(np.count_nonzero(outside))
         # Search the bucket edges rather than divide by the width: division rounds a value
         # on an inner edge into the bucket below, against the "[lower, upper)" buckets.
         # (numpy rather than polars: a polars value_counts per batch cost 4x the search.)
-        lowers = np.array([lo for lo, _ in self._edges], dtype=np.float64)
+        lowers = np.array([lo for lo, _ in edges], dtype=np.float64)
         index = np.searchsorted(lowers, values, side="right") - 1
-        np.clip(index, 0, self.buckets - 1, out=index)
-        counts = np.bincount(index, minlength=self.buckets)
+        np.clip(index, 0, len(edges) - 1, out=index)
+        counts = np.bincount(index, minlength=len(edges))
         self.bucket_counts = [
             mine + int(new) for mine, new in zip(self.bucket_counts, counts, strict=True)
         ]
 
     def _switch_to_counts(self) -> None:
-        self.bucket_counts = [0] * self.buckets
+        self.bucket_counts = [0] * len(self._edges())
         chunks, self.chunks = self.chunks, []
         for chunk in chunks:
             self._bin(chunk)
@@ -137,11 +195,22 @@ class MergedHistogram(Aggregation[JobRecord]):
             self._switch_to_counts()
 
     def update(self, job: JobRecord) -> None:
-        s = job.series.get(self.data)
-        if s is None:
-            s = _pooled_categories(job, self.data)
-        if s is None:
-            return
+        if self.metric is not None:
+            found = histogram_of(job, self.metric)
+            if found is None:
+                return
+            self._adopt_edges(list(found.buckets), job.job_id)
+            if found.x_axis_name:
+                self.axis_names.add(found.x_axis_name)
+            s = found.values
+        else:
+            assert self.data is not None
+            series = job.series.get(self.data)
+            if series is None:
+                series = _pooled_categories(job, self.data)
+            if series is None:
+                return
+            s = series
         self.jobs += 1
         import polars as pl
 
@@ -157,6 +226,9 @@ class MergedHistogram(Aggregation[JobRecord]):
         self._add(s)
 
     def merge(self, other: Self) -> None:
+        if self.metric is not None and other.edges is not None:
+            self._adopt_edges(other.edges, other.edges_job)
+            self.axis_names |= other.axis_names
         self.jobs += other.jobs
         self.dropped_nan += other.dropped_nan
         theirs = other.counts  # flushes their unbinned values
@@ -178,7 +250,7 @@ class MergedHistogram(Aggregation[JobRecord]):
         import polars as pl
 
         if not self.chunks:
-            return pl.Series(self.data, [], dtype=pl.Float64)
+            return pl.Series(self.data or self.metric, [], dtype=pl.Float64)
         values = pl.concat(self.chunks, rechunk=True)
         # -0.0 becomes 0.0: they compare equal, so sorting alone keeps their arrival order.
         # (polars folds `x + 0.0` to x, so the usual arithmetic trick does not work here.)
@@ -188,11 +260,15 @@ class MergedHistogram(Aggregation[JobRecord]):
         if self.total == 0:
             writer.text(
                 self.name,
-                f"No job wrote values for {self.data!r}; nothing to draw.",
+                f"No job wrote values for {self.source}; nothing to draw.",
                 status=MetricStatus.NOT_APPLICABLE,
             )
             return
-        about = f"{self.total} values of {self.data!r} from {self.jobs} jobs"
+        about = f"{self.total} values of {self.source} from {self.jobs} jobs"
+        edges = self._edges()
+        x_axis_name = self.x_axis_name
+        if x_axis_name is None and len(self.axis_names) == 1:
+            x_axis_name = next(iter(self.axis_names))  # only when every job agrees
         if self.dropped_nan:
             about += f" ({self.dropped_nan} NaN values dropped)"
         counts = self.counts
@@ -201,18 +277,18 @@ class MergedHistogram(Aggregation[JobRecord]):
             writer.histogram(
                 self.name,
                 values,
-                buckets=self._edges,
-                x_axis_name=self.x_axis_name,
+                buckets=edges,
+                x_axis_name=x_axis_name,
                 description=f"Histogram of {about}.",
             )
             return
         per_value = math.ceil(self.total / self.max_values)
         midpoints: list[float] = []
-        for (lo, hi), count in zip(self._edges, counts, strict=True):
+        for (lo, hi), count in zip(edges, counts, strict=True):
             midpoints.extend([(lo + hi) / 2] * round(count / per_value))
-        shown = _data.doubles(f"{self.name} values", midpoints or [self._edges[0][0]])
+        shown = _data.doubles(f"{self.name} values", midpoints or [edges[0][0]])
         outside = (
-            f"; {self.outside} values outside [{self.lower}, {self.upper}] counted in the "
+            f"; {self.outside} values outside [{edges[0][0]}, {edges[-1][1]}] counted in the "
             "edge buckets"
             if self.outside
             else ""
@@ -220,8 +296,8 @@ class MergedHistogram(Aggregation[JobRecord]):
         writer.histogram(
             self.name,
             shown,
-            buckets=self._edges,
-            x_axis_name=self.x_axis_name,
+            buckets=edges,
+            x_axis_name=x_axis_name,
             description=(
                 f"Pre-binned: {about} exceed the cap of {self.max_values} values, so each "
                 f"value shown stands for {per_value} values at its bucket's midpoint; exact "
@@ -230,9 +306,18 @@ class MergedHistogram(Aggregation[JobRecord]):
         )
         writer.bar_chart_from(
             f"{self.name} (counts)",
-            {
-                f"[{lo:g}, {hi:g})": float(c)
-                for (lo, hi), c in zip(self._edges, counts, strict=True)
-            },
+            {f"[{lo:g}, {hi:g})": float(c) for (lo, hi), c in zip(edges, counts, strict=True)},
             description=f"Exact bucket counts of {about}.",
         )
+
+
+def _difference(mine: list[Bucket], theirs: list[Bucket]) -> str:
+    """Where two sets of buckets part: their counts and ranges, or the first bucket."""
+
+    def about(edges: list[Bucket]) -> str:
+        return f"{len(edges)} from {edges[0][0]:g} to {edges[-1][1]:g}"
+
+    if about(mine) != about(theirs):
+        return f"{about(mine)} vs {about(theirs)}"
+    i = next(i for i, (a, b) in enumerate(zip(mine, theirs, strict=True)) if a != b)
+    return f"bucket {i} is [{mine[i][0]:g}, {mine[i][1]:g}) vs [{theirs[i][0]:g}, {theirs[i][1]:g})"

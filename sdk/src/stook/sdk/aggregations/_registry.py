@@ -17,10 +17,14 @@ from typing import Any
 
 from stook.sdk._errors import StookError
 from stook.sdk.aggregations._base import Aggregation
+from stook.sdk.aggregations._by_tag import ByExperienceTag
+from stook.sdk.aggregations._category_totals import CategoryTotals
+from stook.sdk.aggregations._event_counts import EventCounts
 from stook.sdk.aggregations._histogram import MergedHistogram
 from stook.sdk.aggregations._scalar_defaults import ScalarDefaults
 from stook.sdk.aggregations._scalar_stats import ScalarStats
 from stook.sdk.aggregations._status_counts import JobStatusCounts, MetricStatusCounts, PassRate
+from stook.sdk.aggregations._sweep import ParameterSweep
 from stook.sdk.aggregations._weighted_mean import WeightedMean
 from stook.sdk.aggregations.report import (
     BatchMetricStatusCounts,
@@ -44,6 +48,10 @@ BUILTIN: dict[str, type[Aggregation[Any]]] = {
     "job_status_counts": JobStatusCounts,
     "metric_status_counts": MetricStatusCounts,
     "pass_rate": PassRate,
+    "category_totals": CategoryTotals,
+    "events": EventCounts,
+    "sweep": ParameterSweep,
+    "by_tag": ByExperienceTag,
 }
 REPORT_BUILTIN: dict[str, type[Aggregation[Any]]] = {
     "scalar_lines": ScalarLines,

@@ -32,6 +32,7 @@ def check_names(needs: Needs, outcome: FetchOutcome, source: str) -> None:
     for kind, wanted, seen in (
         ("scalar metric", needs.scalars, outcome.scalar_names),
         ("metrics data", needs.data, outcome.data_names),
+        ("job metric", needs.metrics, outcome.metric_names),
     ):
         for name in sorted(wanted - seen):
             close = difflib.get_close_matches(name, sorted(seen), n=1)

@@ -38,7 +38,15 @@ ODD_BUCKETS = (20, -10.0, 10.0)  # "Acceleration distribution" of a mismatch job
 # The per-class detections: a BAR_CHART over doubles indexed by class labels, and the same
 # counts split over the run's quarters as per-category data. A class a job never saw is
 # left out of its labels (only "bus" can be), so label sets differ between jobs.
-OBJECT_CLASSES = ("car", "pedestrian", "cyclist", "truck", "bus")
+# Per class, the range of a job's detection count.
+DETECTION_RANGES: dict[str, tuple[int, int]] = {
+    "car": (5, 40),
+    "pedestrian": (0, 15),
+    "cyclist": (0, 8),
+    "truck": (1, 10),
+    "bus": (0, 3),
+}
+OBJECT_CLASSES = tuple(DETECTION_RANGES)
 DETECTIONS_METRIC = "Detections per class"
 DETECTIONS_DATA = "detections per class"
 DETECTIONS_LABELS = "object classes"
@@ -273,13 +281,7 @@ def _histogram(
 
 def _detections(writer: MetricsWriter, truth: TruthBuilder, rng: random.Random) -> None:
     """The per-class detection counts, as a bar chart and as per-category data."""
-    counts = {
-        "car": rng.randint(5, 40),
-        "pedestrian": rng.randint(0, 15),
-        "cyclist": rng.randint(0, 8),
-        "truck": rng.randint(1, 10),
-        "bus": rng.randint(0, 3),
-    }
+    counts = {label: rng.randint(lo, hi) for label, (lo, hi) in DETECTION_RANGES.items()}
     if counts["bus"] == 0:
         del counts["bus"]  # a class never seen is not a bar
     labels = list(counts)
