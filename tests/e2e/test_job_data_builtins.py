@@ -47,7 +47,6 @@ name = "Detections (chart)"
 
 [[batch.category_totals]]
 data = "detections per class"
-labels = "object classes"
 name = "Detections (labelled data)"
 
 [[batch.category_totals]]

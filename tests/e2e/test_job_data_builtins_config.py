@@ -43,7 +43,7 @@ BAD_TABLES = {
     "category_totals typo": (
         '[[batch.category_totals]]\ndatum = "d"\n',
         "[[batch.category_totals]] #1: unknown key 'datum' "
-        "(known: data, labels, metric, name, x_axis_name, y_axis_name)",
+        "(known: data, metric, name, x_axis_name, y_axis_name)",
     ),
     "events typo": (
         '[[batch.events]]\nnames = ["Collision"]\n',

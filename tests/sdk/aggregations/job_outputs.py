@@ -38,7 +38,8 @@ def job_with(
     """A job with (some of): a HISTOGRAM metric (name, values, buckets); a BAR_CHART
     (name, legend → label → value); per-category doubles (name, category → values);
     doubles indexed by string labels (name, labels, values), its labels' data named
-    "<name> labels" and included unless `with_labels` is false; events (name, status)."""
+    "<name> labels" and attached as its index unless `with_labels` is false; events
+    (name, status)."""
     job_id = job_id or uuid.uuid4()
     w = MetricsWriter(job_id, deterministic=True)
     names: list[str] = []
@@ -61,22 +62,29 @@ def job_with(
         name, by_category = per_category
         w.add_data(data.per_category(name, SeriesKind.DOUBLE, by_category))
         names.append(name)
+    indexed: list[str] = []
     if labelled is not None:
         name, labels, values = labelled
         w.add_data(data.doubles(name, values, index=data.strings(f"{name} labels", labels)))
-        names += [name, f"{name} labels"] if with_labels else [name]
+        names.append(name)
+        if with_labels:
+            indexed.append(name)
     view = read_job_metrics(w.serialize())
+    # Data asked for by name is read alone, as the fetcher does: without its index, unless
+    # asked for with it (Needs.data_with_index), which the fetcher then attaches.
+    alone = {
+        name: read_metrics_data(view.data_by_name[name].raw.SerializeToString()) for name in names
+    }
+    for name in indexed:
+        index = view.data_by_id[view.data_by_name[name].index_id]  # type: ignore[index]
+        alone[name] = alone[name].with_index(read_metrics_data(index.raw.SerializeToString()))
     return JobRecord(
         job_id=job_id,
         conflated_status=status,
         scalars={
             k: v if isinstance(v, Scalar) else Scalar(float(v)) for k, v in (scalars or {}).items()
         },
-        # Data asked for by name is read alone, as the fetcher does: without its index.
-        data={
-            name: read_metrics_data(view.data_by_name[name].raw.SerializeToString())
-            for name in names
-        },
+        data=alone,
         job_metrics=view if view.metrics else None,
         parameters=dict(parameters or {}),
         events=tuple(

@@ -38,15 +38,17 @@ def test_doubles_indexed_by_string_labels_are_summed_per_label() -> None:
         job_with(labelled=("per class", ["car", "bus", "car"], [1.0, 2.0, 3.0])),
         job_with(labelled=("per class", ["bus"], [10.0])),
     ]
-    agg = CategoryTotals(data="per class", labels="per class labels", name="Per class")
-    assert agg.needs() == Needs(data=frozenset({"per class", "per class labels"}))
+    agg = CategoryTotals(data="per class", name="Per class")
+    assert agg.needs() == Needs(
+        data=frozenset({"per class"}), data_with_index=frozenset({"per class"})
+    )
     out = Output(fold(agg, jobs))
     assert bar_series(out, "Per class") == {"per class": {"bus": 12.0, "car": 4.0}}
 
 
 def test_labels_not_fetched_are_named_as_the_fix() -> None:
     record = job_with(labelled=("per class", ["car"], [1.0]), with_labels=False)
-    with pytest.raises(JobDataError, match=r"not fetched; name the labels' data in the table"):
+    with pytest.raises(JobDataError, match=r"not fetched \(declare it in Needs.data_with_index"):
         CategoryTotals(data="per class").update(record)
 
 
@@ -93,10 +95,10 @@ def test_no_job_with_the_source_says_so() -> None:
 
 
 def test_needs_and_the_choice_of_source() -> None:
-    assert CategoryTotals(data="d").needs() == Needs(data=frozenset({"d"}))
+    assert CategoryTotals(data="d").needs() == Needs(
+        data=frozenset({"d"}), data_with_index=frozenset({"d"})
+    )
     assert CategoryTotals(metric="m").needs() == Needs(metrics=frozenset({"m"}))
     for options in ({}, {"data": "d", "metric": "m"}):
         with pytest.raises(ValueError, match="exactly one of 'data'"):
             CategoryTotals(**options)
-    with pytest.raises(ValueError, match="'labels' goes with 'data'"):
-        CategoryTotals(metric="m", labels="l")

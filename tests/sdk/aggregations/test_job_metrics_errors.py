@@ -81,10 +81,10 @@ def labelled_job(index: data.MetricsData, count: int | None = None) -> JobRecord
 def test_data_indexed_by_timestamps_has_no_categories() -> None:
     record = labelled_job(data.timestamps("t", [1, 2]))
     with pytest.raises(JobDataError, match="not by string labels"):
-        CategoryTotals(data="d", labels="t").update(record)
+        CategoryTotals(data="d").update(record)
 
 
 def test_labels_and_values_of_different_lengths_are_job_data_error() -> None:
     record = labelled_job(data.strings("l", ["a", "b"]), count=1)
     with pytest.raises(JobDataError, match="has 1 values but its labels 'l' have 2"):
-        CategoryTotals(data="d", labels="l").update(record)
+        CategoryTotals(data="d").update(record)

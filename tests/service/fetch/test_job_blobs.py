@@ -190,6 +190,26 @@ async def test_data_of_any_kind_keeps_its_kind_index_and_categories(
     assert sorted(batch.blob_paths()) == sorted(f"/blob/{i}" for i in _ids(output, *names))
 
 
+async def test_data_with_index_comes_with_its_index_attached(
+    server: ScriptedServer, batch: ScriptedBatch, fast_policy: RetryPolicy
+) -> None:
+    job_id = uuid.uuid4()
+    output = _job_output(job_id)
+    batch.add_job(output)
+    wanted = frozenset({"offsets"})
+    (record,) = await _fetch(server, fast_policy, Needs(data=wanted, data_with_index=wanted))
+    offsets = record.data["offsets"]
+    assert offsets.index is not None
+    assert offsets.index.id == offsets.index_id
+    assert offsets.index.kind is SeriesKind.TIMESTAMP
+    assert record.series["offsets"].to_list() == [0.1, 0.2, 0.3]
+    # The data and its index: one more download than the data alone, nothing else.
+    index_name = offsets.index.name
+    expected = {f"/blob/{i}" for i in _ids(output, "offsets", index_name)}
+    assert sorted(batch.blob_paths()) == sorted(expected)
+    assert len(expected) == 2
+
+
 async def test_a_named_metric_costs_its_blob_and_its_data_with_their_index(
     server: ScriptedServer, batch: ScriptedBatch, fast_policy: RetryPolicy
 ) -> None:

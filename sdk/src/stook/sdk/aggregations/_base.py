@@ -21,8 +21,10 @@ class Needs:
     `metrics` costs the job's metric blob plus the blobs of the data it references, and
     `every_metric` asks for every metric and metrics data of every job (the load of
     ReSim's own fetcher). `events` costs one listing per job, `experience_tags` one per
-    experience (not per job). In report mode, `job_metrics` asks for the metric listing of
-    every job of every batch (one request per job).
+    experience (not per job). Data in `data` comes without its index data unless named in
+    `data_with_index` too (labels of a bar chart's values, timestamps of a series): one
+    more download per job whose data is indexed. In report mode, `job_metrics` asks for
+    the metric listing of every job of every batch (one request per job).
 
     `scalars` names the SCALAR metrics an aggregation reads, and `every_scalar` says it
     reads all of them, whatever their names. The API may list a scalar without its value
@@ -39,6 +41,7 @@ class Needs:
     every_metric: bool = False
     events: bool = False
     experience_tags: bool = False
+    data_with_index: frozenset[str] = frozenset()
 
     def __or__(self, other: Needs) -> Needs:
         return Needs(
@@ -50,6 +53,7 @@ class Needs:
             every_metric=self.every_metric or other.every_metric,
             events=self.events or other.events,
             experience_tags=self.experience_tags or other.experience_tags,
+            data_with_index=self.data_with_index | other.data_with_index,
         )
 
     def wants_metric(self, name: str) -> bool:

@@ -19,9 +19,8 @@ class CategoryTotals(Aggregation[JobRecord]):
     """Sums the values of each category (or string label) across the jobs.
 
     The source is `data`, metrics data per category or doubles indexed by string labels,
-    or `metric`, a BAR_CHART the jobs wrote (exactly one of them). For doubles indexed by
-    labels, `labels` names the labels' own data, so that it is downloaded too (a metric
-    brings its data's labels itself). A label's total is the
+    or `metric`, a BAR_CHART the jobs wrote (exactly one of them); data indexed by
+    labels is fetched with its labels (`Needs.data_with_index`). A label's total is the
     sum of every value under it in every job; its mean per job is that total over the
     jobs that wrote the source (a job without the label adds 0). Labels are sorted, so
     the chart does not depend on the order jobs arrive in; a BAR_CHART source with
@@ -35,7 +34,6 @@ class CategoryTotals(Aggregation[JobRecord]):
     data: str | None = None
     metric: str | None = None
     name: str = ""
-    labels: str | None = None
     x_axis_name: str | None = None
     y_axis_name: str | None = None
 
@@ -49,8 +47,6 @@ class CategoryTotals(Aggregation[JobRecord]):
     def __post_init__(self) -> None:
         if (self.data is None) == (self.metric is None):
             raise ValueError("give exactly one of 'data' (per-category data) or 'metric'")
-        if self.labels is not None and self.data is None:
-            raise ValueError("'labels' goes with 'data': a metric brings its own labels")
         self.name = self.name or f"{self.source} (total)"
 
     @property
@@ -62,7 +58,7 @@ class CategoryTotals(Aggregation[JobRecord]):
     def needs(self) -> Needs:
         if self.metric is not None:
             return Needs(metrics=frozenset({self.metric}))
-        return Needs(data=frozenset({self.source, *([self.labels] if self.labels else [])}))
+        return Needs(data=frozenset({self.source}), data_with_index=frozenset({self.source}))
 
     def _read(self, job: JobRecord) -> dict[str, dict[str, list[float]]] | None:
         if self.metric is not None:

@@ -123,7 +123,7 @@ def labelled_doubles(job: JobRecord, view: MetricsDataView, what: str) -> dict[s
     if index is None:
         raise JobDataError(
             f"job {job.job_id}: {what} {view.name!r} is indexed by data {view.index_id} "
-            'that was not fetched; name the labels\' data in the table (labels = "...")'
+            "that was not fetched (declare it in Needs.data_with_index)"
         )
     if index.kind is not SeriesKind.STRING:
         raise JobDataError(

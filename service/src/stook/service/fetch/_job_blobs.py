@@ -107,15 +107,17 @@ class JobBlobs:
         else:
             metric_views = []
             await self._download_all(first.values())
-        if wanted or self._needs.every_metric:
+        # Data named in `data_with_index` comes with its index data, like a metric's data.
+        indexed = [d.data_id for d in named if d.name in self._needs.data_with_index]
+        if wanted or self._needs.every_metric or indexed:
             for listed, metric_view in zip(wanted, metric_views, strict=True):
                 for data_id in metric_view.data_ids:
                     referenced.setdefault(data_id, listed.name)
             await self._download_all(self._resolve(referenced))
             # A metric's data comes with its index data (a series' timestamps), fetched
-            # until none is missing. Data asked for by name alone does not: its index
-            # would be a download no aggregation declared.
-            pending = list(referenced)
+            # until none is missing. Data asked for by name alone does not, unless named
+            # in `data_with_index`: its index would be a download no aggregation declared.
+            pending = [*referenced, *indexed]
             while missing := {
                 view.index_id: view.name
                 for view in (self._views[i] for i in pending)
@@ -127,6 +129,8 @@ class JobBlobs:
         series: dict[str, pl.Series] = {}
         for item in named:
             view = self._views[item.data_id]
+            if item.data_id in indexed and view.index_id is not None:
+                view = view.with_index(self._views[view.index_id])
             data[item.name] = view
             # Per-category data keeps its categories in `data`: no single series of it.
             if view.kind is SeriesKind.DOUBLE and not view.per_category:
