@@ -76,8 +76,10 @@ def job_with(
         name: read_metrics_data(view.data_by_name[name].raw.SerializeToString()) for name in names
     }
     for name in indexed:
-        index = view.data_by_id[view.data_by_name[name].index_id]  # type: ignore[index]
-        alone[name] = alone[name].with_index(read_metrics_data(index.raw.SerializeToString()))
+        index_id = view.data_by_name[name].index_id
+        assert index_id is not None
+        index_view = view.data_by_id[index_id]
+        alone[name] = alone[name].with_index(read_metrics_data(index_view.raw.SerializeToString()))
     return JobRecord(
         job_id=job_id,
         conflated_status=status,
