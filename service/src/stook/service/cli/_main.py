@@ -190,8 +190,11 @@ class Voice:
         counts: dict[str, Any] = {}
         where = ""
         if self.progress is not None and self.progress.listed:
-            counts = {"jobs_done": self.progress.done, "jobs_listed": self.progress.listed}
-            where = f" after {self.progress.done:,} of {self.progress.listed:,} jobs"
+            last = self.progress.last
+            counts = {"jobs_done": last.jobs_done, "jobs_listed": last.jobs_listed}
+            if last.total is not None:
+                counts["jobs_total"] = last.total
+            where = f" after {last.of_total()}"
         line = f"interrupted by {stop.signal_name}{where}"
         self._say(
             "stook interrupted",

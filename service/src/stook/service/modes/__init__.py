@@ -24,7 +24,16 @@ from stook.service.modes._pipeline import (
     RunResult,
     run_pipeline,
 )
-from stook.service.modes._progress import NoProgress, Progress, Tally, TerminalProgress, for_stream
+from stook.service.modes._progress import (
+    LogProgress,
+    NoProgress,
+    Progress,
+    Snapshot,
+    Tally,
+    TerminalProgress,
+    for_stream,
+    human_bytes,
+)
 from stook.service.modes._report import ReportMode, ReportResult, run_report
 from stook.service.modes._test_mode import UserFunctionError, run_test_mode
 
@@ -37,6 +46,7 @@ __all__ = [
     "ConfigError",
     "FetchSettings",
     "InputsError",
+    "LogProgress",
     "MissingJobsError",
     "Mode",
     "NoProgress",
@@ -46,6 +56,7 @@ __all__ = [
     "ReportMode",
     "ReportResult",
     "RunResult",
+    "Snapshot",
     "StookConfig",
     "Tally",
     "TerminalProgress",
@@ -55,6 +66,7 @@ __all__ = [
     "check_outputs_folder",
     "detect",
     "for_stream",
+    "human_bytes",
     "load",
     "open_api",
     "parse",
