@@ -125,7 +125,15 @@ class TerminalProgress:
         self._batches: TaskID | None = None
 
     def update(self, snapshot: Snapshot) -> None:
-        bar = self._bar or self._start(report=snapshot.batches_done is not None)
+        bar = self._bar
+        if bar is None:
+            bar = self._bar = self._make(report=snapshot.batches_done is not None)
+            self._show(bar, snapshot)
+            bar.start()  # drawn first with this snapshot's total, not an unknown one
+        else:
+            self._show(bar, snapshot)
+
+    def _show(self, bar: RichProgress, snapshot: Snapshot) -> None:
         if self._batches is not None:
             bar.update(
                 self._batches, completed=snapshot.batches_done or 0, total=snapshot.batches_total
@@ -140,7 +148,7 @@ class TerminalProgress:
             stats=f"{rate:,.0f} req/s  {snapshot.retries:,} {retries}",
         )
 
-    def _start(self, *, report: bool) -> RichProgress:
+    def _make(self, *, report: bool) -> RichProgress:
         # rich costs tens of milliseconds to import: paid at the first job, not at start-up.
         from rich.console import Console
         from rich.progress import (
@@ -149,7 +157,6 @@ class TerminalProgress:
             Progress,
             TaskProgressColumn,
             TextColumn,
-            TimeElapsedColumn,
             TimeRemainingColumn,
         )
 
@@ -160,19 +167,17 @@ class TerminalProgress:
             MofNCompleteColumn(),
             TaskProgressColumn(),
             _rate_column(),
-            TimeElapsedColumn(),
             TextColumn("ETA"),
             TimeRemainingColumn(),
             TextColumn("{task.fields[stats]}"),
             console=console,
             refresh_per_second=4,
             speed_estimate_period=30.0,
+            get_time=self._clock,
         )
         if report:  # a report's batches above its jobs: the coarse progress first
             self._batches = bar.add_task("batches", total=None, stats="")
         self._jobs = bar.add_task(self._label, total=None, stats="")
-        bar.start()
-        self._bar = bar
         return bar
 
     def close(self) -> None:
