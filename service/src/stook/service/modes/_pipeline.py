@@ -3,7 +3,7 @@
 A mode supplies what differs (:class:`Mode`): its aggregations, its fetcher, how far a run
 got, the names it checks and the texts it writes before the aggregations. The steps and
 their order are here, once: the client configured from ``[fetch]``, the deadline, the
-progress line, every record folded into every aggregation as it arrives, the name checks
+progress display, every record folded into every aggregation as it arrives, the name checks
 after the fetch, the missing-jobs rule, then the aggregations' metrics and one atomic
 write of ``metrics.binproto``.
 """
