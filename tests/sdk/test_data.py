@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from datetime import datetime
+from typing import cast
 
 import polars as pl
 import pytest
@@ -79,9 +80,8 @@ def test_timestamps_are_float_seconds_integer_nanoseconds_or_aware_datetimes() -
 
     stamp = datetime(2026, 11, 22, 22, 30, 0, 123456, tzinfo=UTC)
     seconds = stamp.timestamp()  # what a robotics log holds: 1795386600.123456
-    values = data.timestamps(
-        "t", [0.0, 0.1, 12.5, 1_000, stamp, seconds, np.float64(2.25), np.int64(7)]
-    ).values
+    given = [0.0, 0.1, 12.5, 1_000, stamp, seconds, np.float64(2.25), np.int64(7)]
+    values = cast(list[int], data.timestamps("t", given).values)  # type: ignore[arg-type]
     assert values[:5] == [
         0,
         100_000_000,

@@ -104,8 +104,8 @@ class _Rate:
 
 class TerminalProgress:
     """A rich progress bar on `stream`, for a terminal; `force_terminal` draws it on any
-    stream (tests). Redrawn a few times a second by rich's own thread, so the elapsed time
-    and ETA move on even while no job completes."""
+    stream (tests). Redrawn a few times a second by rich's own thread, so that the ETA
+    moves on even while no job completes."""
 
     def __init__(
         self,
