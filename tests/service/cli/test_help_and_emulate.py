@@ -49,6 +49,13 @@ def test_every_argument_of_every_command_says_what_it_is(name: str) -> None:
         assert action.help, f"stook {name}: {action.dest} has no help"
     if name != "stook":
         assert command.description, f"stook {name} has no description"
+    text = command.format_help()
+    for action in command._actions:
+        for option in action.option_strings:
+            assert option in text
+        if action.option_strings and action.default not in (None, False, [], "==SUPPRESS=="):
+            shown = command._get_formatter()._get_help_string(action)
+            assert "default" in (shown or ""), f"stook {name}: {action.dest} hides its default"
 
 
 def test_run_help_has_the_readmes_exit_codes_and_mode_detection() -> None:
