@@ -1,10 +1,12 @@
-"""The README's aggregation example runs as written."""
+"""The README's aggregation and validation examples run as written."""
 
 from __future__ import annotations
 
 import re
 import uuid
 from pathlib import Path
+
+import pytest
 
 from stook.sdk import MetricsWriter, read_job_metrics
 from stook.sdk.aggregations import JobRecord, Scalar
@@ -31,3 +33,16 @@ def test_readme_custom_aggregation_example_works() -> None:
     left.finish(writer)
     view = read_job_metrics(writer.serialize())
     assert [(m.name, m.value) for m in view.metrics] == [("Worst error", 5.0)]
+
+
+def test_readme_validation_example_works(capsys: pytest.CaptureFixture[str]) -> None:
+    namespace: dict[str, object] = {}
+    exec(_block("validate_job_metrics(read_job_metrics"), namespace)
+    assert capsys.readouterr().out == ""  # valid: nothing printed
+    # The same lines report each problem of an invalid message.
+    broken = _block("validate_job_metrics(read_job_metrics").replace(
+        "payload = w.serialize()",
+        "w.metrics[0].proto.status = 0\npayload = w.serialize()",
+    )
+    exec(broken, {})
+    assert "Speed" in capsys.readouterr().out

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from datetime import datetime
+from typing import cast
 
 import polars as pl
 import pytest
@@ -39,10 +40,16 @@ def test_data_constructor_errors() -> None:
         data.per_category("x", SeriesKind.EXTERNAL_FILE, {"a": ["p.png"]})
     with writer_error("timestamp 2026-01-01T00:00:00 has no time zone; use an aware one"):
         data.timestamps("t", [datetime(2026, 1, 1)])
-    with writer_error("timestamp 1.5 must be an aware datetime or integer nanoseconds"):
-        data.timestamps("t", [1.5])  # type: ignore[list-item]
-    with writer_error("timestamp True must be an aware datetime or integer nanoseconds"):
+    with writer_error("timestamp nan is not a finite number of seconds"):
+        data.timestamps("t", [float("nan")])
+    with writer_error(
+        "timestamp True must be an aware datetime, integer nanoseconds or float seconds"
+    ):
         data.timestamps("t", [True])
+    with writer_error(
+        "timestamp '1.5' must be an aware datetime, integer nanoseconds or float seconds"
+    ):
+        data.timestamps("t", ["1.5"])  # type: ignore[list-item]
     with writer_error("'not-a-uuid' is not a UUID"):
         data.uuids("u", ["not-a-uuid"])
     with writer_error("12 is not a UUID"):
@@ -64,3 +71,26 @@ def test_doubles_refuse_a_polars_series_of_strings_with_writer_error() -> None:
 def test_statuses_refuse_unknown_values_with_writer_error() -> None:
     with pytest.raises(WriterError, match="statuses"):
         data.statuses("s", [99])  # type: ignore[list-item]
+
+
+def test_timestamps_are_float_seconds_integer_nanoseconds_or_aware_datetimes() -> None:
+    from datetime import UTC
+
+    import numpy as np
+
+    stamp = datetime(2026, 11, 22, 22, 30, 0, 123456, tzinfo=UTC)
+    seconds = stamp.timestamp()  # what a robotics log holds: 1795386600.123456
+    given = [0.0, 0.1, 12.5, 1_000, stamp, seconds, np.float64(2.25), np.int64(7)]
+    values = cast(list[int], data.timestamps("t", given).values)  # type: ignore[arg-type]
+    assert values[:5] == [
+        0,
+        100_000_000,
+        12_500_000_000,
+        1_000,  # an int is nanoseconds, as it always was
+        1_795_386_600_123_456_000,
+    ]
+    # A present-day float in seconds keeps its microseconds (a float holds no finer).
+    assert abs(values[5] - values[4]) < 1_000
+    assert values[6:] == [2_250_000_000, 7]  # numpy's floats are seconds, its ints ns
+    # From a polars column of seconds, as a log's time column is read.
+    assert data.timestamps("t", pl.Series([0.5, 1.5])).values == [500_000_000, 1_500_000_000]

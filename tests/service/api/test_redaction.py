@@ -187,7 +187,7 @@ async def test_client_logs_carry_no_secrets(server: ScriptedServer, sleep: Recor
     assert [entry["reason"] for entry in retries] == ["HTTP 503", "HTTP 500", "HTTP 500"]
     assert retries[0]["url"] == server.url(BATCH_PATH)
     assert retries[1]["url"] == server.url("/obj") + "?X-Amz-Signature=***"
-    assert retries[0]["log_level"] == "info"
+    assert retries[0]["log_level"] == "debug"
     everything = repr(captured) + str(caught.value)
     assert TOKEN not in everything
     assert SIGNATURE not in everything

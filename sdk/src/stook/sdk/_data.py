@@ -7,6 +7,8 @@ because it was added alone with `MetricsWriter.add_data` for later batch use.
 
 from __future__ import annotations
 
+import math
+import numbers
 import uuid
 from array import array
 from collections.abc import Iterable, Mapping, Sequence
@@ -20,8 +22,9 @@ from stook.sdk._errors import WriterError
 if TYPE_CHECKING:
     import polars as pl
 
-# Timestamps are kept as integer nanoseconds since the Unix epoch (UTC).
-TimestampLike = datetime | int
+# Timestamps are kept as integer nanoseconds since the Unix epoch (UTC). They are given as
+# aware datetimes, integer nanoseconds, or float seconds (what robotics logs hold).
+TimestampLike = datetime | int | float
 UuidLike = uuid.UUID | str
 
 # Doubles are kept packed (8 bytes each), not as a list of Python floats (32 bytes each).
@@ -123,7 +126,9 @@ def _as_doubles(name: str, values: Iterable[float] | pl.Series) -> array[float]:
 
 
 def timestamp_ns(value: TimestampLike) -> int:
-    """Nanoseconds since the epoch for an aware datetime or an integer already in ns."""
+    """Nanoseconds since the epoch for an aware datetime, an integer already in ns, or a
+    float in seconds (``12.5`` is 12.5 s after the epoch: a log's relative time reads as
+    such), rounded to the nearest nanosecond."""
     if isinstance(value, datetime):
         if value.tzinfo is None:
             raise WriterError(f"timestamp {value.isoformat()} has no time zone; use an aware one")
@@ -131,7 +136,18 @@ def timestamp_ns(value: TimestampLike) -> int:
         return (delta.days * 86_400 + delta.seconds) * 1_000_000_000 + delta.microseconds * 1_000
     if isinstance(value, int) and not isinstance(value, bool):
         return value
-    raise WriterError(f"timestamp {value!r} must be an aware datetime or integer nanoseconds")
+    if isinstance(value, float):  # numpy's float64 too: it is a float
+        if not math.isfinite(value):
+            raise WriterError(f"timestamp {value!r} is not a finite number of seconds")
+        # Whole and fractional seconds apart: value * 1e9 would round away the
+        # nanoseconds of a present-day epoch time (1.7e18 needs more than 53 bits).
+        whole = math.floor(value)
+        return whole * 1_000_000_000 + round((value - whole) * 1_000_000_000)
+    if isinstance(value, numbers.Integral) and not isinstance(value, bool):
+        return int(value)  # numpy's integers: nanoseconds, as ints are
+    raise WriterError(
+        f"timestamp {value!r} must be an aware datetime, integer nanoseconds or float seconds"
+    )
 
 
 def _as_uuid(value: UuidLike) -> str:
@@ -216,7 +232,8 @@ def timestamps(
     index: MetricsData | None = None,
     id: uuid.UUID | None = None,
 ) -> MetricsData:
-    """A series of timestamps (aware datetimes or integer nanoseconds since the epoch)."""
+    """A series of timestamps since the Unix epoch: aware datetimes, integer nanoseconds,
+    or float seconds (``[0.0, 0.1, 0.2]``: a log's time; ints are always nanoseconds)."""
     return _series(name, SeriesKind.TIMESTAMP, values, unit, index, id)
 
 

@@ -229,9 +229,13 @@ class ApiClient:
         items_key: str,
         params: Mapping[str, str | int] | None = None,
         page_size: int | None = None,
+        *,
+        on_total: Callable[[int], None] | None = None,
     ) -> AsyncIterator[dict[str, Any]]:
         """Every item of a list endpoint, page after page, until ``nextPageToken`` is empty.
 
+        ``on_total`` is called with the listing's ``total`` (how many items it holds, an
+        optional field) from the first page that carries one, before that page's items.
         A listing that cannot end (see :class:`ListingGuard`) is an ApiResponseError.
         """
         query: dict[str, str | int] = dict(params or {})
@@ -258,7 +262,11 @@ class ApiClient:
                 raise ApiResponseError(f"{listing}: 'nextPageToken' should be a string")
             # Checked before the items are handed on: a page that proves the listing
             # endless must not feed its repeats to the caller.
-            guard.check(items, token or None, page.get("total"))
+            total = page.get("total")
+            guard.check(items, token or None, total)
+            if on_total is not None and isinstance(total, int) and not isinstance(total, bool):
+                on_total(total)
+                on_total = None  # once: later pages repeat it
             for item in items:
                 yield item
             if not token:
@@ -267,10 +275,16 @@ class ApiClient:
 
     # -- typed endpoints -----------------------------------------------------------------
 
-    def list_jobs(self, project_id: IdLike, batch_id: IdLike) -> AsyncIterator[Job]:
-        """The jobs (tests) of a batch."""
+    def list_jobs(
+        self,
+        project_id: IdLike,
+        batch_id: IdLike,
+        *,
+        on_total: Callable[[int], None] | None = None,
+    ) -> AsyncIterator[Job]:
+        """The jobs (tests) of a batch; ``on_total`` hears the listing's job count first."""
         path = f"/projects/{_id(project_id)}/batches/{_id(batch_id)}/jobs"
-        return self._list(path, "jobs", Job.from_json)
+        return self._list(path, "jobs", Job.from_json, on_total=on_total)
 
     def list_job_metrics(
         self, project_id: IdLike, batch_id: IdLike, job_id: IdLike
@@ -339,8 +353,10 @@ class ApiClient:
         items_key: str,
         parse: Callable[[Mapping[str, Any]], _Model],
         params: Mapping[str, str | int] | None = None,
+        *,
+        on_total: Callable[[int], None] | None = None,
     ) -> AsyncIterator[_Model]:
-        async for item in self.paginate(path, items_key, params):
+        async for item in self.paginate(path, items_key, params, on_total=on_total):
             yield parse(item)
 
     def _url(self, path: str) -> URL:

@@ -68,6 +68,9 @@ def configure_logging(
     them) and coloured console lines when it is.
     """
     out = sys.stderr if stream is None else stream
+    # By default each line goes to whatever sys.stderr is when it is written: while a
+    # progress bar is drawn, rich puts a proxy there that prints lines above the bar.
+    target = cast(TextIO, _CurrentStderr()) if stream is None else stream
     if json is None:
         json = not _is_tty(out)
     levels = logging.getLevelNamesMapping()
@@ -94,7 +97,7 @@ def configure_logging(
             renderer,
         ],
         wrapper_class=structlog.make_filtering_bound_logger(numeric_level),
-        logger_factory=structlog.WriteLoggerFactory(file=out),
+        logger_factory=structlog.WriteLoggerFactory(file=target),
         # Not cached: tests and `stook` subcommands reconfigure after loggers exist.
         cache_logger_on_first_use=False,
     )
@@ -106,6 +109,16 @@ def get_logger(name: str) -> FilteringBoundLogger:
     (``logger`` itself cannot be an initial value: structlog reserves that argument name.)
     """
     return cast(FilteringBoundLogger, structlog.get_logger(name, logger_name=name))
+
+
+class _CurrentStderr:
+    """A file-like object that writes to the current ``sys.stderr``."""
+
+    def write(self, text: str) -> int:
+        return sys.stderr.write(text)
+
+    def flush(self) -> None:
+        sys.stderr.flush()
 
 
 def _is_tty(stream: TextIO) -> bool:

@@ -139,7 +139,9 @@ def _new_retrying(
         reason = describe_failure(exc) if exc is not None else "unknown"
         stats.retries += 1
         stats.retry_reasons[reason.split(":", 1)[0]] += 1
-        _log.info(
+        # At debug level: a run counts its retries (the progress bar, the progress events
+        # and the final summary); a line per retry would bury the display under URLs.
+        _log.debug(
             "retrying request",
             method=method,
             url=redacted,

@@ -86,31 +86,39 @@ def _enum_name(value: enum.IntEnum | int | None) -> str:
     return value.name if isinstance(value, enum.IntEnum) else f"unknown ({value})"
 
 
-def summary_lines(view: JobMetricsView) -> list[str]:
-    """A readable table: one line per metric with its type, status and value."""
+def summary_lines(view: JobMetricsView, *, full: bool = False) -> list[str]:
+    """A readable table: one line per metric with its type, status and value; `full`
+    keeps long names whole and prints each TEXT metric's text whole below the table."""
     rows = [
         (m.name, _enum_name(m.type), _enum_name(m.status), _value(m, view)) for m in view.metrics
     ]
     widths = [max([len(h), *(len(r[i]) for r in rows)]) for i, h in enumerate(_HEADER)]
-    widths[0] = min(widths[0], 56)
+    if not full:
+        widths[0] = min(widths[0], 56)
 
     def line(cells: tuple[str, ...]) -> str:
         return "  ".join(c[: widths[i]].ljust(widths[i]) for i, c in enumerate(cells)).rstrip()
 
     status = "unset" if view.status is None else _enum_name(view.status)
-    return [
+    lines = [
         f"{len(view.metrics)} metrics, {len(view.data)} metrics data, overall status {status}",
         line(_HEADER),
         line(tuple("-" * w for w in widths)),
         *(line(r) for r in rows),
     ]
+    if full:
+        for metric in view.metrics:
+            if metric.type is MetricType.TEXT:
+                text = metric.raw.metric_values.text_metric_values.text
+                lines += ["", f"== {metric.name} ==", *text.splitlines()]
+    return lines
 
 
 _HEADER = ("metric", "type", "status", "value")
 
 
-def show_file(path: Path, out: TextIO | None = None) -> int:
+def show_file(path: Path, out: TextIO | None = None, *, full: bool = False) -> int:
     stream = out or sys.stdout
-    for text in summary_lines(_read(path)):
+    for text in summary_lines(_read(path), full=full):
         print(text, file=stream)
     return 0

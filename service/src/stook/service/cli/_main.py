@@ -29,13 +29,14 @@ def _add_logging(parser: argparse.ArgumentParser, *, default_level: str = "info"
         "--log-level",
         default=os.environ.get("STOOK_LOG_LEVEL", default_level),
         choices=["debug", "info", "warning", "error"],
-        help="log level (env STOOK_LOG_LEVEL; default info)",
+        help=f"log level (env STOOK_LOG_LEVEL; default {default_level})",
     )
     parser.add_argument(
         "--log-format",
         default=os.environ.get("STOOK_LOG_FORMAT", "auto"),
         choices=["auto", "json", "console"],
-        help="JSON lines or console lines; auto picks JSON when stderr is not a terminal",
+        help="JSON lines or console lines; auto picks JSON when stderr is not a terminal "
+        "(env STOOK_LOG_FORMAT; default auto)",
     )
 
 
@@ -60,6 +61,8 @@ def build_parser() -> argparse.ArgumentParser:
     import argparse
     from pathlib import Path
 
+    from stook.service.cli import _help
+
     class VersionAction(argparse.Action):
         # argparse's own "version" action wants the text up front; reading the metadata
         # only when asked keeps it out of every other command's start-up.
@@ -79,38 +82,81 @@ def build_parser() -> argparse.ArgumentParser:
     run_p = sub.add_parser(
         "run",
         help="the metrics-build entry point: detect test, batch or report mode and run it",
-        description="Detect the mode from the inputs folder and write OUTPUTS/metrics.binproto.",
+        description=_help.RUN_DESCRIPTION,
+        epilog=_help.RUN_EPILOG,
     )
-    run_p.add_argument("--inputs", help="inputs folder (env STOOK_INPUTS; /tmp/resim/inputs)")
-    run_p.add_argument("--outputs", help="outputs folder (env STOOK_OUTPUTS; /tmp/resim/outputs)")
-    run_p.add_argument("--config", help="stook.toml (env STOOK_CONFIG; ./stook.toml if present)")
+    run_p.add_argument(
+        "--inputs",
+        metavar="DIR",
+        help="inputs folder (env STOOK_INPUTS; default /tmp/resim/inputs)",
+    )
+    run_p.add_argument(
+        "--outputs",
+        metavar="DIR",
+        help="outputs folder (env STOOK_OUTPUTS; default /tmp/resim/outputs)",
+    )
+    run_p.add_argument(
+        "--config",
+        metavar="FILE",
+        help="stook.toml (env STOOK_CONFIG; default ./stook.toml if present)",
+    )
     run_p.add_argument(
         "--allow-missing-jobs",
         type=float,
         metavar="FRACTION",
-        help="tolerate up to this share of jobs whose data stays unavailable (default 0)",
+        help="tolerate up to this share of jobs whose data stays unavailable "
+        "(env STOOK_ALLOW_MISSING_JOBS; default 0)",
     )
     run_p.add_argument(
-        "--project-id", help="project for batch configs that lack projectID (env STOOK_PROJECT_ID)"
+        "--project-id",
+        metavar="UUID",
+        help="project for batch configs that lack projectID (env STOOK_PROJECT_ID)",
     )
     _add_logging(run_p)
 
-    demo_p = sub.add_parser("demo", help="run batch mode against the built-in emulator")
+    demo_p = sub.add_parser(
+        "demo",
+        help="run test, batch and report mode against the built-in emulator",
+        description="Run test mode on the SDK's every-metric-type example, then batch and "
+        "report mode against an emulator in its own process; print what each wrote.",
+    )
     demo_p.add_argument("--jobs", type=int, default=200, help="jobs in the emulated batch")
-    demo_p.add_argument("--output", default="demo-output", help="where to write the output")
-    demo_p.add_argument("--seed", type=int, default=7)
+    demo_p.add_argument(
+        "--output", metavar="DIR", default="demo-output", help="where to write the outputs"
+    )
+    demo_p.add_argument("--seed", type=int, default=7, help="the emulated data's random seed")
     _add_logging(demo_p, default_level="warning")
 
-    emulate_p = sub.add_parser("emulate", help="serve the ReSim API emulator on loopback")
+    emulate_p = sub.add_parser(
+        "emulate",
+        help="serve the ReSim API emulator (loopback unless --host says otherwise)",
+        description="Serve an emulated ReSim API and object storage: a seeded batch and "
+        "report, with the faults, rate limits and latency you ask for.",
+        epilog=_help.EMULATE_EPILOG,
+    )
     emulate_p.add_argument("--jobs", type=int, default=200, help="jobs per batch")
     emulate_p.add_argument("--batches", type=int, default=12, help="batches in the report")
-    emulate_p.add_argument("--seed", type=int, default=7)
-    emulate_p.add_argument("--latency-ms", type=float, default=0.0)
-    emulate_p.add_argument("--api-port", type=int, default=0)
-    emulate_p.add_argument("--storage-port", type=int, default=0)
+    emulate_p.add_argument("--seed", type=int, default=7, help="the emulated data's random seed")
     emulate_p.add_argument(
-        "--inputs", help="also write the platform's config files into this inputs folder"
+        "--latency-ms", type=float, default=0.0, help="added to every answer, milliseconds"
     )
+    emulate_p.add_argument(
+        "--api-port", type=int, default=0, help="the API's port (default 0: any free port)"
+    )
+    emulate_p.add_argument(
+        "--storage-port",
+        type=int,
+        default=0,
+        help="the object storage's port (default 0: any free port)",
+    )
+    emulate_p.add_argument(
+        "--inputs",
+        metavar="DIR",
+        help="write batch_metrics_config.json, naming this emulator, into this inputs folder",
+    )
+    from stook.service.cli._emulate_flags import add_emulate_flags
+
+    add_emulate_flags(emulate_p)
     emulate_p.add_argument(
         "--set",
         action="append",
@@ -122,15 +168,45 @@ def build_parser() -> argparse.ArgumentParser:
     )
     _add_logging(emulate_p)
 
-    bench_p = sub.add_parser("bench", help="measure batch mode against the emulator and ReSim")
+    bench_p = sub.add_parser(
+        "bench",
+        help="measure batch mode against the emulator and ReSim",
+        description="Measure batch mode against the emulator (in its own process), a bare "
+        "aiohttp loop and ReSim's fetcher; write tables and plots (docs/benchmarks.md).",
+    )
     bench_p.add_argument("--quick", action="store_true", help="small sizes; a smoke test")
-    bench_p.add_argument("--out", default="docs/benchmarks", help="where results are written")
+    bench_p.add_argument(
+        "--out", metavar="DIR", default="docs/benchmarks", help="where results are written"
+    )
 
-    validate_p = sub.add_parser("validate", help="check a metrics.binproto against every rule")
-    validate_p.add_argument("file", type=Path)
+    file_help = "a metrics.binproto (a JobMetrics message, from stook or ReSim's own writer)"
+    validate_p = sub.add_parser(
+        "validate",
+        help="check a metrics.binproto against every rule",
+        description="Check a metrics.binproto against every rule the platform enforces, "
+        "printing each rule broken with the metric that breaks it.",
+        epilog=_help.INSPECT_EPILOG.format(
+            ok="valid", invalid=", or it breaks a rule (each one printed)"
+        ),
+    )
+    validate_p.add_argument("file", type=Path, help=file_help)
 
-    show_p = sub.add_parser("show", help="print a summary of a metrics.binproto")
-    show_p.add_argument("file", type=Path)
+    show_p = sub.add_parser(
+        "show",
+        help="print a summary of a metrics.binproto",
+        description="Print one line per metric (name, type, status, value) of a "
+        "metrics.binproto; it need not be valid to be shown.",
+        epilog=_help.INSPECT_EPILOG.format(ok="shown", invalid=""),
+    )
+    show_p.add_argument("file", type=Path, help=file_help)
+    show_p.add_argument(
+        "--full",
+        action="store_true",
+        help="print TEXT metrics whole, below the table, and names untruncated",
+    )
+    # One look for every command's help, those added above and any added later.
+    for command in (parser, *sub.choices.values()):
+        command.formatter_class = _help.HelpFormatter
     return parser
 
 
@@ -190,8 +266,11 @@ class Voice:
         counts: dict[str, Any] = {}
         where = ""
         if self.progress is not None and self.progress.listed:
-            counts = {"jobs_done": self.progress.done, "jobs_listed": self.progress.listed}
-            where = f" after {self.progress.done:,} of {self.progress.listed:,} jobs"
+            last = self.progress.last
+            counts = {"jobs_done": last.jobs_done, "jobs_listed": last.jobs_listed}
+            if last.total is not None:
+                counts["jobs_total"] = last.total
+            where = f" after {last.of_total()}"
         line = f"interrupted by {stop.signal_name}{where}"
         self._say(
             "stook interrupted",
@@ -352,5 +431,5 @@ def _dispatch(args: argparse.Namespace, voice: Voice) -> int:
         case "show":
             from stook.service.cli._inspect import show_file
 
-            return show_file(args.file)
+            return show_file(args.file, full=args.full)
     raise AssertionError(f"unhandled command {args.command!r}")  # argparse restricts it

@@ -53,6 +53,7 @@ from stook.service.modes import (
     check_outputs_folder,
     detect,
     for_stream,
+    human_bytes,
     load,
     run_pipeline,
     run_test_mode,
@@ -130,7 +131,8 @@ def resolve_options(
 async def run(options: RunOptions, *, progress: Progress | None = None) -> Path:
     """Run the detected mode; raises the typed errors that `exit_code_for` maps.
 
-    `progress` is shown the jobs done and listed (default: a terminal line on a TTY).
+    `progress` is shown how far the fetch got (default: a bar on a terminal, a progress
+    event every 10 s off one).
     """
     config: StookConfig = load(options.config)
     mode = detect(options.inputs, project_id=options.project_id)
@@ -176,8 +178,8 @@ def _log_written(result: RunResult[Any]) -> None:
         metrics=len(result.metrics_written),
         requests=traffic.requests,
         retries=traffic.retries,
-        bytes=traffic.bytes_received,
-        seconds=round(result.seconds, 3),
+        received=human_bytes(traffic.bytes_received),
+        seconds=round(result.seconds, 2),
     )
 
 

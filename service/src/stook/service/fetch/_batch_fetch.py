@@ -51,6 +51,9 @@ class FetchOutcome:
     """What a fetch saw: counts, names for config checks, and the jobs it could not fetch."""
 
     jobs_listed: int = 0
+    # The batch's job count as the listing's `total` says (None until a page carries it),
+    # and the jobs listed once the listing is complete: the progress bar's fixed total.
+    jobs_total: int | None = None
     jobs_done: int = 0
     jobs_with_metrics: int = 0
     missing: list[MissingJob] = field(default_factory=list)
@@ -112,11 +115,17 @@ class BatchFetcher:
         return self.outcome
 
     async def _list_jobs(self, queue: asyncio.Queue[Job | None]) -> None:
-        async for job in self._api.list_jobs(self._project_id, self._batch_id):
-            self.outcome.jobs_listed += 1
+        outcome = self.outcome
+
+        def total_is(total: int) -> None:
+            outcome.jobs_total = total
+
+        async for job in self._api.list_jobs(self._project_id, self._batch_id, on_total=total_is):
+            outcome.jobs_listed += 1
             if self._on_progress is not None:
-                self._on_progress(self.outcome)
+                self._on_progress(outcome)
             await queue.put(job)
+        outcome.jobs_total = outcome.jobs_listed  # what the complete listing proved
         # Workers stop on None, sent only after a complete listing. On any failure the task
         # group cancels the workers itself; waiting here to put None into a full queue that
         # nobody drains any more would hang the run.

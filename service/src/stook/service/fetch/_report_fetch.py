@@ -53,6 +53,12 @@ class ReportOutcome:
     report: Report | None = None
     batches: int = 0
     jobs: int = 0
+    # For the progress display: batches handed over, jobs whose part is done (metrics
+    # fetched, or listed when the plan reads no job metrics), and the report's job count
+    # (the batches' `totalJobs` until their listings prove it; None while one is unknown).
+    batches_done: int = 0
+    jobs_done: int = 0
+    jobs_total: int | None = None
     jobs_with_metrics: int = 0
     missing: list[MissingJob] = field(default_factory=list)
     job_scalar_names: set[str] = field(default_factory=set)
@@ -124,6 +130,9 @@ class ReportFetcher:
         ]
         batches.sort(key=lambda b: (b.creation_timestamp or report.start_timestamp, b.batch_id))
         self.outcome.batches = len(batches)
+        totals = [b.total_jobs for b in batches]
+        self.outcome.jobs_total = None if None in totals else sum(t or 0 for t in totals)
+        self._announce()
         if batches:
             self.outcome.first = batches[0].creation_timestamp
             self.outcome.last = batches[-1].creation_timestamp
@@ -140,6 +149,7 @@ class ReportFetcher:
                     group.create_task(self._work(queue, on_batch))
                 lister = group.create_task(self._list_all(batches, gate, queue, on_batch))
                 await lister
+                self.outcome.jobs_total = self.outcome.jobs  # every batch's jobs are listed
                 # Reached only after a complete listing. Should a worker fail meanwhile, the
                 # group cancels this body too, so a put into a full queue cannot hang here.
                 for _ in range(workers):
@@ -175,6 +185,11 @@ class ReportFetcher:
             _collect(self._api.list_jobs(self._project_id, batch.batch_id)),
         )
         self.outcome.jobs += len(jobs)
+        if self.outcome.jobs_total is not None:
+            # The listing is the truth where it and the batch's totalJobs differ.
+            self.outcome.jobs_total += len(jobs) - (batch.total_jobs or 0)
+        if not self._needs.job_metrics:
+            self.outcome.jobs_done += len(jobs)
         pending = _PendingBatch(
             batch=batch,
             scalars=await read_scalars(
@@ -235,8 +250,11 @@ class ReportFetcher:
                 # Listed is enough: a name a job has is no typo, even when its value is absent.
                 self.outcome.job_scalar_names.update(m.name for m in metrics if is_scalar(m))
             pending.remaining -= 1
+            self.outcome.jobs_done += 1
             if pending.remaining == 0 and pending.listed:
                 self._finish(pending, on_batch)
+            else:
+                self._announce()
 
     async def _job_scalars(
         self, batch: Batch, job: Job, metrics: list[ApiMetric]
@@ -277,6 +295,10 @@ class ReportFetcher:
                 build_id=batch.build_id,
             )
         )
+        self.outcome.batches_done += 1
+        self._announce()
+
+    def _announce(self) -> None:
         if self._on_progress is not None:
             self._on_progress(self.outcome)
 

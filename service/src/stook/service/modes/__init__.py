@@ -25,7 +25,16 @@ from stook.service.modes._pipeline import (
     RunResult,
     run_pipeline,
 )
-from stook.service.modes._progress import NoProgress, Progress, Tally, TerminalProgress, for_stream
+from stook.service.modes._progress import (
+    LogProgress,
+    NoProgress,
+    Progress,
+    Snapshot,
+    Tally,
+    TerminalProgress,
+    for_stream,
+    human_bytes,
+)
 from stook.service.modes._report import ReportMode, ReportResult, run_report
 from stook.service.modes._test_mode import UserFunctionError, run_test_mode
 
@@ -38,6 +47,7 @@ __all__ = [
     "ConfigError",
     "FetchSettings",
     "InputsError",
+    "LogProgress",
     "MissingJobsError",
     "Mode",
     "NoProgress",
@@ -47,6 +57,7 @@ __all__ = [
     "ReportMode",
     "ReportResult",
     "RunResult",
+    "Snapshot",
     "StookConfig",
     "Tally",
     "TerminalProgress",
@@ -59,6 +70,7 @@ __all__ = [
     "fetch_batch_frame",
     "fetch_report",
     "for_stream",
+    "human_bytes",
     "load",
     "open_api",
     "parse",

@@ -15,7 +15,7 @@ from stook.service.fetch import BatchFetcher, FetchOutcome, MissingJob
 from stook.service.modes._config import ConfigError, StookConfig
 from stook.service.modes._inputs import BatchInputs
 from stook.service.modes._pipeline import RunResult, run_pipeline
-from stook.service.modes._progress import Progress
+from stook.service.modes._progress import Progress, Snapshot
 
 BatchResult = RunResult[FetchOutcome]
 
@@ -68,12 +68,15 @@ class BatchMode:
             on_progress=on_progress,
         )
 
-    def progress(self, outcome: FetchOutcome) -> tuple[int, int]:
-        return outcome.jobs_done + len(outcome.missing), outcome.jobs_listed
+    def progress(self, outcome: FetchOutcome) -> Snapshot:
+        return Snapshot(
+            jobs_done=outcome.jobs_done + len(outcome.missing),
+            jobs_listed=outcome.jobs_listed,
+            jobs_total=outcome.jobs_total,
+        )
 
     def how_far(self, outcome: FetchOutcome, folded: int) -> str:
-        done, listed = self.progress(outcome)
-        return f"{done:,} of {listed:,} jobs"
+        return self.progress(outcome).of_total()
 
     def counts(self, outcome: FetchOutcome) -> dict[str, int]:
         return {"jobs": outcome.jobs_listed, "jobs_missing": len(outcome.missing)}

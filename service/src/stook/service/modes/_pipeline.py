@@ -3,7 +3,7 @@
 A mode supplies what differs (:class:`Mode`): its aggregations, its fetcher, how far a run
 got, the names it checks and the texts it writes before the aggregations. The steps and
 their order are here, once: the client configured from ``[fetch]``, the deadline, the
-progress line, every record folded into every aggregation as it arrives, the name checks
+progress display, every record folded into every aggregation as it arrives, the name checks
 after the fetch, the missing-jobs rule, then the aggregations' metrics and one atomic
 write of ``metrics.binproto``.
 """
@@ -11,6 +11,8 @@ write of ``metrics.binproto``.
 from __future__ import annotations
 
 import asyncio
+import contextlib
+import dataclasses
 import uuid
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -26,7 +28,7 @@ from stook.service.fetch import MissingJob, fetch_deadline
 from stook.service.modes._config import FetchSettings
 from stook.service.modes._inputs import ApiAccess
 from stook.service.modes._open_api import HasTraffic, Traffic, open_api
-from stook.service.modes._progress import NoProgress, Progress
+from stook.service.modes._progress import NoProgress, Progress, Snapshot
 
 log = structlog.get_logger("stook.pipeline")
 
@@ -73,8 +75,8 @@ class Mode(Protocol[_R, _O]):
         self, api: ApiClient, needs: Needs, on_progress: Callable[[_O], None]
     ) -> Fetcher[_R, _O]: ...
 
-    def progress(self, outcome: _O) -> tuple[int, int]:
-        """Jobs done and listed so far, for the progress line."""
+    def progress(self, outcome: _O) -> Snapshot:
+        """Jobs (and batches) done, listed and in all so far, for the progress display."""
         ...
 
     def how_far(self, outcome: _O, folded: int) -> str:
@@ -151,13 +153,20 @@ async def run_pipeline(
         shown = progress or NoProgress()
 
         def report(outcome: _O) -> None:
-            done, listed = mode.progress(outcome)
             traffic = Traffic.of(api)
             shown.update(
-                done=done, listed=listed, requests=traffic.requests, retries=traffic.retries
+                dataclasses.replace(
+                    mode.progress(outcome),
+                    requests=traffic.requests,
+                    retries=traffic.retries,
+                    bytes_received=traffic.bytes_received,
+                )
             )
 
         fetcher = mode.fetcher(api, needs, report)
+        # Shown each second too, so that the counters (and the progress events off a
+        # terminal) go on while no job completes: retries in an outage, a slow page.
+        ticker = asyncio.create_task(_tick(lambda: report(fetcher.outcome)))
         try:
             async with fetch_deadline(
                 settings.deadline,
@@ -166,6 +175,9 @@ async def run_pipeline(
             ):
                 outcome = await fetcher.run(fold)
         finally:
+            ticker.cancel()
+            with contextlib.suppress(asyncio.CancelledError):
+                await ticker
             shown.close()
         traffic = Traffic.of(api)
 
@@ -187,6 +199,12 @@ async def run_pipeline(
         counts=mode.counts(outcome),
         seconds=asyncio.get_running_loop().time() - started,
     )
+
+
+async def _tick(show: Callable[[], None], every: float = 1.0) -> None:
+    while True:
+        await asyncio.sleep(every)
+        show()
 
 
 def write_missing_jobs(

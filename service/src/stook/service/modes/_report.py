@@ -18,7 +18,7 @@ from stook.service.fetch import MissingJob, ReportFetcher, ReportOutcome
 from stook.service.modes._config import ConfigError, StookConfig
 from stook.service.modes._inputs import ReportInputs
 from stook.service.modes._pipeline import RunResult, run_pipeline
-from stook.service.modes._progress import Progress
+from stook.service.modes._progress import Progress, Snapshot
 
 
 @dataclass(frozen=True, slots=True)
@@ -87,8 +87,15 @@ class ReportMode:
             on_progress=on_progress,
         )
 
-    def progress(self, outcome: ReportOutcome) -> tuple[int, int]:
-        return outcome.jobs, outcome.jobs
+    def progress(self, outcome: ReportOutcome) -> Snapshot:
+        listed = outcome.jobs_total is not None or outcome.batches > 0
+        return Snapshot(
+            jobs_done=outcome.jobs_done,
+            jobs_listed=outcome.jobs,
+            jobs_total=outcome.jobs_total,
+            batches_done=outcome.batches_done,
+            batches_total=outcome.batches if listed else None,
+        )
 
     def how_far(self, outcome: ReportOutcome, folded: int) -> str:
         return f"{folded:,} of {outcome.batches:,} batches"

@@ -72,7 +72,8 @@ def _write_json(path: Path, body: dict[str, str]) -> Path:
 
 
 def _bound_socket(host: str, port: int) -> socket.socket:
-    sock = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+    family = socket.AF_INET6 if ":" in host else socket.AF_INET
+    sock = socket.socket(family, socket.SOCK_STREAM)
     sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
     sock.bind((host, port))
     sock.listen(1024)
@@ -98,9 +99,13 @@ class Emulator:
         host: str = "127.0.0.1",
         api_port: int = 0,
         storage_port: int = 0,
+        public_host: str | None = None,
     ) -> None:
         self.config = config or EmulatorConfig()
         self.host = host
+        # The name in the URLs it hands out: what clients reach it by. An address that
+        # means "every interface" is no address to connect to.
+        self.public_host = public_host or ("127.0.0.1" if host in ("0.0.0.0", "::", "") else host)
         self._ports = (api_port, storage_port)
         self._state = EmulatorState(self.config)
         self._runners: list[web.AppRunner] = []
@@ -117,11 +122,12 @@ class Emulator:
         except BaseException:
             await self.close()
             raise
-        storage_url = f"http://{self.host}:{storage_port}"
+        name = f"[{self.public_host}]" if ":" in self.public_host else self.public_host
+        storage_url = f"http://{name}:{storage_port}"
         self._state.storage_url = storage_url
         ds = self._state.dataset
         self._info = EmulatorInfo(
-            api_url=f"http://{self.host}:{api_port}{API_PREFIX}",
+            api_url=f"http://{name}:{api_port}{API_PREFIX}",
             storage_url=storage_url,
             token=self.config.token,
             project_id=ds.project_id,
@@ -226,14 +232,32 @@ async def serve_with_inputs(
     api_port: int = 0,
     storage_port: int = 0,
     inputs_dir: Path | None = None,
+    report_inputs_dir: Path | None = None,
+    public_host: str | None = None,
 ) -> None:
     """Serve until cancelled (for `stook emulate`); with `inputs_dir`, first write the
-    platform's batch config there, so that `stook run --inputs inputs_dir` uses it."""
-    async with Emulator(config, host=host, api_port=api_port, storage_port=storage_port) as emu:
+    platform's batch config there, so that `stook run --inputs inputs_dir` uses it, and
+    with `report_inputs_dir` the report config (a folder of its own: a report config
+    beside a batch config would make that folder report mode)."""
+    async with Emulator(
+        config,
+        host=host,
+        api_port=api_port,
+        storage_port=storage_port,
+        public_host=public_host,
+    ) as emu:
         info = emu.info
         written = ""
-        if inputs_dir is not None:
-            written = f"  wrote:     {emu.write_batch_config(inputs_dir)}\n"
+        for folder, write in (
+            (inputs_dir, emu.write_batch_config),
+            (report_inputs_dir, emu.write_report_config),
+        ):
+            if folder is not None:
+                written += f"  wrote:     {write(folder)}\n"
+        for folder in (inputs_dir, report_inputs_dir):
+            if folder is not None:
+                written += f"  run:       stook run --inputs {folder}\n"
+        listening = f"  listening: {host}\n" if host != emu.public_host else ""
         print(
             f"ReSim emulator ready\n"
             f"  apiURL:    {info.api_url}\n"
@@ -241,7 +265,8 @@ async def serve_with_inputs(
             f"  authToken: {info.token}\n"
             f"  projectID: {info.project_id}\n"
             f"  batchID:   {info.batch_id}  ({emu.config.jobs_per_batch} jobs)\n"
-            f"  reportID:  {info.report_id}\n"
+            f"  reportID:  {info.report_id}  ({emu.config.report_batches} batches)\n"
+            f"{listening}"
             f"{written}"
             "Press Ctrl-C to stop.",
             flush=True,

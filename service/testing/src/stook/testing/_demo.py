@@ -13,6 +13,7 @@ retries and seconds.
 from __future__ import annotations
 
 import asyncio
+import shlex
 import time
 import tomllib
 from pathlib import Path
@@ -157,8 +158,33 @@ def run_demo(*, jobs: int, output: Path, seed: int) -> int:
     changes = _text_of(report.output, "Change points")
     if changes is not None:
         print("  Change points: " + changes.replace("\n", "\n    "))
-    print(
-        f"\nConfig used: {config_path}. Run it yourself: stook run --inputs {inputs} "
-        f"--outputs {output} --config {config_path} (with `stook emulate` serving)."
-    )
+    print()
+    print("\n".join(run_it_yourself(jobs=jobs, seed=seed, output=output, config=config_path)))
     return 0 if invalid == 0 else 4
+
+
+def run_it_yourself(*, jobs: int, seed: int, output: Path, config: Path) -> list[str]:
+    """The commands that run the demo's batch and report mode again, by hand: the demo's
+    emulator has stopped by now, so the first starts one that rewrites the inputs' configs
+    with its own address."""
+    inputs, report_inputs = output / "inputs", output / "report-inputs"
+    emulate = [
+        "stook", "emulate", "--jobs", str(jobs), "--batches", str(REPORT_BATCHES),
+        "--seed", str(seed), "--inputs", str(inputs), "--report-inputs", str(report_inputs),
+        # The demo's report: ten experiences, a step half-way, one unstable experience.
+        "--set", "experiences=10", "--set", "report_jobs_per_batch=40",
+        "--set", f"report_step_change_batch={REPORT_BATCHES // 2}",
+        "--set", "report_unstable_experiences=[3]",
+    ]  # fmt: skip
+    runs = [
+        ["stook", "run", "--inputs", str(folder), "--outputs", str(output / "yours" / name),
+         "--config", str(config)]
+        for folder, name in ((inputs, "batch"), (report_inputs, "report"))
+    ]  # fmt: skip
+    return [
+        f"Config used: {config}. Run it yourself: start an emulator in one shell "
+        "(it serves until Ctrl-C),",
+        "  " + shlex.join(emulate),
+        "then, in another shell, batch mode and report mode:",
+        *("  " + shlex.join(command) for command in runs),
+    ]

@@ -1,0 +1,79 @@
+"""The help texts of `stook` that are longer than a line, and the one formatter they share.
+
+Kept beside the README's tables (exit codes, mode detection): tests check that every code
+the README lists is in `stook run --help`, and that every option says what it does.
+"""
+
+from __future__ import annotations
+
+import argparse
+
+RUN_DESCRIPTION = """\
+The metrics-build entry point. It detects the mode from what the inputs folder holds
+and writes OUTPUTS/metrics.binproto, atomically or not at all:
+
+  report_config.json            report mode: the report's batches, over time
+  batch_metrics_config.json     batch mode: every job of the batch, aggregated
+  neither (experience/, logs/)  test mode: your [test] metrics function, or a valid
+                                empty output
+
+A near-miss config name (batch_metric_config.json) is refused, not run as a test."""
+
+RUN_EPILOG = """\
+exit codes:
+  0         metrics.binproto written
+  1         unexpected error, or your own test-metrics function raised
+  2         bad usage, config or inputs (malformed JSON, missing key, non-UUID ID, bad
+            TOML, unknown option, a metric or data name no job has, a misspelt config
+            file name), or an outputs folder that cannot be written; checked before
+            the first request
+  3         the API or object storage failed for [fetch] retry_for, refused the token,
+            the report does not exist, more jobs stayed unavailable than
+            --allow-missing-jobs allows, an answer over its cap, a listing that never
+            ends, or the [fetch] deadline was reached
+  4         invalid metrics data: a download could not be decoded, or the output
+            would not validate
+  5         the output could not be written (disk full, file-size limit, I/O error)
+  130, 143  interrupted by SIGINT or SIGTERM
+
+progress: a bar on a terminal (jobs done of the batch's total, rate, ETA, retries);
+off a terminal one "fetch progress" event every 10 s. STOOK_PROGRESS=auto|bar|log|none
+picks the display, STOOK_PROGRESS_INTERVAL the seconds between events.
+
+Settings come from the flags, then the STOOK_* variables named above, then the
+defaults; [fetch], [batch] and [report] tables are read from stook.toml."""
+
+INSPECT_EPILOG = """\
+exit codes: 0 {ok}; 2 the file is not there; 4 the file is not JobMetrics{invalid}."""
+
+EMULATE_EPILOG = """\
+Serves until Ctrl-C (exit 130). With --inputs it writes batch_metrics_config.json
+there, with --report-inputs report_config.json, naming its own URL and token, so that
+`stook run --inputs DIR` runs against it. Every EmulatorConfig field is also --set
+KEY=VALUE (VALUE as JSON); a later --set wins over a flag. A setting it does not know,
+or a value it refuses, exits 2 naming it."""
+
+
+class HelpFormatter(argparse.HelpFormatter):
+    """Descriptions and epilogs laid out by hand kept as written, one-paragraph ones
+    wrapped; each option's default after its help, unless the help says it already or
+    there is none to show."""
+
+    def _fill_text(self, text: str, width: int, indent: str) -> str:
+        if "\n" in text:
+            return "".join(indent + line for line in text.splitlines(keepends=True))
+        return super()._fill_text(text, width, indent)
+
+    def _get_help_string(self, action: argparse.Action) -> str | None:
+        text = action.help or ""
+        default = action.default
+        if (
+            "default" in text
+            or default is None
+            or isinstance(default, bool)
+            or default == []
+            or default == argparse.SUPPRESS
+            or not action.option_strings
+        ):
+            return text
+        return text + " (default: %(default)s)"

@@ -1,0 +1,167 @@
+"""The progress displays: the bar's fixed total and ETA, the events' interval and fields."""
+
+from __future__ import annotations
+
+import io
+import re
+
+import pytest
+from structlog.testing import capture_logs
+
+from stook.service.modes import (
+    ConfigError,
+    LogProgress,
+    NoProgress,
+    Snapshot,
+    Tally,
+    TerminalProgress,
+    for_stream,
+    human_bytes,
+)
+
+
+class FakeClock:
+    def __init__(self) -> None:
+        self.now = 100.0
+
+    def __call__(self) -> float:
+        return self.now
+
+
+def _plain(text: str) -> str:
+    return re.sub(r"\x1b\[[0-9;?]*[A-Za-z]", "", text)
+
+
+@pytest.mark.parametrize(
+    ("count", "text"),
+    [(0, "0 B"), (999, "999 B"), (1_000, "1 kB"), (27_224_097, "27.2 MB"), (3 * 10**9, "3 GB")],
+)
+def test_human_bytes(count: int, text: str) -> None:
+    assert human_bytes(count) == text
+
+
+def test_the_total_is_the_apis_never_below_what_was_listed() -> None:
+    assert Snapshot(jobs_done=3, jobs_listed=10, jobs_total=500).total == 500
+    assert Snapshot(jobs_done=3, jobs_listed=10, jobs_total=None).total is None
+    assert Snapshot(jobs_done=3, jobs_listed=12, jobs_total=10).total == 12
+    assert Snapshot(jobs_done=1204, jobs_listed=1300, jobs_total=5000).of_total() == (
+        "1,204 of 5,000 jobs"
+    )
+    assert Snapshot(jobs_done=4, jobs_listed=9).of_total() == "4 of 9 listed jobs"
+
+
+def test_the_bar_shows_the_fixed_total_percentage_rate_eta_and_retries(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    monkeypatch.setenv("COLUMNS", "120")
+    stream, clock = io.StringIO(), FakeClock()
+    bar = TerminalProgress(stream, force_terminal=True, clock=clock)
+    for done in (0, 50, 100):
+        clock.now += 5.0
+        bar.update(
+            Snapshot(
+                jobs_done=done,
+                jobs_listed=done + 25,
+                jobs_total=400,
+                requests=done * 3,
+                retries=7,
+            )
+        )
+    bar.close()
+    text = _plain(stream.getvalue())
+    assert "100/400" in text  # the API's total, not the 125 listed
+    assert not re.search(r"\d+/(25|75|125)\b", text)
+    assert "25%" in text
+    assert "10.0 jobs/s" in text  # 100 jobs in 10 s
+    assert "ETA 0:00:30" in text  # 300 jobs to go at 10 a second
+    assert "30 req/s  7 retries" in text
+    assert "\n" not in text.strip()  # one line, redrawn: nothing wraps
+
+
+def test_a_reports_bar_shows_batches_and_jobs(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setenv("COLUMNS", "120")
+    stream = io.StringIO()
+    bar = TerminalProgress(stream, force_terminal=True)
+    bar.update(Snapshot(jobs_done=0, jobs_listed=0, batches_done=0, batches_total=None))
+    bar.update(
+        Snapshot(jobs_done=80, jobs_listed=120, jobs_total=560, batches_done=2, batches_total=14)
+    )
+    bar.close()
+    last = _plain(stream.getvalue())
+    assert re.search(r"batches .* 2/14 ", last)
+    assert re.search(r"jobs .* 80/560 ", last)
+
+
+def test_the_bar_is_drawn_lazily() -> None:
+    stream = io.StringIO()
+    bar = TerminalProgress(stream, force_terminal=True)
+    bar.close()  # nothing was shown: nothing drawn, rich not needed
+    assert stream.getvalue() == ""
+
+
+def test_one_event_per_interval_with_the_counts() -> None:
+    clock = FakeClock()
+    with capture_logs() as captured:
+        shown = LogProgress(interval=10.0, clock=clock)
+        for second in range(1, 26):
+            clock.now = 100.0 + second
+            shown.update(
+                Snapshot(
+                    jobs_done=second * 8,
+                    jobs_listed=200,
+                    jobs_total=400,
+                    requests=second * 20,
+                    retries=second // 5,
+                    bytes_received=second * 1_000_000,
+                )
+            )
+        shown.close()
+    events = [e for e in captured if e["event"] == "fetch progress"]
+    assert [e["elapsed_s"] for e in events] == [10.0, 20.0]
+    first = events[0]
+    assert first["progress"] == "80 of 400 jobs"
+    assert (first["jobs_done"], first["jobs_total"], first["percent"]) == (80, 400, 20.0)
+    assert first["requests_per_s"] == 20.0
+    assert first["retries"] == 2
+    assert first["received"] == "10 MB"
+    assert first["eta_s"] == 40.0
+    assert first["log_level"] == "info"
+    assert "batches_done" not in first
+
+
+def test_a_reports_events_count_batches() -> None:
+    clock = FakeClock()
+    with capture_logs() as captured:
+        shown = LogProgress(interval=1.0, clock=clock)
+        clock.now += 1.5
+        shown.update(
+            Snapshot(jobs_done=40, jobs_listed=80, jobs_total=None, batches_done=1, batches_total=3)
+        )
+    (event,) = captured
+    assert (event["batches_done"], event["batches_total"]) == (1, 3)
+    assert event["jobs_total"] is None
+    assert event["progress"] == "40 of 80 listed jobs"
+
+
+def test_the_choice_of_display(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.delenv("STOOK_PROGRESS", raising=False)
+    monkeypatch.delenv("STOOK_PROGRESS_INTERVAL", raising=False)
+    assert isinstance(for_stream(io.StringIO()), LogProgress)  # not a terminal
+    monkeypatch.setenv("STOOK_PROGRESS", "bar")
+    assert isinstance(for_stream(io.StringIO()), TerminalProgress)
+    monkeypatch.setenv("STOOK_PROGRESS", "none")
+    assert isinstance(for_stream(io.StringIO()), NoProgress)
+    monkeypatch.setenv("STOOK_PROGRESS", "sparkles")
+    with pytest.raises(ConfigError, match="STOOK_PROGRESS must be auto, bar, log or none"):
+        for_stream(io.StringIO())
+    monkeypatch.setenv("STOOK_PROGRESS", "log")
+    monkeypatch.setenv("STOOK_PROGRESS_INTERVAL", "0")
+    with pytest.raises(ConfigError, match="STOOK_PROGRESS_INTERVAL must be a positive number"):
+        for_stream(io.StringIO())
+
+
+def test_tally_remembers_the_last_snapshot() -> None:
+    tally = Tally()
+    tally.update(Snapshot(jobs_done=5, jobs_listed=9, jobs_total=20))
+    assert (tally.done, tally.listed, tally.last.total) == (5, 9, 20)
+    tally.close()
