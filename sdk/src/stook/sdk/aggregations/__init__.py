@@ -8,6 +8,13 @@ or register it under the ``stook.aggregations`` entry-point group.
 """
 
 from stook.sdk.aggregations._base import Aggregation, BatchAggregation, Needs, ReportAggregation
+from stook.sdk.aggregations._baseline import (
+    BaselineComparison,
+    BaselineInfo,
+    ComparisonResult,
+    MetricComparison,
+    PassRateComparison,
+)
 from stook.sdk.aggregations._histogram import MergedHistogram
 from stook.sdk.aggregations._record import (
     UNKNOWN_STATUS,
@@ -41,16 +48,21 @@ __all__ = [
     "UNKNOWN_STATUS",
     "Aggregation",
     "AggregationConfigError",
+    "BaselineComparison",
+    "BaselineInfo",
     "BatchAggregation",
     "BatchRecord",
+    "ComparisonResult",
     "JobEvent",
     "JobRecord",
     "JobStatusCounts",
     "JobSummary",
     "MergedHistogram",
+    "MetricComparison",
     "MetricStatusCounts",
     "Needs",
     "PassRate",
+    "PassRateComparison",
     "ReportAggregation",
     "Scalar",
     "ScalarDefaults",
