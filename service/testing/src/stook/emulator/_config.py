@@ -59,6 +59,13 @@ class EmulatorConfig:
     # and of report batches whose batch metrics lack "Mean localization error" (gaps).
     report_batches_without_metrics: tuple[int, ...] = ()
     report_partial_metric_batches: tuple[int, ...] = ()
+    # A finished baseline batch for batch mode's comparison (see _baseline_pair.py): these
+    # experiences (indices) pass there and fail in the main batch, and the main batch's
+    # `baseline_shift_metric` is (1 + baseline_shift) times the baseline's.
+    baseline_pair: bool = False
+    baseline_regressed_experiences: tuple[int, ...] = ()
+    baseline_shift_metric: str = "Localization error"
+    baseline_shift: float = 0.0
     cache_jobs: int = 256  # generated job outputs kept (an LRU); the rest is regenerated
 
     # ---- answers the API spec allows (see _quirks.py) ----
@@ -139,6 +146,7 @@ class EmulatorConfig:
             "report_partial_metric_batches",
             "future_status_jobs",
             "unreported_status_jobs",
+            "baseline_regressed_experiences",
         ):
             indices = getattr(self, name)
             if any(isinstance(i, bool) or not isinstance(i, int) or i < 0 for i in indices):
@@ -173,6 +181,7 @@ class EmulatorConfig:
             "report_partial_metric_batches",
             "future_status_jobs",
             "unreported_status_jobs",
+            "baseline_regressed_experiences",
         ):
             if name in clean:
                 clean[name] = tuple(clean[name])

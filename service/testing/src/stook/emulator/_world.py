@@ -13,6 +13,7 @@ import uuid
 from dataclasses import dataclass
 from datetime import UTC, datetime, timedelta
 
+from stook.emulator._baseline_pair import baseline_batch, in_pair, pair_job
 from stook.emulator._config import EmulatorConfig
 
 _NAMESPACE = uuid.UUID("0b6f0c55-3a5e-4d0e-8c77-6f1d2b9e4a10")
@@ -42,6 +43,7 @@ class BatchKind(enum.StrEnum):
     MAIN = "main"  # the batch that batch mode reads
     REPORT = "report"  # one of the report's test-suite batches
     DECOY = "decoy"  # same project, but outside the report's search
+    BASELINE = "baseline"  # the main batch's baseline (config.baseline_pair)
 
 
 @dataclass(frozen=True, slots=True)
@@ -237,6 +239,8 @@ class World:
                     0.5,
                 )
             )
+        if (baseline := baseline_batch(self, main_created)) is not None:
+            out.append(baseline)
         return tuple(out)
 
     def _make_report(self) -> ReportSpec:
@@ -302,6 +306,8 @@ class World:
         return None if index is None else jobs[index]
 
     def _make_job(self, batch: BatchSpec, i: int) -> JobSpec:
+        if in_pair(self, batch):
+            return pair_job(self, batch, i)
         rng = self._rng(f"job-spec:{batch.id}:{i}")
         experience = self.experiences[i % len(self.experiences)]
         p_fail = min(
