@@ -4,14 +4,22 @@ Percentile bootstrap: resample, take the mean difference of each resample, read 
 interval off the quantiles. Paired (one difference per experience both batches ran) or
 unpaired (each batch resampled on its own). The random stream comes from bytes the
 caller derives from what is compared (the two batch IDs and the metric's name), so the
-same inputs give the same interval, byte for byte. The two-sided p-value is the one the
-percentile interval inverts: twice the smaller share of resampled differences on either
-side of zero, so "p < 1 - confidence" and "the interval excludes 0" agree.
+same inputs give the same interval, byte for byte.
+
+The two-sided p-value tests "no difference" with the bootstrap's standard error, scaled
+up by sqrt(n / (n - 1)) (the bootstrap's variance is the plug-in one) and referred to
+Student's t with n - 1 degrees of freedom (Welch's for unpaired samples). Reading it off
+the resamples instead (the share on the far side of zero) could not go below
+2 / (resamples + 1), above what Holm's correction asks of the smallest p-value when many
+metrics are compared, so nothing could ever be flagged; a normal reference instead of t
+raises the false alarms in the far tail Holm works in (8 % instead of 5 % across 20
+metrics of 50 jobs, measured).
 """
 
 from __future__ import annotations
 
 import hashlib
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
@@ -100,19 +108,40 @@ def bootstrap_mean_difference(
         differences = cand - base
         estimate = float(differences.mean())
         boot = _resampled_means(differences, resamples, rng)
+        n = differences.size
+        scale, df = n / (n - 1), float(n - 1)
     else:
         estimate = float(cand.mean() - base.mean())
         boot = _resampled_means(cand, resamples, rng) - _resampled_means(base, resamples, rng)
+        scale, df = _welch(base, cand)
     tail = (1.0 - confidence) / 2.0
     low, high = np.quantile(boot, [tail, 1.0 - tail])
-    below = (int(np.count_nonzero(boot <= 0.0)) + 1) / (resamples + 1)
-    above = (int(np.count_nonzero(boot >= 0.0)) + 1) / (resamples + 1)
     return MeanDifference(
         estimate=estimate,
         low=float(low),
         high=float(high),
-        p_value=min(1.0, 2.0 * min(below, above)),
+        p_value=_p_value(estimate, float(boot.std(ddof=1)) * math.sqrt(scale), df),
         paired=paired,
         n_baseline=int(base.size),
         n_candidate=int(cand.size),
     )
+
+
+def _welch(base: npt.NDArray[np.float64], cand: npt.NDArray[np.float64]) -> tuple[float, float]:
+    """The unbiased-to-plug-in variance ratio of the difference, and Welch's degrees of
+    freedom (both from the samples' own variances)."""
+    vb, vc = float(base.var(ddof=1)) / base.size, float(cand.var(ddof=1)) / cand.size
+    plug_in = vb * (base.size - 1) / base.size + vc * (cand.size - 1) / cand.size
+    if plug_in == 0.0:
+        return 1.0, float(min(base.size, cand.size) - 1)
+    denominator = vb * vb / (base.size - 1) + vc * vc / (cand.size - 1)
+    return (vb + vc) / plug_in, (vb + vc) ** 2 / denominator
+
+
+def _p_value(estimate: float, standard_error: float, df: float) -> float:
+    """Two-sided p-value of `estimate` against 0, Student's t with `df` degrees of freedom."""
+    if standard_error == 0.0 or not math.isfinite(standard_error):
+        return 1.0 if estimate == 0.0 else 0.0
+    from scipy.special import stdtr  # Student's t CDF, as scipy.stats.t.cdf
+
+    return float(2.0 * stdtr(df, -abs(estimate) / standard_error))

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import math
-import statistics
 from collections.abc import Sequence
 
 from stook.sdk.stats._proportions import Interval
@@ -20,9 +19,10 @@ def mean_interval(values: Sequence[float], confidence: float = 0.95) -> Interval
     mean = math.fsum(values) / len(values)
     if len(values) < 2:
         return Interval(mean, mean, mean)
-    from scipy.stats import t
+    from scipy.special import stdtrit  # Student's t quantile, as scipy.stats.t.ppf
 
-    half = float(t.ppf(0.5 + confidence / 2.0, len(values) - 1)) * (
-        statistics.stdev(values) / math.sqrt(len(values))
+    half = float(stdtrit(len(values) - 1, 0.5 + confidence / 2.0)) * (
+        math.sqrt(math.fsum((v - mean) ** 2 for v in values) / (len(values) - 1))
+        / math.sqrt(len(values))
     )
     return Interval(mean, mean - half, mean + half)

@@ -30,9 +30,11 @@ def normal_quantile(confidence: float) -> float:
     """z such that a two-sided interval of the standard normal holds `confidence`."""
     if not 0.0 < confidence < 1.0:
         raise ValueError(f"confidence must lie strictly between 0 and 1, got {confidence}")
-    from scipy.stats import norm
+    # scipy.special's ufunc, not scipy.stats.norm: the same function at a hundredth of the
+    # cost per call, and a lighter import.
+    from scipy.special import ndtri
 
-    return float(norm.ppf(0.5 + confidence / 2.0))
+    return float(ndtri(0.5 + confidence / 2.0))
 
 
 def wilson_interval(successes: int, trials: int, confidence: float = 0.95) -> Interval:
