@@ -149,3 +149,15 @@ def test_a_bad_table_exits_2_before_any_request(emu: Emulator, tmp_path: Path) -
     )
     assert not output.exists()
     assert emu.stats.requests["api"] == before
+
+
+def test_the_demo_shows_a_comparison(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from stook.testing._demo import _print_output
+    from stook.testing._demo_baseline import REGRESSED_EXPERIENCES, run_comparison_demo
+
+    assert run_comparison_demo(tmp_path, seed=0, print_output=_print_output) == 0
+    shown = capsys.readouterr().out
+    assert "== batch mode with a baseline" in shown
+    assert "- Localization error: REGRESSED" in shown
+    assert f"Newly failing experiences ({len(REGRESSED_EXPERIENCES)}): " in shown
+    assert (tmp_path / "comparison" / OUTPUT_NAME).exists()

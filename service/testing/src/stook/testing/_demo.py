@@ -5,6 +5,7 @@
    serves a batch; stook fetches and aggregates it with an example config.
 3. Report mode: the same emulator serves a test suite's batches over two weeks;
    stook draws them over time and says what regressed.
+4. Batch mode with a baseline: a batch compared with the previous one (_demo_baseline).
 Each output is validated and summarised; the batch summary adds jobs, requests,
 retries and seconds.
 """
@@ -31,6 +32,7 @@ from stook.service.modes import (
     run_report,
     run_test_mode,
 )
+from stook.testing._demo_baseline import run_comparison_demo
 
 REPORT_BATCHES = 14
 
@@ -139,6 +141,7 @@ def run_demo(*, jobs: int, output: Path, seed: int) -> int:
     )
     if report.regressions is not None:
         print("  Regressions: " + report.regressions.text.replace("\n", "\n    "))
+    invalid += run_comparison_demo(output, seed=seed, print_output=_print_output)
     print(
         f"\nConfig used: {config_path}. Run it yourself: stook run --inputs {inputs} "
         f"--outputs {output} --config {config_path} (with `stook emulate` serving)."
