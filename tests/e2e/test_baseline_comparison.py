@@ -151,6 +151,19 @@ def test_a_bad_table_exits_2_before_any_request(emu: Emulator, tmp_path: Path) -
     assert emu.stats.requests["api"] == before
 
 
+def test_a_metric_no_job_has_is_a_config_error(emu: Emulator, tmp_path: Path) -> None:
+    toml = TOML + 'metrics = ["Localisation error"]\n'
+    toml = toml.replace('better = { "Max speed" = "higher" }\n', "")
+    done, output = stook_run(emu, tmp_path, toml)
+    assert done.returncode == 2, done.stderr
+    event = json.loads(done.stderr.strip().splitlines()[-1])
+    assert event["error"].endswith(
+        "no job in the batch has a scalar metric named 'Localisation error'; "
+        "did you mean 'Localization error'?"
+    )
+    assert not output.exists()
+
+
 def test_the_demo_shows_a_comparison(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     from stook.testing._demo import _print_output
     from stook.testing._demo_baseline import REGRESSED_EXPERIENCES, run_comparison_demo

@@ -247,3 +247,30 @@ def test_order_and_merging_do_not_change_a_byte() -> None:
 def test_bad_options_are_refused(options: dict[str, object], message: str) -> None:
     with pytest.raises(ValueError, match=message):
         BaselineComparison(**options)  # type: ignore[arg-type]
+
+
+def test_long_lists_are_cut_and_chart_names_never_collide() -> None:
+    from stook.sdk.aggregations._baseline_output import MAX_BARS, MAX_NAMED
+
+    rng = random.Random(5)
+    comparison = BaselineComparison()
+    for i in range(160):
+        for side, status in (("baseline", "PASSED"), ("candidate", "WARNING")):
+            job = JobRecord(
+                job_id=uuid.UUID(int=(side == "candidate") << 64 | i),
+                conflated_status=status,
+                experience_name=f"E{i:03d}",
+                experience_id=uuid.UUID(int=i + 1),
+                scalars={"Pass rate": Scalar(rng.random())},  # a job metric of that name
+            )
+            (comparison.update if side == "candidate" else comparison.update_baseline)(job)
+    comparison.set_baseline(BaselineInfo(BASELINE_ID), BATCH_ID)
+    output = Output(comparison)
+    text = output.by_name["Compared with baseline"].raw.metric_values.text_metric_values.text
+    assert f"Newly failing experiences (160): E000, E001," in text
+    assert f"E{MAX_NAMED - 1:03d} and {160 - MAX_NAMED} more" in text
+    assert len(output.bars("Newly failing and fixed experiences")) == MAX_BARS
+    flips = output.by_name["Newly failing and fixed experiences"]
+    assert f"(the first {MAX_BARS} shown)" in flips.description
+    assert "Pass rate vs baseline" in output.names  # the batch's pass rate
+    assert "Pass rate (job metric) vs baseline" in output.names  # the job metric's chart

@@ -20,6 +20,10 @@ if TYPE_CHECKING:
 FLIPS_CHART = "Newly failing and fixed experiences"
 PASS_RATE_CHART = "Pass rate vs baseline"
 PASS_RATE_DIFFERENCE = "Pass rate difference vs baseline"
+# Experiences named in the text per list, and bars in the flips chart: a batch where
+# thousands flip needs the count and the first names, not a page of them.
+MAX_NAMED = 50
+MAX_BARS = 100
 
 
 def _num(value: float, unit: str = "") -> str:
@@ -38,7 +42,15 @@ def _status(verdict: ComparisonVerdict, comparison: BaselineComparison) -> Metri
 
 
 def _names(label: str, names: list[str]) -> str:
-    return f"{label} ({len(names)}): {', '.join(names) if names else 'none'}"
+    shown = ", ".join(names[:MAX_NAMED]) if names else "none"
+    more = f" and {len(names) - MAX_NAMED} more" if len(names) > MAX_NAMED else ""
+    return f"{label} ({len(names)}): {shown}{more}"
+
+
+def chart_name(metric: str, taken: set[str]) -> str:
+    """The chart of `metric`, kept apart from the comparison's own metric names."""
+    name = f"{metric} vs baseline"
+    return name if name not in taken else f"{metric} (job metric) vs baseline"
 
 
 def _pass_rate_line(p: PassRateComparison, percent: int) -> str:
@@ -153,6 +165,8 @@ def write_comparison(
     percent = round(100 * comparison.confidence)
     writer.text(comparison.name, comparison_text(comparison, result), status=result.status)
     flips = {n: 1.0 for n in result.newly_failing} | {n: -1.0 for n in result.fixed}
+    total = len(flips)
+    flips = dict(list(flips.items())[:MAX_BARS])
     if flips:
         writer.bar_chart_from(
             FLIPS_CHART,
@@ -161,7 +175,8 @@ def write_comparison(
             y_axis_name="+1 newly failing, -1 fixed",
             description=(
                 f"{len(result.newly_failing)} experiences passed in the baseline and fail now; "
-                f"{len(result.fixed)} failed in the baseline and pass now."
+                f"{len(result.fixed)} failed in the baseline and pass now"
+                + (f" (the first {MAX_BARS} shown)." if total > MAX_BARS else ".")
             ),
         )
     if (p := result.pass_rate) is not None:
@@ -187,6 +202,7 @@ def write_comparison(
                 f"interval [{100 * p.difference.low:+.1f}, {100 * p.difference.high:+.1f}] points."
             ),
         )
+    taken = {comparison.name, FLIPS_CHART, PASS_RATE_CHART, PASS_RATE_DIFFERENCE}
     for m in result.metrics:
         if m.baseline is None or m.candidate is None:
             continue
@@ -199,7 +215,7 @@ def write_comparison(
         )
         _interval_bars(
             writer,
-            f"{m.name} vs baseline",
+            chart_name(m.name, taken),
             m.baseline,
             m.candidate,
             scale=1.0,
