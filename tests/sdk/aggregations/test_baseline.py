@@ -267,7 +267,7 @@ def test_long_lists_are_cut_and_chart_names_never_collide() -> None:
     comparison.set_baseline(BaselineInfo(BASELINE_ID), BATCH_ID)
     output = Output(comparison)
     text = output.by_name["Compared with baseline"].raw.metric_values.text_metric_values.text
-    assert f"Newly failing experiences (160): E000, E001," in text
+    assert "Newly failing experiences (160): E000, E001," in text
     assert f"E{MAX_NAMED - 1:03d} and {160 - MAX_NAMED} more" in text
     assert len(output.bars("Newly failing and fixed experiences")) == MAX_BARS
     flips = output.by_name["Newly failing and fixed experiences"]
