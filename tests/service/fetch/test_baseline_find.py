@@ -115,3 +115,15 @@ async def test_a_probe_that_fails_leaves_the_metric_two_sided(emu: Emulator) -> 
             api, emu.project_id, emu.batch_id, {"Localization error": uuid.UUID(int=99)}
         )
     assert directions == {"Localization error": None}
+
+
+@pytest.mark.parametrize(
+    ("above", "below", "expected"),
+    [(True, False, "lower"), (False, True, "higher"), (True, True, None), (False, False, None)],
+)
+def test_a_direction_from_each_kind_of_failure_definition(
+    above: bool, below: bool, expected: str | None
+) -> None:
+    from stook.service.fetch._directions import direction_of
+
+    assert direction_of(above, below) == expected
