@@ -217,6 +217,15 @@ def test_too_few_values_are_inconclusive_and_metrics_narrow_the_comparison() -> 
     result = narrowed.result()
     assert result is not None
     assert [m.name for m in result.metrics] == ["Speed"]
+    assert result.only_candidate == result.only_baseline == []
+    extra = compared(base, [*cand, record("candidate", 39, "PASSED", {"New": 1.0})])
+    extra.update_baseline(record("baseline", 39, "PASSED", {"Old": 1.0}))
+    separate = extra.result()
+    assert separate is not None
+    assert (separate.only_candidate, separate.only_baseline) == (["New"], ["Old"])
+    text = Output(extra).by_name["Compared with baseline"].raw.metric_values.text_metric_values
+    assert "Not in the baseline, not compared: New." in text.text
+    assert "Only in the baseline, not compared: Old." in text.text
     assert BaselineComparison().needs().every_scalar
     assert set(narrowed.direction_probes()) == {"Speed"}
     configured = compared(base, cand, metrics=("Speed",), better={"Speed": "higher"})

@@ -170,6 +170,9 @@ class ComparisonResult:
     still_failing: list[str]
     metrics: list[MetricComparison]
     status: MetricStatus
+    # SCALAR job metrics only one of the two batches has: not compared.
+    only_candidate: list[str] = field(default_factory=list)
+    only_baseline: list[str] = field(default_factory=list)
 
     @property
     def regressed(self) -> bool:
@@ -268,7 +271,18 @@ class BaselineComparison(Aggregation[JobRecord]):
             status = MetricStatus.FAIL_BLOCK
         else:
             status = MetricStatus.FAIL_WARN
-        return ComparisonResult(self.found, pass_rate, newly, fixed, still, metrics, status)
+        mine, theirs = self.candidate.metric_names(), self.baseline.metric_names()
+        return ComparisonResult(
+            self.found,
+            pass_rate,
+            newly,
+            fixed,
+            still,
+            metrics,
+            status,
+            only_candidate=sorted(mine - theirs),
+            only_baseline=sorted(theirs - mine),
+        )
 
     def _flips(self) -> tuple[list[str], list[str], list[str]]:
         newly: list[str] = []

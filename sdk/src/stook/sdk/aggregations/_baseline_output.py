@@ -119,6 +119,10 @@ def comparison_text(comparison: BaselineComparison, result: ComparisonResult) ->
         lines.extend(_metric_line(m, percent) for m in result.metrics)
     else:
         lines.append("No SCALAR job metric is in both batches, so no metric was compared.")
+    if result.only_candidate:
+        lines.append(f"Not in the baseline, not compared: {', '.join(result.only_candidate)}.")
+    if result.only_baseline:
+        lines.append(f"Only in the baseline, not compared: {', '.join(result.only_baseline)}.")
     return "\n".join(lines)
 
 
