@@ -220,8 +220,7 @@ class BaselineComparison(Aggregation[JobRecord]):
     def update(self, job: JobRecord) -> None:
         self.candidate.add(job, self._wanted)
         for name, scalar in job.scalars.items():
-            if scalar.unit and name not in self.units:
-                self.units[name] = scalar.unit
+            self._unit(name, scalar.unit)
 
     def update_baseline(self, job: JobRecord) -> None:
         self.baseline.add(job, self._wanted)
@@ -230,7 +229,12 @@ class BaselineComparison(Aggregation[JobRecord]):
         self.candidate.merge(other.candidate)
         self.baseline.merge(other.baseline)
         for name, unit in other.units.items():
-            self.units.setdefault(name, unit)
+            self._unit(name, unit)
+
+    def _unit(self, name: str, unit: str) -> None:
+        # The least of the units jobs gave, not the first: the same bytes in any job order.
+        if unit and (name not in self.units or unit < self.units[name]):
+            self.units[name] = unit
 
     def set_baseline(self, info: BaselineInfo, candidate_id: uuid.UUID) -> None:
         self.found, self.candidate_id = info, candidate_id
