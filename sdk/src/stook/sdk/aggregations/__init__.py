@@ -8,6 +8,13 @@ or register it under the ``stook.aggregations`` entry-point group.
 """
 
 from stook.sdk.aggregations._base import Aggregation, BatchAggregation, Needs, ReportAggregation
+from stook.sdk.aggregations._baseline import (
+    BaselineComparison,
+    BaselineInfo,
+    ComparisonResult,
+    MetricComparison,
+    PassRateComparison,
+)
 from stook.sdk.aggregations._by_tag import ByExperienceTag
 from stook.sdk.aggregations._category_totals import CategoryTotals
 from stook.sdk.aggregations._errors import JobDataError
@@ -46,10 +53,13 @@ __all__ = [
     "UNKNOWN_STATUS",
     "Aggregation",
     "AggregationConfigError",
+    "BaselineComparison",
+    "BaselineInfo",
     "BatchAggregation",
     "BatchRecord",
     "ByExperienceTag",
     "CategoryTotals",
+    "ComparisonResult",
     "EventCounts",
     "JobDataError",
     "JobEvent",
@@ -57,10 +67,12 @@ __all__ = [
     "JobStatusCounts",
     "JobSummary",
     "MergedHistogram",
+    "MetricComparison",
     "MetricStatusCounts",
     "Needs",
     "ParameterSweep",
     "PassRate",
+    "PassRateComparison",
     "ReportAggregation",
     "Scalar",
     "ScalarDefaults",

@@ -30,6 +30,7 @@ from stook.service.api._models import (
     ApiMetric,
     ApiMetricsData,
     Batch,
+    Branch,
     Build,
     ExperienceTag,
     Job,
@@ -340,6 +341,15 @@ class ApiClient:
     async def get_report(self, project_id: IdLike, report_id: IdLike) -> Report:
         document = await self.get_json(f"/projects/{_id(project_id)}/reports/{_id(report_id)}")
         return Report.from_json(document)
+
+    def list_branches(
+        self, project_id: IdLike, *, name: str | None = None
+    ) -> AsyncIterator[Branch]:
+        """The branches of a project, those named `name` only when given."""
+        params = {"name": name} if name else None
+        return self._list(
+            f"/projects/{_id(project_id)}/branches", "branches", Branch.from_json, params
+        )
 
     async def get_build(self, project_id: IdLike, build_id: IdLike) -> Build:
         document = await self.get_json(f"/projects/{_id(project_id)}/builds/{_id(build_id)}")

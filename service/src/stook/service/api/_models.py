@@ -430,3 +430,21 @@ class ExperienceTag:
             name=f.opt_string("name") or "",
             description=f.opt_string("description") or "",
         )
+
+
+@dataclass(frozen=True, slots=True)
+class Branch:
+    """A branch of a project; stook finds a baseline's branch by its name."""
+
+    branch_id: uuid.UUID
+    name: str = ""
+    branch_type: str | None = None
+
+    @classmethod
+    def from_json(cls, data: Mapping[str, Any]) -> Self:
+        f = Fields("Branch", data, "branchID")
+        return cls(
+            branch_id=f.id("branchID"),
+            name=f.opt_string("name") or "",
+            branch_type=f.opt_string("branchType"),
+        )

@@ -5,6 +5,7 @@ pools of workers list and download only what the aggregations' `Needs` name, and
 job (`JobRecord`) or batch (`BatchRecord`) on as soon as it is complete.
 """
 
+from stook.service.fetch._baseline_find import BaselineFound, find_baseline
 from stook.service.fetch._batch_fetch import (
     BatchFetcher,
     FetchOutcome,
@@ -12,6 +13,7 @@ from stook.service.fetch._batch_fetch import (
     MissingJob,
 )
 from stook.service.fetch._deadline import DeadlineReachedError, fetch_deadline
+from stook.service.fetch._directions import failure_directions
 from stook.service.fetch._job_blobs import decode_values
 from stook.service.fetch._report_fetch import (
     ReportFetcher,
@@ -22,6 +24,7 @@ from stook.service.fetch._report_fetch import (
 from stook.service.fetch._scalars import is_scalar, read_scalars
 
 __all__ = [
+    "BaselineFound",
     "BatchFetcher",
     "DeadlineReachedError",
     "FetchOutcome",
@@ -31,7 +34,9 @@ __all__ = [
     "ReportNotFoundError",
     "ReportOutcome",
     "decode_values",
+    "failure_directions",
     "fetch_deadline",
+    "find_baseline",
     "is_scalar",
     "read_scalars",
     "search_for",

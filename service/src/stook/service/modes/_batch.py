@@ -9,9 +9,15 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from stook.sdk import MetricStatus, MetricsWriter
-from stook.sdk.aggregations import BatchAggregation, Needs, default_batch_aggregations
+from stook.sdk.aggregations import (
+    BaselineComparison,
+    BatchAggregation,
+    Needs,
+    default_batch_aggregations,
+)
 from stook.service.api import ApiClient, RetryPolicy
 from stook.service.fetch import BatchFetcher, FetchOutcome, MissingJob
+from stook.service.modes._baseline import ComparedFetcher
 from stook.service.modes._config import ConfigError, StookConfig
 from stook.service.modes._inputs import BatchInputs
 from stook.service.modes._pipeline import RunResult, run_pipeline
@@ -48,9 +54,14 @@ class BatchMode:
     config: StookConfig
     aggregations: list[BatchAggregation] = field(init=False)
     kind: str = "batch"
+    # [batch.baseline]'s comparison, also among the aggregations; None without one.
+    comparison: BaselineComparison | None = field(init=False, default=None)
 
     def __post_init__(self) -> None:
         self.aggregations = aggregations_for(self.config)
+        if self.config.baseline is not None:
+            self.comparison = self.config.baseline.comparison()
+            self.aggregations.append(self.comparison)
 
     @property
     def output_id(self) -> uuid.UUID:
@@ -58,7 +69,18 @@ class BatchMode:
 
     def fetcher(
         self, api: ApiClient, needs: Needs, on_progress: Callable[[FetchOutcome], None]
-    ) -> BatchFetcher:
+    ) -> BatchFetcher | ComparedFetcher:
+        if self.comparison is not None and self.config.baseline is not None:
+            return ComparedFetcher(
+                api,
+                self.inputs.access.project_id,
+                self.inputs.batch_id,
+                needs,
+                self.comparison,
+                self.config.baseline,
+                workers=self.config.fetch.concurrency,
+                on_progress=on_progress,
+            )
         return BatchFetcher(
             api,
             self.inputs.access.project_id,

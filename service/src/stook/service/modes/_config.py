@@ -39,6 +39,11 @@ from stook.sdk.aggregations import (
     ReportAggregation,
     build_all,
 )
+from stook.service.modes._baseline_config import (
+    BaselineConfigError,
+    BaselineSettings,
+    parse_baseline,
+)
 from stook.service.modes._user_code import add_import_folders
 
 log = structlog.get_logger("stook.config")
@@ -95,6 +100,8 @@ class StookConfig:
     report_tables: Mapping[str, list[dict[str, Any]]] = field(default_factory=dict)
     # The file read, if any: user code is imported from beside it.
     file: Path | None = None
+    # [batch.baseline]: compare the batch with a baseline batch (None: no comparison).
+    baseline: BaselineSettings | None = None
 
     def batch_aggregations(self) -> list[BatchAggregation]:
         try:
@@ -150,6 +157,7 @@ def parse(doc: Mapping[str, Any], *, source: str = "stook.toml") -> StookConfig:
     defaults = batch.pop("defaults", True)
     if not isinstance(defaults, bool):
         raise ConfigError(f"{source}: [batch] defaults must be true or false")
+    baseline = _baseline(batch.pop("baseline", None), source)
     report, report_tables = _report(_table(doc, "report", source), source)
     config = StookConfig(
         source=source,
@@ -159,11 +167,21 @@ def parse(doc: Mapping[str, Any], *, source: str = "stook.toml") -> StookConfig:
         batch_tables=batch,
         report=report,
         report_tables=report_tables,
+        baseline=baseline,
     )
     # Fail now, before any fetching, on a bad table.
     config.batch_aggregations()
     config.report_aggregations()
     return config
+
+
+def _baseline(table: Any, source: str) -> BaselineSettings | None:
+    if table is None:
+        return None
+    try:
+        return parse_baseline(table)
+    except BaselineConfigError as exc:
+        raise ConfigError(f"{source}: {exc}") from None
 
 
 def _table(doc: Mapping[str, Any], key: str, source: str) -> Mapping[str, Any]:

@@ -13,6 +13,7 @@ from typing import Any
 from aiohttp import web
 
 from stook.emulator import _json
+from stook.emulator._branch_routes import add_branch_routes
 from stook.emulator._middleware import (
     Handler,
     admit,
@@ -104,6 +105,7 @@ def build_api_app(state: EmulatorState) -> web.Application:
         routes.list_experience_tags,
         name="list_experience_tags",
     )
+    add_branch_routes(app, state, p)
     app.router.add_get("/_emulator/stats", routes.emulator_stats, name="emulator_stats")
     return app
 

@@ -63,6 +63,13 @@ class EmulatorConfig:
     report_step_change_batch: int | None = None
     # Indices of experiences whose localization error varies wildly (see _steps.py).
     report_unstable_experiences: tuple[int, ...] = ()
+    # A finished baseline batch for batch mode's comparison (see _baseline_pair.py): these
+    # experiences (indices) pass there and fail in the main batch, and the main batch's
+    # `baseline_shift_metric` is (1 + baseline_shift) times the baseline's.
+    baseline_pair: bool = False
+    baseline_regressed_experiences: tuple[int, ...] = ()
+    baseline_shift_metric: str = "Localization error"
+    baseline_shift: float = 0.0
     cache_jobs: int = 256  # generated job outputs kept (an LRU); the rest is regenerated
 
     # ---- answers the API spec allows (see _quirks.py) ----
@@ -152,6 +159,7 @@ class EmulatorConfig:
             "future_status_jobs",
             "unreported_status_jobs",
             "report_unstable_experiences",
+            "baseline_regressed_experiences",
         ):
             indices = getattr(self, name)
             if any(isinstance(i, bool) or not isinstance(i, int) or i < 0 for i in indices):
@@ -188,6 +196,7 @@ class EmulatorConfig:
             "future_status_jobs",
             "unreported_status_jobs",
             "report_unstable_experiences",
+            "baseline_regressed_experiences",
         ):
             if name in clean:
                 clean[name] = tuple(clean[name])

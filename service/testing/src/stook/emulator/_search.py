@@ -14,6 +14,7 @@ BatchFilter = Callable[[BatchSpec], bool]
 _ID_CLAUSE = re.compile(r'(test_suite_id|branch_id) = "([^"]*)"')
 _TIME_CLAUSE = re.compile(r'created_at ([<>]) "([^"]*)"')
 _REVISION_CLAUSE = re.compile(r"test_suite_revision = (\d+)")
+_STATUS_CLAUSE = re.compile(r'status = "([A-Z_]+)"')
 
 
 class SearchError(ValueError):
@@ -41,6 +42,9 @@ def _clause(part: str) -> BatchFilter:
     if m := _REVISION_CLAUSE.fullmatch(part):
         revision = int(m.group(1))
         return lambda b: b.test_suite_revision == revision
+    if m := _STATUS_CLAUSE.fullmatch(part):
+        status = m.group(1)
+        return lambda b: b.status == status
     raise SearchError(f"unsupported search clause {part!r}")
 
 

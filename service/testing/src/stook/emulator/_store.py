@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 
 from google.protobuf.message import Message
 
+from stook.emulator._baseline_pair import generate_pair_job, in_pair
 from stook.emulator._generate import (
     Truth,
     WrittenMetrics,
@@ -120,6 +121,9 @@ class OutputStore:
     def write_job(self, job: JobSpec) -> WrittenMetrics:
         """A job's metrics generated afresh, counted in `generated_jobs`."""
         self.generated_jobs += 1
+        batch = self._world.batch(job.batch_id)
+        if batch is not None and in_pair(self._world, batch):
+            return generate_pair_job(self._world, job, batch)
         return generate_job(self._world.seed, job)
 
     def job_output(self, batch_id: uuid.UUID, job_id: uuid.UUID) -> MetricsOutput | None:

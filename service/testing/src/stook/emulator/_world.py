@@ -13,6 +13,7 @@ import uuid
 from dataclasses import dataclass
 from datetime import UTC, datetime, timedelta
 
+from stook.emulator._baseline_pair import baseline_batch, in_pair, pair_job
 from stook.emulator._config import EmulatorConfig
 from stook.emulator._steps import localization_factor, step_status
 
@@ -49,6 +50,7 @@ class BatchKind(enum.StrEnum):
     MAIN = "main"  # the batch that batch mode reads
     REPORT = "report"  # one of the report's test-suite batches
     DECOY = "decoy"  # same project, but outside the report's search
+    BASELINE = "baseline"  # the main batch's baseline (config.baseline_pair)
 
 
 @dataclass(frozen=True, slots=True)
@@ -254,6 +256,8 @@ class World:
                     0.5,
                 )
             )
+        if (baseline := baseline_batch(self, main_created)) is not None:
+            out.append(baseline)
         return tuple(out)
 
     def _make_report(self) -> ReportSpec:
@@ -319,6 +323,8 @@ class World:
         return None if index is None else jobs[index]
 
     def _make_job(self, batch: BatchSpec, i: int) -> JobSpec:
+        if in_pair(self, batch):
+            return pair_job(self, batch, i)
         rng = self._rng(f"job-spec:{batch.id}:{i}")
         experience = self.experiences[i % len(self.experiences)]
         p_fail = min(

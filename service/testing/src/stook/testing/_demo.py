@@ -6,6 +6,7 @@
 3. Report mode: the same emulator serves a test suite's batches over two weeks, with a
    step change half-way; stook draws them over time, says what regressed in the latest
    batch and where, earlier, a level moved (change points).
+4. Batch mode with a baseline: a batch compared with the previous one (_demo_baseline).
 Each output is validated and summarised; the batch summary adds jobs, requests,
 retries and seconds.
 """
@@ -33,6 +34,7 @@ from stook.service.modes import (
     run_report,
     run_test_mode,
 )
+from stook.testing._demo_baseline import run_comparison_demo
 
 REPORT_BATCHES = 14
 
@@ -158,6 +160,7 @@ def run_demo(*, jobs: int, output: Path, seed: int) -> int:
     changes = _text_of(report.output, "Change points")
     if changes is not None:
         print("  Change points: " + changes.replace("\n", "\n    "))
+    invalid += run_comparison_demo(output, seed=seed, print_output=_print_output)
     print()
     print("\n".join(run_it_yourself(jobs=jobs, seed=seed, output=output, config=config_path)))
     return 0 if invalid == 0 else 4

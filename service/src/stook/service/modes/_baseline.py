@@ -1,0 +1,104 @@
+"""Batch mode with `[batch.baseline]`: the baseline's jobs fetched beside the batch's own.
+
+One fetcher for the pipeline (`ComparedFetcher`): the candidate's `BatchFetcher` folds
+into every aggregation as usual, while, on the same client (so under the same bound on
+requests in flight), the baseline is found and its jobs fetched by a second
+`BatchFetcher` whose records feed the comparison's baseline side. Once both are in, the
+metrics without a configured direction get one from their failure definitions.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import uuid
+from collections.abc import Callable
+
+import structlog
+
+from stook.sdk.aggregations import BaselineComparison, BaselineInfo, JobRecord, Needs
+from stook.service.api import ApiClient
+from stook.service.fetch import BatchFetcher, FetchOutcome, failure_directions, find_baseline
+from stook.service.modes._baseline_config import BaselineSettings
+
+log = structlog.get_logger("stook.baseline")
+
+
+class ComparedFetcher:
+    """The batch's fetch and its baseline's, run together; `outcome` is the batch's."""
+
+    def __init__(
+        self,
+        api: ApiClient,
+        project_id: uuid.UUID,
+        batch_id: uuid.UUID,
+        needs: Needs,
+        comparison: BaselineComparison,
+        settings: BaselineSettings,
+        *,
+        workers: int,
+        on_progress: Callable[[FetchOutcome], None] | None = None,
+    ) -> None:
+        self._api = api
+        self._project_id = project_id
+        self._batch_id = batch_id
+        self._comparison = comparison
+        self._settings = settings
+        self._workers = workers
+        self._candidate = BatchFetcher(
+            api, project_id, batch_id, needs, workers=workers, on_progress=on_progress
+        )
+
+    @property
+    def outcome(self) -> FetchOutcome:
+        return self._candidate.outcome
+
+    async def run(self, on_job: Callable[[JobRecord], None]) -> FetchOutcome:
+        try:
+            async with asyncio.TaskGroup() as group:
+                candidate = group.create_task(self._candidate.run(on_job))
+                group.create_task(self._fetch_baseline())
+        except ExceptionGroup as group_error:
+            raise group_error.exceptions[0] from None
+        probes = self._comparison.direction_probes()
+        if probes and self._comparison.found is not None:
+            directions = await failure_directions(
+                self._api, self._project_id, self._batch_id, probes
+            )
+            self._comparison.set_directions(directions)
+        return candidate.result()
+
+    async def _fetch_baseline(self) -> None:
+        s = self._settings
+        found = await find_baseline(
+            self._api,
+            self._project_id,
+            self._batch_id,
+            batch=s.batch,
+            branch=s.branch,
+            previous=s.previous,
+        )
+        baseline = found.baseline
+        if baseline is None:
+            log.info("no baseline to compare with", reason=found.reason)
+            self._comparison.no_baseline(found.reason)
+            return
+        log.info("baseline found", baseline_id=str(baseline.batch_id), chosen_as=found.chosen_as)
+        fetcher = BatchFetcher(
+            self._api,
+            self._project_id,
+            baseline.batch_id,
+            self._comparison.needs(),
+            workers=self._workers,
+        )
+        outcome = await fetcher.run(self._comparison.update_baseline)
+        self._comparison.set_baseline(
+            BaselineInfo(
+                batch_id=baseline.batch_id,
+                friendly_name=baseline.friendly_name or "",
+                build=found.build,
+                created=baseline.creation_timestamp,
+                chosen_as=found.chosen_as,
+                missing_jobs=len(outcome.missing),
+            ),
+            self._batch_id,
+        )
