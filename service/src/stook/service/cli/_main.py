@@ -91,6 +91,11 @@ def build_parser() -> argparse.ArgumentParser:
         help="tolerate up to this share of jobs whose data stays unavailable (default 0)",
     )
     run_p.add_argument(
+        "--preview",
+        action="store_true",
+        help="also write OUTPUTS/metrics.html, a preview of the output ([output] preview)",
+    )
+    run_p.add_argument(
         "--project-id", help="project for batch configs that lack projectID (env STOOK_PROJECT_ID)"
     )
     _add_logging(run_p)
@@ -131,6 +136,24 @@ def build_parser() -> argparse.ArgumentParser:
 
     show_p = sub.add_parser("show", help="print a summary of a metrics.binproto")
     show_p.add_argument("file", type=Path)
+
+    preview_p = sub.add_parser(
+        "preview",
+        help="draw metrics.binproto files into one self-contained HTML page",
+        description="Draw one or more metrics.binproto files (test, batch or report outputs) "
+        "into one HTML page that works offline, one column per file. Exit 2 for a missing "
+        "file, 4 for one that is not JobMetrics, 5 if the page cannot be written.",
+    )
+    preview_p.add_argument("files", type=Path, nargs="+", metavar="FILE")
+    preview_p.add_argument(
+        "-o",
+        "--output",
+        type=Path,
+        metavar="OUT.html",
+        help="where to write the page (default: FILE's name with .html beside one FILE, "
+        "preview.html here for several)",
+    )
+    preview_p.add_argument("--open", action="store_true", help="open the page in a browser")
     return parser
 
 
@@ -257,7 +280,7 @@ def run_cli(argv: Sequence[str] | None = None, *, voice: Voice | None = None) ->
 
 
 # Commands that log nothing unless they fail: structlog (~30 ms) is set up only then.
-_QUIET_COMMANDS = ("show", "validate")
+_QUIET_COMMANDS = ("show", "validate", "preview")
 
 
 def _run_cli(argv: Sequence[str] | None, voice: Voice) -> int:
@@ -327,6 +350,7 @@ def _dispatch(args: argparse.Namespace, voice: Voice) -> int:
                 config=args.config,
                 allow_missing_jobs=args.allow_missing_jobs,
                 project_id=args.project_id,
+                preview=args.preview,
             )
             voice.progress = Tally(for_stream(label="jobs"))
             _signals.run(run(options, progress=voice.progress))
@@ -353,4 +377,8 @@ def _dispatch(args: argparse.Namespace, voice: Voice) -> int:
             from stook.service.cli._inspect import show_file
 
             return show_file(args.file)
+        case "preview":
+            from stook.service.cli._preview import preview_files
+
+            return preview_files(args.files, args.output, open_browser=args.open)
     raise AssertionError(f"unhandled command {args.command!r}")  # argparse restricts it

@@ -31,6 +31,8 @@ from stook.service.modes import (
     run_report,
     run_test_mode,
 )
+from stook.service.preview import PREVIEW_NAME, write_preview
+from stook.testing._frames import write_example_frames
 
 REPORT_BATCHES = 14
 
@@ -91,6 +93,8 @@ def run_demo(*, jobs: int, output: Path, seed: int) -> int:
     test_output = asyncio.run(
         run_test_mode(mode, config, output / "test-mode" / "metrics.binproto")
     )
+    # The example's IMAGE metrics name these files beside the output.
+    write_example_frames(test_output.parent)
     invalid += _print_output(test_output)
 
     print(f"\n== batch mode: {jobs} jobs from the emulated ReSim API ==")
@@ -139,6 +143,9 @@ def run_demo(*, jobs: int, output: Path, seed: int) -> int:
     )
     if report.regressions is not None:
         print("  Regressions: " + report.regressions.text.replace("\n", "\n    "))
+    print("\nPreviews (open them in a browser; they work offline):")
+    for written in (test_output, result.output, report.output):
+        print(f"  {write_preview([written], written.with_name(PREVIEW_NAME))}")
     print(
         f"\nConfig used: {config_path}. Run it yourself: stook run --inputs {inputs} "
         f"--outputs {output} --config {config_path} (with `stook emulate` serving)."
