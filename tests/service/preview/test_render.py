@@ -207,3 +207,13 @@ def test_messages_and_views_render_too() -> None:
     assert "message 2" in page
     assert page.count('data-metric="From a message"') == 2
     assert MetricType.SCALAR.name in page
+
+
+def test_histogram_counts_use_the_buckets_as_written() -> None:
+    from stook.service.preview._metrics import bucket_counts
+
+    buckets = [(0.0, 1.0), (1.0, 2.5), (2.5, 10.0)]
+    numbers = [-1.0, 0.0, 0.999, 1.0, 2.5, 9.99, 10.0, 10.5, math.nan, math.inf]
+    # 10.0, the last bucket's upper bound, counts in it; NaN, inf and the rest are outside.
+    assert bucket_counts(numbers, buckets) == ([2, 1, 3], 4)
+    assert bucket_counts([1.0], []) == ([], 1)

@@ -11,6 +11,7 @@ import base64
 import html
 import json
 import uuid
+from bisect import bisect_right
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -321,9 +322,9 @@ def bar_chart(metric: MetricView, ctx: Context) -> str:
                 "type": "bar",
                 "name": _legend(mv.legend_series_names, i, data.name),
                 "x": [str(label) for label in labels],
-                "y": ys,
+                "y": list(ys),
                 "marker": {"color": color},
-                **({"text": statuses, "textposition": "none"} if statuses else {}),
+                **({"text": list(statuses), "textposition": "none"} if statuses else {}),
             }
         )
     stacked = mv.stack_bars if mv.HasField("stack_bars") else False
@@ -346,17 +347,7 @@ def histogram(metric: MetricView, ctx: Context) -> str:
         return missing("its values data is not in the file")
     numbers = exact_doubles(data)
     buckets = [(b.lower, b.upper) for b in mv.buckets]
-    counts = [0] * len(buckets)
-    outside = 0
-    # Counted into the buckets as written (not re-binned); the last bucket holds its upper
-    # bound, as the platform counts.
-    for v in numbers:
-        for i, (lo, hi) in enumerate(buckets):
-            if lo <= v < hi or (i == len(buckets) - 1 and v == hi):
-                counts[i] += 1
-                break
-        else:
-            outside += 1
+    counts, outside = bucket_counts(numbers, buckets)
     trace = {
         "type": "bar",
         "name": data.name,
@@ -379,6 +370,32 @@ def histogram(metric: MetricView, ctx: Context) -> str:
     return ctx.figures.add([trace], layout, metric=metric.name) + f'<p class="note">{note}</p>'
 
 
+def bucket_counts(
+    numbers: Sequence[float], buckets: Sequence[tuple[float, float]]
+) -> tuple[list[int], int]:
+    """Counts per bucket as written (not re-binned), and how many values fall outside.
+
+    A value counts in the bucket whose lower edge it reaches, the last bucket holding its
+    upper bound too, as the platform counts. Buckets are contiguous (the validator's rule),
+    so the lower edges are sorted and a bisection finds each value's bucket.
+    """
+    counts = [0] * len(buckets)
+    if not buckets:
+        return counts, len(numbers)
+    lowers = [lo for lo, _ in buckets]
+    top = buckets[-1][1]
+    outside = 0
+    for v in numbers:
+        i = bisect_right(lowers, v) - 1
+        if i < 0 or v > top or (v == top and i != len(buckets) - 1) or v != v:
+            outside += 1
+        elif v < buckets[i][1] or i == len(buckets) - 1:
+            counts[i] += 1
+        else:  # in a hole between non-contiguous buckets
+            outside += 1
+    return counts, outside
+
+
 def batchwise_bar_chart(metric: MetricView, ctx: Context) -> str:
     mv = metric.raw.metric_values.batchwise_bar_chart_metric_values
     traces: list[dict[str, Any]] = []
@@ -399,9 +416,9 @@ def batchwise_bar_chart(metric: MetricView, ctx: Context) -> str:
             {
                 "type": "bar",
                 "name": category,
-                "x": values(times),
-                "y": values(vals),
-                "customdata": index_of(ctx.source.view, vals),
+                "x": list(values(times)),
+                "y": list(values(vals)),
+                "customdata": list(index_of(ctx.source.view, vals) or []),
                 "hovertemplate": "%{x}<br>%{y}<br>batch %{customdata}<extra>"
                 + esc(category)
                 + "</extra>",

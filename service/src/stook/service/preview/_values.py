@@ -8,48 +8,79 @@ Values that JSON cannot hold (NaN, infinities) become None, which plotly draws a
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
-from datetime import UTC, datetime, timedelta
-from typing import Any
+from collections.abc import Callable, Sequence
+from datetime import datetime, timedelta
+from typing import Any, overload
 
 from stook.proto import metrics_pb2 as pb
 from stook.sdk import JobMetricsView, MetricsDataView, MetricStatus, SeriesKind
 
-MAX_DRAWN = 2000
-"""Points drawn per trace at most; longer series are thinned (min and max per bucket)."""
+MAX_DRAWN = 1000
+"""Points drawn per trace, about: longer series are thinned (min and max per bucket).
+A chart is a few hundred pixels wide, so more points draw no more detail, only slower."""
 
-_EPOCH = datetime(1970, 1, 1, tzinfo=UTC)
+# Naive, read as UTC: isoformat then carries no offset, which plotly's dates do not take.
+_EPOCH = datetime(1970, 1, 1)
+_STATUS_NAMES: dict[int, str] = {int(s): s.name for s in MetricStatus}
 
 
 def status_name(value: int) -> str:
-    try:
-        return MetricStatus(value).name
-    except ValueError:
-        return "NO_STATUS" if value == 0 else f"UNKNOWN_{value}"
+    name = _STATUS_NAMES.get(value)
+    if name is not None:
+        return name
+    return "NO_STATUS" if value == 0 else f"UNKNOWN_{value}"
 
 
 def timestamp_text(seconds: int, nanos: int) -> str:
     """Plotly's date format, to the microsecond, in UTC."""
     moment = _EPOCH + timedelta(seconds=seconds, microseconds=nanos // 1000)
-    return moment.strftime("%Y-%m-%d %H:%M:%S.%f")
+    return moment.isoformat(sep=" ", timespec="microseconds")
 
 
-def _elements(series: pb.Series, kind: SeriesKind) -> list[Any]:
+class Converted(Sequence[Any]):
+    """A series' elements, each converted when read: a long series is thinned before its
+    timestamps and statuses are turned into text, so only the drawn ones pay for it."""
+
+    __slots__ = ("_convert", "_items")
+
+    def __init__(self, items: Sequence[Any], convert: Callable[[Any], Any]) -> None:
+        self._items = items
+        self._convert = convert
+
+    def __len__(self) -> int:
+        return len(self._items)
+
+    @overload
+    def __getitem__(self, i: int) -> Any: ...
+    @overload
+    def __getitem__(self, i: slice) -> list[Any]: ...
+    def __getitem__(self, i: int | slice) -> Any:
+        if isinstance(i, slice):
+            return [self._convert(item) for item in self._items[i]]
+        return self._convert(self._items[i])
+
+
+def _timestamp(t: Any) -> str:
+    return timestamp_text(t.seconds, t.nanos)
+
+
+def _elements(series: pb.Series, kind: SeriesKind) -> Sequence[Any]:
     if kind is SeriesKind.DOUBLE:
         return [v if math.isfinite(v) else None for v in series.doubles.series]
     if kind is SeriesKind.TIMESTAMP:
-        return [timestamp_text(t.seconds, t.nanos) for t in series.timestamps.series]
+        return Converted(series.timestamps.series, _timestamp)
     if kind is SeriesKind.UUID:
         return [u.data for u in series.uuids.series]
     if kind is SeriesKind.STRING:
         return list(series.strings.series)
     if kind is SeriesKind.STATUS:
-        return [status_name(s) for s in series.statuses.series]
+        return Converted(series.statuses.series, status_name)
     return []
 
 
-def values(data: MetricsDataView) -> list[Any]:
-    """The plain series (or, per category, every category's in order), drawable."""
+def values(data: MetricsDataView) -> Sequence[Any]:
+    """The plain series (or, per category, every category's in order), drawable; `list`
+    it before it goes into JSON."""
     if data.kind is None or data.is_external:
         return []
     if not data.per_category:
@@ -60,7 +91,7 @@ def values(data: MetricsDataView) -> list[Any]:
     return merged
 
 
-def categories(data: MetricsDataView) -> dict[str, list[Any]]:
+def categories(data: MetricsDataView) -> dict[str, Sequence[Any]]:
     """Per-category values: declared categories first, in order, then undeclared, sorted."""
     if data.kind is None or data.is_external or not data.per_category:
         return {}
@@ -79,7 +110,7 @@ def exact_doubles(data: MetricsDataView) -> list[float]:
     return list(data.raw.series.doubles.series)
 
 
-def index_of(view: JobMetricsView, data: MetricsDataView) -> list[Any] | None:
+def index_of(view: JobMetricsView, data: MetricsDataView) -> Sequence[Any] | None:
     """The values of the data's index series, or None without a (readable) index."""
     if data.index_id is None:
         return None
@@ -122,7 +153,8 @@ def pick(items: Sequence[Any] | None, positions: Sequence[int]) -> list[Any] | N
         return None
     if isinstance(positions, range) and len(positions) == len(items):
         return list(items)
-    return [items[i] for i in positions if i < len(items)]
+    n = len(items)
+    return [items[i] for i in positions if i < n]
 
 
 def number_text(value: float | None) -> str:
