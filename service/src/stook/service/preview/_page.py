@@ -126,14 +126,19 @@ def _header_card(source: Source) -> str:
             f'{len(source.problems)} problem(s).</p><ul class="problems">{items}</ul>'
         )
     else:
-        findings = '<p class="ok">valid: the platform\'s validator finds no problem</p>'
+        findings = ""
+    verdict = (
+        f'<span class="blocking">{_count(len(source.problems), "problem")}</span>'
+        if source.problems
+        else '<span class="ok">valid: the validator finds no problem</span>'
+    )
     job = f"job {view.job_id}" if view.job_id else "no job ID"
     return (
         f'<article class="card file" data-file="{esc(source.label)}">'
         f"<h3>{esc(source.label)}</h3>"
         f'<div class="meta"><span class="chip" style="background:{status_color(status)}">'
-        f"{esc(status)}</span><span>{counts}</span></div>"
-        f'<p class="note">{esc(job)}</p>{findings}</article>'
+        f"{esc(status)}</span><span>{counts}</span><span>{esc(job)}</span>{verdict}</div>"
+        f"{findings}</article>"
     )
 
 

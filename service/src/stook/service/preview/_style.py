@@ -31,7 +31,7 @@ header.page h1 { margin: 0; font-size: 18px; }
 header.page p { margin: 2px 0 0; color: var(--muted); font-size: 12px; }
 .grid { display: grid; gap: 12px; padding: 12px; align-items: stretch;
   grid-template-columns: repeat(var(--columns), minmax(320px, 1fr)); overflow-x: auto; }
-.grid.single { grid-template-columns: repeat(auto-fill, minmax(min(100%, 440px), 1fr));
+.grid.single { grid-template-columns: repeat(auto-fill, minmax(min(100%, 380px), 1fr));
   align-items: start; }
 .grid.single > .file, .grid.single > .events, .grid.single > .data { grid-column: 1 / -1; }
 .section { grid-column: 1 / -1; margin: 8px 0 -4px; font-size: 15px; color: var(--muted); }
@@ -64,8 +64,8 @@ td.num { text-align: right; font-variant-numeric: tabular-nums; }
 .images figure { margin: 0; flex: 1 1 200px; max-width: 100%; }
 .images img { max-width: 100%; height: auto; border: 1px solid var(--line); display: block; }
 .images figcaption { font-size: 12px; color: var(--muted); }
-.problems { color: #a50e0e; margin: 6px 0 0; padding-left: 18px; font-size: 12px; }
-.ok { color: #137333; font-size: 12px; }
+.problems { color: #a50e0e; margin: 4px 0 0; padding-left: 18px; font-size: 12px; }
+.ok { color: #137333; }
 details summary { cursor: pointer; color: var(--muted); font-size: 12px; }
 @media (max-width: 700px) {
   .grid { padding: 6px; gap: 8px; }
