@@ -217,3 +217,40 @@ def test_histogram_counts_use_the_buckets_as_written() -> None:
     # 10.0, the last bucket's upper bound, counts in it; NaN, inf and the rest are outside.
     assert bucket_counts(numbers, buckets) == ([2, 1, 3], 4)
     assert bucket_counts([1.0], []) == ([], 1)
+
+
+def test_numbers_sizes_and_thinning_of_text_series() -> None:
+    from stook.service.preview._sources import human_size
+    from stook.service.preview._values import number_text, thin
+
+    assert [number_text(v) for v in (None, math.nan, math.inf, -math.inf, 0.1 + 0.2)] == [
+        "—",
+        "NaN",
+        "∞",
+        "-∞",
+        "0.30000000000000004",
+    ]
+    assert [human_size(n) for n in (999, 1_500, 2_500_000, 3_000_000_000)] == [
+        "999 B",
+        "1.5 kB",
+        "2.5 MB",
+        "3.0 GB",
+    ]
+    states = ["cruise"] * 5_000
+    kept = thin(states, limit=1_000)
+    assert len(kept) == 500
+    assert list(kept) == sorted(kept)
+
+
+def test_a_metric_that_cannot_be_drawn_says_so_and_the_rest_renders() -> None:
+    writer = MetricsWriter(uuid.UUID(int=11))
+    speed = data.doubles("Speed", [1.0, 2.0])
+    writer.line_plot("Plot", speed, data.doubles("y", [3.0, 4.0]))
+    writer.scalar("Fine", 1.0)
+    msg = read_job_metrics(writer.serialize()).raw
+    # The plot now references data the file does not hold.
+    del msg.metrics_data[:]
+    page = render_html(msg)
+    assert "series 1: data not in the file" in page
+    assert 'data-metric="Fine"' in page
+    assert "The platform would refuse this file" in page
