@@ -21,7 +21,7 @@ def test_the_demo_writes_and_prints_a_preview_of_each_output(
         tmp_path / "report" / "metrics.html",
     ]
     for page in pages:
-        assert f"  {page}\n" in printed
+        assert f"  preview: {page}\n" in printed
         assert page.read_text(encoding="utf-8").startswith("<!DOCTYPE html>")
     # The example's images are beside its output, so its preview embeds them.
     assert pages[0].read_text(encoding="utf-8").count('<img src="data:image/png') == 3

@@ -144,7 +144,13 @@ def build_parser() -> argparse.ArgumentParser:
         "into one HTML page that works offline, one column per file. Exit 2 for a missing "
         "file, 4 for one that is not JobMetrics, 5 if the page cannot be written.",
     )
-    preview_p.add_argument("files", type=Path, nargs="+", metavar="FILE")
+    preview_p.add_argument(
+        "files",
+        type=Path,
+        nargs="+",
+        metavar="FILE",
+        help="metrics.binproto files (JobMetrics, from stook or ReSim's own writer)",
+    )
     preview_p.add_argument(
         "-o",
         "--output",
@@ -369,6 +375,10 @@ def _dispatch(args: argparse.Namespace, voice: Voice) -> int:
             bench = _testing_tool("bench", "stook.bench")
             bench.run_bench(Path(args.out), quick=args.quick)
             return 0
+        case "preview":
+            from stook.service.cli._preview import preview_files
+
+            return preview_files(args.files, args.output, open_browser=args.open)
         case "validate":
             from stook.service.cli._inspect import validate_file
 
@@ -377,8 +387,4 @@ def _dispatch(args: argparse.Namespace, voice: Voice) -> int:
             from stook.service.cli._inspect import show_file
 
             return show_file(args.file)
-        case "preview":
-            from stook.service.cli._preview import preview_files
-
-            return preview_files(args.files, args.output, open_browser=args.open)
     raise AssertionError(f"unhandled command {args.command!r}")  # argparse restricts it

@@ -74,6 +74,8 @@ def _print_output(path: Path) -> int:
         print("  " + line)
     verdict = "valid" if not problems else f"INVALID: {problems[0]}"
     print(f"  {path}: {path.stat().st_size:,} bytes, {verdict}")
+    # Every metric drawn, offline: open it in a browser.
+    print(f"  preview: {write_preview([path], path.with_name(PREVIEW_NAME))}")
     return len(problems)
 
 
@@ -143,9 +145,6 @@ def run_demo(*, jobs: int, output: Path, seed: int) -> int:
     )
     if report.regressions is not None:
         print("  Regressions: " + report.regressions.text.replace("\n", "\n    "))
-    print("\nPreviews (open them in a browser; they work offline):")
-    for written in (test_output, result.output, report.output):
-        print(f"  {write_preview([written], written.with_name(PREVIEW_NAME))}")
     print(
         f"\nConfig used: {config_path}. Run it yourself: stook run --inputs {inputs} "
         f"--outputs {output} --config {config_path} (with `stook emulate` serving)."
