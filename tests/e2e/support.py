@@ -10,7 +10,6 @@ import json
 import math
 import statistics
 import threading
-import uuid
 from collections import Counter
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
@@ -22,7 +21,14 @@ import resim.metrics.proto.metrics_pb2 as rp
 from resim.metrics.proto.validate_metrics_proto import validate_job_metrics
 
 from stook.emulator import Emulator, EmulatorConfig
-from stook.sdk import JobMetricsView, MetricStatus, MetricView, read_job_metrics
+from stook.sdk import (
+    BarChartMetric,
+    HistogramMetric,
+    JobMetricsView,
+    MetricStatus,
+    MetricView,
+    read_job_metrics,
+)
 from stook.testing import TEST_DEFAULTS
 
 OUTPUT_NAME = "metrics.binproto"
@@ -52,7 +58,13 @@ stats = {json.dumps(list(STATS))}
 """
 
 # The units the emulator's jobs write, stated here rather than read from the emulator.
-UNITS = {"Localization error": "m", "Distance driven": "m", "Max speed": "m/s", "Collisions": ""}
+UNITS = {
+    "Localization error": "m",
+    "Distance driven": "m",
+    "Max speed": "m/s",
+    "Collisions": "",
+    "Braking distance": "m",
+}
 
 STATUS_RANK = {"PASSED": 0, "NOT_APPLICABLE": 0, "RAW": 0, "FAIL_WARN": 1, "FAIL_BLOCK": 2}
 
@@ -144,24 +156,22 @@ def by_name(view: JobMetricsView) -> dict[str, MetricView]:
 
 
 def histogram_values(view: JobMetricsView, metric: MetricView) -> list[float]:
-    hist = metric.raw.metric_values.histogram_metric_values
-    data = view.data_by_id[uuid.UUID(hist.values_data_id.id.data)]
-    return list(data.series().to_list())
+    values = view.metric(metric.name, HistogramMetric).values_data
+    assert values is not None
+    return list(values.series().to_list())
 
 
-def histogram_bounds(metric: MetricView) -> tuple[float, float, list[tuple[float, float]]]:
-    hist = metric.raw.metric_values.histogram_metric_values
-    return hist.lower_bound, hist.upper_bound, [(b.lower, b.upper) for b in hist.buckets]
+def histogram_bounds(
+    view: JobMetricsView, metric: MetricView
+) -> tuple[float | None, float | None, list[tuple[float, float]]]:
+    hist = view.metric(metric.name, HistogramMetric)
+    return hist.lower_bound, hist.upper_bound, list(hist.buckets)
 
 
 def bar_chart(view: JobMetricsView, metric: MetricView) -> dict[str, float]:
     """A one-series bar chart as {label: value}."""
-    chart = metric.raw.metric_values.bar_chart_metric_values
-    assert len(chart.values_data_id) == 1
-    values = view.data_by_id[uuid.UUID(chart.values_data_id[0].id.data)]
-    assert values.index_id is not None
-    labels = view.data_by_id[values.index_id].series().to_list()
-    return dict(zip(labels, values.series().to_list(), strict=True))
+    (values,) = view.metric(metric.name, BarChartMetric).values_data
+    return values.by_label()
 
 
 def text_of(metric: MetricView) -> str:
@@ -253,7 +263,9 @@ def assert_matches_truth(view: JobMetricsView, expected: Expected) -> None:
         assert mean.unit == UNITS[name], name
         dist = metrics[f"{name} (distribution)"]
         assert histogram_values(view, dist) == sorted(values), name
-        lower, upper, buckets = histogram_bounds(dist)
+        lower, upper, buckets = histogram_bounds(view, dist)
+        assert lower is not None, name
+        assert upper is not None, name
         assert lower <= min(values), name
         assert upper >= max(values), name
         assert buckets, name
@@ -274,7 +286,7 @@ def assert_matches_truth(view: JobMetricsView, expected: Expected) -> None:
     # Merged histogram: every job's "speeds", appended.
     merged = metrics[HISTOGRAM_NAME]
     assert histogram_values(view, merged) == sorted(expected.speeds)
-    lower, upper, buckets = histogram_bounds(merged)
+    lower, upper, buckets = histogram_bounds(view, merged)
     assert (lower, upper, len(buckets)) == (HISTOGRAM_LOWER, HISTOGRAM_UPPER, HISTOGRAM_BUCKETS)
 
     # Scalar stats of "Max speed".

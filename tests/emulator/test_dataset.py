@@ -67,7 +67,13 @@ def test_variety_of_statuses_metrics_and_experiences() -> None:
     assert names[:40] == names[40:80]
 
     scalars = ds.scalar_values(ds.main_batch_id)
-    assert set(scalars) == {"Localization error", "Distance driven", "Max speed", "Collisions"}
+    assert set(scalars) == {
+        "Localization error",
+        "Distance driven",
+        "Max speed",
+        "Collisions",
+        "Braking distance",
+    }
     with_metrics = {j.id for j in jobs if j.has_metrics}
     assert set(scalars["Distance driven"]) == with_metrics
     assert set(scalars["Localization error"]) < with_metrics  # gaps
@@ -90,9 +96,16 @@ def test_job_status_agrees_with_its_metrics_and_truth_with_the_protos() -> None:
         values = {
             m.name: m.metric_values.scalar_metric_values.value
             for m in proto.job_level_metrics.metrics
-            if m.metric_values.HasField("scalar_metric_values")
+            if m.metric_values.HasField("scalar_metric_values") and not m.event_metric
         }
         assert values == truth.scalars
+        event_values = {
+            m.name: m.metric_values.scalar_metric_values.value
+            for m in proto.job_level_metrics.metrics
+            if m.event_metric
+        }
+        assert event_values == truth.event_scalars
+        assert [e.name for e in proto.events] == [e.name for e in truth.events]
         series = {d.name: list(d.series.doubles.series) for d in proto.metrics_data}
         for name, expected in truth.series.items():
             assert series[name] == list(expected)
@@ -126,3 +139,91 @@ def test_report_batches_run_the_same_experiences_over_time_with_drift() -> None:
     assert kinds == {BatchKind.REPORT}
     revisions = {b.test_suite_revision for b in batches}
     assert revisions == {1, 2}
+
+
+def test_histograms_share_buckets_but_for_the_mismatch_jobs() -> None:
+    ds = Dataset(EmulatorConfig(jobs_per_batch=20, histogram_bucket_mismatch_jobs=(3, 5)))
+    buckets: dict[str, set[tuple[tuple[float, float], ...]]] = {}
+    for job, truth in ds.job_truths(ds.main_batch_id):
+        proto = ds.job_metrics(ds.main_batch_id, job.id)
+        written = {
+            m.name: m.metric_values.histogram_metric_values
+            for m in proto.job_level_metrics.metrics
+            if m.metric_values.HasField("histogram_metric_values")
+        }
+        assert set(written) == set(truth.histograms)
+        for name, histogram in truth.histograms.items():
+            assert [(b.lower, b.upper) for b in written[name].buckets] == list(histogram.buckets)
+            assert histogram.values == truth.series[histogram.values_data]
+            if job.index not in (3, 5):
+                buckets.setdefault(name, set()).add(histogram.buckets)
+        acceleration = truth.histograms.get("Acceleration distribution")
+        if job.index in (3, 5) and acceleration is not None:
+            assert len(acceleration.buckets) == 20
+            assert acceleration.buckets[0][0] == -10.0
+    assert {name: len(b) for name, b in buckets.items()} == {
+        "Acceleration distribution": 1,
+        "Speed histogram": 1,
+    }
+    # Only the main batch's jobs are affected.
+    report = ds.batches_of(BatchKind.REPORT)[0]
+    for _, truth in ds.job_truths(report.id):
+        if "Acceleration distribution" in truth.histograms:
+            assert len(truth.histograms["Acceleration distribution"].buckets) == 16
+
+
+def test_detections_per_class_as_bars_and_per_category_agree_with_the_protos() -> None:
+    ds = Dataset(EmulatorConfig(jobs_per_batch=40))
+    label_sets = set()
+    for job, truth in ds.job_truths(ds.main_batch_id):
+        if not job.has_metrics:
+            assert truth.labelled == {}
+            assert truth.per_category == {}
+            continue
+        bars = truth.labelled["detections per class"]
+        label_sets.add(tuple(bars))
+        windows = truth.per_category["detections per class (by category)"]
+        assert {k: sum(v) for k, v in windows.items()} == bars
+        proto = ds.job_metrics(ds.main_batch_id, job.id)
+        data = {d.name: d for d in proto.metrics_data}
+        labels = list(data["object classes"].series.strings.series)
+        values = list(data["detections per class"].series.doubles.series)
+        assert dict(zip(labels, values, strict=True)) == bars
+        grouped = data["detections per class (by category)"].series_per_category
+        assert {
+            k: tuple(v.doubles.series) for k, v in grouped.category_to_series.items()
+        } == windows
+        (chart,) = [m for m in proto.job_level_metrics.metrics if m.name == "Detections per class"]
+        assert chart.type == resim_pb.BAR_CHART_METRIC_TYPE
+    # Some jobs saw no bus: label sets differ between jobs.
+    assert label_sets == {
+        ("car", "pedestrian", "cyclist", "truck"),
+        ("car", "pedestrian", "cyclist", "truck", "bus"),
+    }
+    totals = ds.label_totals(ds.main_batch_id, "detections per class")
+    assert list(totals) == ["car", "pedestrian", "cyclist", "truck", "bus"]
+    assert totals["car"] == sum(
+        t.labelled["detections per class"]["car"]
+        for _, t in ds.job_truths(ds.main_batch_id)
+        if t.labelled
+    )
+
+
+def test_events_and_their_counts() -> None:
+    ds = Dataset(EmulatorConfig(jobs_per_batch=40))
+    counts = ds.event_counts(ds.main_batch_id)
+    assert {name for name, _ in counts} == {"Hard brake", "Lane departure", "Near miss"}
+    assert {status for _, status in counts} >= {"PASSED", "FAIL_WARN", "FAIL_BLOCK"}
+    for job, truth in ds.job_truths(ds.main_batch_id):
+        names = [e.name for e in truth.events]
+        assert len(names) == len(set(names))
+        if job.conflated_status in ("WARNING", "BLOCKER"):
+            (near_miss,) = [e for e in truth.events if e.name == "Near miss"]
+            assert near_miss.status == (
+                "FAIL_WARN" if job.conflated_status == "WARNING" else "FAIL_BLOCK"
+            )
+        if not job.has_metrics:
+            assert truth.events == ()
+        start = int(job.created.timestamp()) * 1_000_000_000
+        assert all(e.timestamp_ns >= start for e in truth.events)
+    assert sum(counts.values()) == sum(len(t.events) for _, t in ds.job_truths(ds.main_batch_id))

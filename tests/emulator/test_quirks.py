@@ -10,7 +10,7 @@ from typing import Any
 import aiohttp
 import pytest
 
-from stook.emulator import Emulator
+from stook.emulator import BatchKind, Emulator
 from stook.proto import metrics_pb2 as pb
 from tests.emulator.support import SMALL, Raw
 
@@ -108,3 +108,37 @@ async def test_a_clean_emulator_answers_as_before() -> None:
         assert all("fileLocation" in m and "status" in m for m in metrics)
         data, _ = await raw.all_pages(f"{path}/metricsData", "metricsData")
         assert all(d["name"] for d in data)
+
+
+async def test_events_keep_their_required_fields_and_jobs_without_parameters_omit_them(
+    quirky: Raw,
+) -> None:
+    emu, ds = quirky.emu, quirky.emu.dataset
+    lane_departures = 0
+    for job in ds.jobs(emu.batch_id):
+        events, _ = await quirky.all_pages(
+            f"/batches/{emu.batch_id}/jobs/{job.id}/events", "events"
+        )
+        for event in events:
+            # The spec requires every field of an event: none is left out, even if empty.
+            assert set(event) == {
+                "eventID",
+                "name",
+                "description",
+                "creationTimestamp",
+                "timestampType",
+                "timestamp",
+                "tags",
+                "status",
+                "metricsIDs",
+            }
+            assert NANOS.fullmatch(event["timestamp"])
+            assert NANOS.fullmatch(event["creationTimestamp"])
+            lane_departures += event["metricsIDs"] == []
+    assert lane_departures > 0
+    jobs, _ = await quirky.all_pages(f"/batches/{emu.batch_id}/jobs", "jobs")
+    assert all(j["parameters"] for j in jobs)
+    decoy = ds.batches_of(BatchKind.DECOY)[0]
+    decoy_jobs, _ = await quirky.all_pages(f"/batches/{decoy.id}/jobs", "jobs")
+    assert decoy_jobs
+    assert all("parameters" not in j for j in decoy_jobs)

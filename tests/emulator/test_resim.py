@@ -9,7 +9,14 @@ from typing import Any
 import pytest
 from resim.metrics.fetch_job_metrics import fetch_job_metrics_by_batch
 from resim.metrics.fetch_report_metrics import fetch_batches_for_report, fetch_jobs_for_batches
-from resim.metrics.python.metrics import ExternalFileMetricsData, ScalarMetric, SeriesMetricsData
+from resim.metrics.python.metrics import (
+    BarChartMetric,
+    ExternalFileMetricsData,
+    GroupedMetricsData,
+    HistogramMetric,
+    ScalarMetric,
+    SeriesMetricsData,
+)
 from resim.sdk.client import AuthenticatedClient
 
 from stook.emulator import Emulator, EmulatorConfig
@@ -51,12 +58,36 @@ async def test_resim_fetch_job_metrics_by_batch_gets_the_ground_truth() -> None:
                 assert metric.id is not None
                 assert _status_name(metric.status) == truth.statuses[metric.name]
                 if isinstance(metric, ScalarMetric):
-                    assert metric.value == truth.scalars[metric.name]
+                    expected_value = {**truth.scalars, **truth.event_scalars}[metric.name]
+                    assert metric.value == expected_value
+                elif isinstance(metric, HistogramMetric):
+                    histogram = truth.histograms[metric.name]
+                    assert metric.buckets is not None
+                    assert [(b.lower, b.upper) for b in metric.buckets] == list(histogram.buckets)
+                    assert metric.values_data is not None
+                    assert metric.values_data.name == histogram.values_data
+                    assert isinstance(metric.values_data, SeriesMetricsData)
+                    assert list(metric.values_data.series) == list(histogram.values)
+                    seen_types.add("shared buckets")
+                elif isinstance(metric, BarChartMetric):
+                    (values,) = metric.values_data
+                    assert isinstance(values, SeriesMetricsData)
+                    assert values.index_data is not None
+                    labelled = dict(
+                        zip(list(values.index_data.series), list(values.series), strict=True)
+                    )
+                    assert labelled == truth.labelled[values.name]
+                    seen_types.add("labelled bars")
             assert {d.name for d in unpacked.metrics_data} == (
                 set(truth.data_names) - set(truth.external_data_names)
             )
             for data in unpacked.metrics_data:
                 assert not isinstance(data, ExternalFileMetricsData)
+                if isinstance(data, GroupedMetricsData):
+                    categories = {k: list(v) for k, v in data.category_to_series.items()}
+                    expected_categories = truth.per_category[data.name]
+                    assert categories == {k: list(v) for k, v in expected_categories.items()}
+                    seen_types.add("per category")
                 if data.name in truth.series:
                     assert isinstance(data, SeriesMetricsData)
                     assert list(data.series) == list(truth.series[data.name])
@@ -64,7 +95,8 @@ async def test_resim_fetch_job_metrics_by_batch_gets_the_ground_truth() -> None:
                 assert unpacked.metrics == []
                 assert unpacked.metrics_data == []
         # The batch exercised what it should: every metric type and some gaps.
-        assert {"SCALAR", "DOUBLE_OVER_TIME", "HISTOGRAM", "TEXT"} <= seen_types
+        assert {"SCALAR", "DOUBLE_OVER_TIME", "HISTOGRAM", "TEXT", "BAR_CHART"} <= seen_types
+        assert {"shared buckets", "labelled bars", "per category"} <= seen_types
         assert any(not j.has_metrics for j in jobs)
 
 

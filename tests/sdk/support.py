@@ -64,6 +64,10 @@ def data_of(view: JobMetricsView, ref: pb.MetricsDataId) -> MetricsDataView:
     return view.data_by_id[uuid.UUID(ref.id.data)]
 
 
+def data_names(items: Iterable[MetricsDataView]) -> list[str]:
+    return [d.name for d in items]
+
+
 def names_of(view: JobMetricsView, refs: object) -> list[str]:
     return [data_of(view, r).name for r in refs]  # type: ignore[attr-defined]
 

@@ -13,16 +13,34 @@ from datetime import timedelta
 import pytest
 
 from stook.proto import metrics_pb2 as pb
-from stook.sdk import MetricImportance, MetricStatus, MetricsWriter, MetricType, SeriesKind, data
+from stook.sdk import (
+    BarChartMetric,
+    BatchwiseBarChartMetric,
+    DoubleOverTimeMetric,
+    DoubleSummaryMetric,
+    HistogramMetric,
+    ImageListMetric,
+    ImageMetric,
+    LinePlotMetric,
+    MetricImportance,
+    MetricStatus,
+    MetricsWriter,
+    MetricType,
+    PlotlyMetric,
+    ScalarMetric,
+    SeriesKind,
+    StatesOverTimeMetric,
+    TextMetric,
+    data,
+)
 from tests.sdk.support import (
     JOB,
     PROJECT,
     T0,
     T0_NS,
-    data_of,
+    data_names,
     epoch_ns,
     metric,
-    names_of,
     statuses_of,
     written,
 )
@@ -65,14 +83,15 @@ def test_scalar_round_trips_value_unit_options_and_failure_definition() -> None:
     assert m.job_id == JOB
     assert not m.event_metric
     assert m.data_ids == ()
-    fd = m.raw.metric_values.scalar_metric_values.failure_definition
-    assert (fd.fails_above, fd.fails_below) == (40.0, 2.0)
+    scalar = view.metric(m.name, ScalarMetric)
+    assert (scalar.fails_above, scalar.fails_below) == (40.0, 2.0)
     plain = metric(view, "No unit")
     assert plain.unit is None
     assert plain.importance is MetricImportance.MEDIUM
     assert plain.blocking is None
     assert plain.should_display is None
     assert plain.order is None
+    # Wire level: no failure definition at all, not an empty one.
     assert not plain.raw.metric_values.scalar_metric_values.HasField("failure_definition")
     assert plain.value is not None
     assert math.copysign(1.0, plain.value) == -1.0
@@ -123,19 +142,22 @@ def test_double_summary_by_position_with_generated_statuses() -> None:
     m = metric(view, "Second")
     assert m.type is MetricType.DOUBLE_SUMMARY
     assert m.status is MetricStatus.FAIL_WARN
-    mv = m.raw.metric_values.double_metric_values
-    assert mv.WhichOneof("index") == "series_index"
+    mv = view.metric("Second", DoubleSummaryMetric)
     assert mv.series_index == 1
-    assert data_of(view, mv.value_data_id).series().to_list() == [1.0, 2.0, 3.0]
-    assert data_of(view, mv.value_data_id).unit == "m/s"
-    status = data_of(view, mv.status_data_id)
+    assert (mv.timestamp_index_ns, mv.uuid_index, mv.string_index) == (None, None, None)
+    assert mv.value_data is not None
+    assert mv.value_data.series().to_list() == [1.0, 2.0, 3.0]
+    assert mv.value_data.unit == "m/s"
+    status = mv.status_data
+    assert status is not None
     assert status.name == "Speeds (FAIL_WARN status)"
     assert statuses_of(status) == ["FAIL_WARN"] * 3
-    assert (mv.failure_definition.fails_above, mv.failure_definition.fails_below) == (2.5, 0.5)
-    whole = metric(view, "Whole").raw.metric_values.double_metric_values
-    assert whole.WhichOneof("index") is None
-    assert not whole.HasField("failure_definition")
-    assert data_of(view, whole.status_data_id).name == "Speeds (PASSED status)"
+    assert (mv.fails_above, mv.fails_below) == (2.5, 0.5)
+    whole = view.metric("Whole", DoubleSummaryMetric)
+    assert (whole.series_index, whole.timestamp_index_ns) == (None, None)
+    assert not whole.view.raw.metric_values.double_metric_values.HasField("failure_definition")
+    assert whole.status_data is not None
+    assert whole.status_data.name == "Speeds (PASSED status)"
     # Speeds once, and one generated status series per status.
     assert sorted(d.name for d in view.data) == [
         "Speeds",
@@ -151,13 +173,13 @@ def test_double_summary_by_timestamp_index_value() -> None:
     w.double_summary("At 2 s", speed, index=T0 + timedelta(seconds=2))
     w.double_summary("At ns", speed, index=T0_NS + 3_000_000_001)
     view = written(w)
-    mv = metric(view, "At 2 s").raw.metric_values.double_metric_values
-    assert mv.WhichOneof("index") == "timestamp_index"
-    assert (mv.timestamp_index.seconds, mv.timestamp_index.nanos) == (1_767_268_802, 0)
+    mv = view.metric("At 2 s", DoubleSummaryMetric)
+    assert (mv.timestamp_index_ns, mv.series_index) == (1_767_268_802 * 10**9, None)
     # With timestamp-indexed values an int is nanoseconds, not a position.
-    ns = metric(view, "At ns").raw.metric_values.double_metric_values
-    assert (ns.timestamp_index.seconds, ns.timestamp_index.nanos) == (1_767_268_803, 1)
-    status = data_of(view, mv.status_data_id)
+    ns = view.metric("At ns", DoubleSummaryMetric)
+    assert ns.timestamp_index_ns == 1_767_268_803 * 10**9 + 1
+    status = mv.status_data
+    assert status is not None
     assert status.index_id == view.data_by_name["Time"].id
     assert status.raw.data_type == pb.INDEXED_METRIC_STATUS_SERIES_DATA_TYPE
 
@@ -176,16 +198,13 @@ def test_double_summary_by_uuid_and_string_index_values() -> None:
     w.double_summary("By pos", data.doubles("Count2", [7.0, 8.0], index=labels), index=0)
     view = written(w)
     u = metric(view, "By uuid").raw.metric_values.double_metric_values
-    assert u.WhichOneof("index") == "uuid_index"
-    assert u.uuid_index.data == str(uuid.UUID(int=2))
-    u2 = metric(view, "By uuid obj").raw.metric_values.double_metric_values
-    assert u2.uuid_index.data == str(uuid.UUID(int=1))
-    s = metric(view, "By label").raw.metric_values.double_metric_values
-    assert s.WhichOneof("index") == "string_index"
-    assert s.string_index == "bike"
-    p = metric(view, "By pos").raw.metric_values.double_metric_values
-    assert p.WhichOneof("index") == "series_index"
-    assert p.series_index == 0
+    assert u.uuid_index.data == str(uuid.UUID(int=2))  # canonical, lower case on the wire
+    assert view.metric("By uuid", DoubleSummaryMetric).uuid_index == uuid.UUID(int=2)
+    assert view.metric("By uuid obj", DoubleSummaryMetric).uuid_index == uuid.UUID(int=1)
+    s = view.metric("By label", DoubleSummaryMetric)
+    assert (s.string_index, s.series_index) == ("bike", None)
+    p = view.metric("By pos", DoubleSummaryMetric)
+    assert (p.series_index, p.string_index) == (0, None)
     # The Actors index is shared by two value series and written once.
     assert [d.name for d in view.data].count("Actors") == 1
 
@@ -196,9 +215,10 @@ def test_double_summary_with_explicit_statuses() -> None:
     st_ = data.statuses("v statuses", [MetricStatus.PASSED, MetricStatus.FAIL_BLOCK])
     w.double_summary("d", values, statuses=st_, index=1, status=MetricStatus.FAIL_BLOCK)
     view = written(w)
-    mv = metric(view, "d").raw.metric_values.double_metric_values
-    assert data_of(view, mv.status_data_id).name == "v statuses"
-    assert statuses_of(data_of(view, mv.status_data_id)) == ["PASSED", "FAIL_BLOCK"]
+    mv = view.metric("d", DoubleSummaryMetric)
+    assert mv.status_data is not None
+    assert mv.status_data.name == "v statuses"
+    assert statuses_of(mv.status_data) == ["PASSED", "FAIL_BLOCK"]
     assert len(view.data) == 2
 
 
@@ -228,26 +248,20 @@ def test_double_over_time_with_two_series_statuses_failures_and_axes() -> None:
     m = metric(view, "Motion")
     assert m.type is MetricType.DOUBLE_OVER_TIME
     assert m.status is MetricStatus.FAIL_WARN
-    mv = m.raw.metric_values.double_over_time_metric_values
-    assert names_of(view, mv.doubles_over_time_data_id) == ["Speed", "Accel"]
-    assert names_of(view, mv.statuses_over_time_data_id) == ["Speed st", "Accel st"]
-    fds = [
-        (f.HasField("fails_above"), f.fails_above, f.HasField("fails_below"), f.fails_below)
-        for f in mv.failure_definition
-    ]
-    assert fds == [(True, 1.5, False, 0.0), (False, 0.0, True, -1.0)]
-    assert (mv.start_time.seconds, mv.start_time.nanos) == (1_767_268_800, 0)
-    assert (mv.end_time.seconds, mv.end_time.nanos) == (1_767_268_802, 500_000_000)
+    mv = view.metric("Motion", DoubleOverTimeMetric)
+    assert data_names(mv.doubles_over_time_data) == ["Speed", "Accel"]
+    assert data_names(mv.statuses_over_time_data) == ["Speed st", "Accel st"]
+    assert mv.failure_definitions == ((1.5, None), (None, -1.0))
+    assert mv.start_time_ns == 1_767_268_800 * 10**9
+    assert mv.end_time_ns == 1_767_268_802 * 10**9 + 500_000_000
     assert mv.y_axis_name == "value"
-    assert list(mv.legend_series_names) == ["speed", "acceleration"]
-    one = metric(view, "Speed only").raw.metric_values.double_over_time_metric_values
+    assert mv.legend == ("speed", "acceleration")
+    one = view.metric("Speed only", DoubleOverTimeMetric)
     # Default legend: the data names; default failure: an empty definition per series.
-    assert list(one.legend_series_names) == ["Speed"]
-    assert len(one.failure_definition) == 1
-    assert not one.failure_definition[0].HasField("fails_above")
-    assert not one.HasField("start_time")
-    assert not one.HasField("end_time")
-    assert names_of(view, one.statuses_over_time_data_id) == ["Speed (PASSED status)"]
+    assert one.legend == ("Speed",)
+    assert one.failure_definitions == ((None, None),)
+    assert (one.start_time_ns, one.end_time_ns) == (None, None)
+    assert data_names(one.statuses_over_time_data) == ["Speed (PASSED status)"]
     # Time is shared by five series and written once, first.
     assert next(d.name for d in view.data) == "Time"
     assert [d.name for d in view.data].count("Time") == 1
@@ -271,16 +285,16 @@ def test_line_plot_with_several_lines_axes_and_legend() -> None:
     view = written(w)
     m = metric(view, "Lines")
     assert m.type is MetricType.LINE_PLOT
-    mv = m.raw.metric_values.line_plot_metric_values
-    assert names_of(view, mv.x_doubles_data_id) == ["x1", "x2"]
-    assert names_of(view, mv.y_doubles_data_id) == ["y1", "y2"]
-    assert names_of(view, mv.statuses_data_id) == ["x1 (PASSED status)", "x2 (PASSED status)"]
-    assert statuses_of(data_of(view, mv.statuses_data_id[1])) == ["PASSED"] * 3
+    mv = view.metric("Lines", LinePlotMetric)
+    assert data_names(mv.x_doubles_data) == ["x1", "x2"]
+    assert data_names(mv.y_doubles_data) == ["y1", "y2"]
+    assert data_names(mv.statuses_data) == ["x1 (PASSED status)", "x2 (PASSED status)"]
+    assert statuses_of(mv.statuses_data[1]) == ["PASSED"] * 3
     assert (mv.x_axis_name, mv.y_axis_name) == ("X", "Y")
-    assert list(mv.legend_series_names) == ["one", "two"]
-    timed = metric(view, "Timed").raw.metric_values.line_plot_metric_values
-    assert list(timed.legend_series_names) == ["ty"]  # default: the y series names
-    assert data_of(view, timed.statuses_data_id[0]).index_id == view.data_by_name["T"].id
+    assert mv.legend == ("one", "two")
+    timed = view.metric("Timed", LinePlotMetric)
+    assert timed.legend == ("ty",)  # default: the y series names
+    assert timed.statuses_data[0].index_id == view.data_by_name["T"].id
 
 
 # ---------------------------------------------------------------- bar chart
@@ -297,19 +311,20 @@ def test_bar_chart_with_two_series_legend_axes_and_stacking() -> None:
     w.bar_chart("Unstacked", a, stack_bars=False)
     w.bar_chart("Default", b)
     view = written(w)
-    mv = metric(view, "Counts").raw.metric_values.bar_chart_metric_values
-    assert names_of(view, mv.values_data_id) == ["Run A", "Run B"]
-    assert names_of(view, mv.statuses_data_id) == ["Run A (PASSED status)", "Run B (PASSED status)"]
-    assert list(mv.legend_series_names) == ["A", "B"]
+    mv = view.metric("Counts", BarChartMetric)
+    assert data_names(mv.values_data) == ["Run A", "Run B"]
+    assert data_names(mv.statuses_data) == ["Run A (PASSED status)", "Run B (PASSED status)"]
+    assert mv.legend == ("A", "B")
     assert (mv.x_axis_name, mv.y_axis_name) == ("class", "n")
-    assert mv.HasField("stack_bars")
     assert mv.stack_bars is True
-    un = metric(view, "Unstacked").raw.metric_values.bar_chart_metric_values
-    assert un.HasField("stack_bars")
-    assert un.stack_bars is False
-    default = metric(view, "Default").raw.metric_values.bar_chart_metric_values
-    assert not default.HasField("stack_bars")
-    assert list(default.legend_series_names) == ["Run B"]
+    assert [v.by_label() for v in mv.values_data] == [
+        {"car": 4.0, "ped": 1.0},
+        {"car": 3.0, "ped": 2.0},
+    ]
+    assert view.metric("Unstacked", BarChartMetric).stack_bars is False
+    default = view.metric("Default", BarChartMetric)
+    assert default.stack_bars is None
+    assert default.legend == ("Run B",)
     # The shared "Run A (PASSED status)" is written once for two metrics.
     assert [d.name for d in view.data].count("Run A (PASSED status)") == 1
 
@@ -324,20 +339,17 @@ def test_bar_chart_from_a_mapping_keeps_label_order() -> None:
     m = metric(view, "Detections")
     assert m.type is MetricType.BAR_CHART
     assert m.description == "d"
-    mv = m.raw.metric_values.bar_chart_metric_values
-    values = data_of(view, mv.values_data_id[0])
+    (values,) = view.metric("Detections", BarChartMetric).values_data
     assert values.name == "Detections"
-    assert values.series().to_list() == [41.0, 7.0, 3.0]
-    labels = view.data_by_id[values.index_id]  # type: ignore[index]
-    assert labels.name == "Detections (labels)"
-    assert labels.series().to_list() == ["car", "pedestrian", "cyclist"]
-    other = metric(view, "Other")
-    assert other.status is MetricStatus.FAIL_WARN
-    omv = other.raw.metric_values.bar_chart_metric_values
-    assert data_of(view, omv.values_data_id[0]).name == "other data"
+    assert values.labelled() == (("car", 41.0), ("pedestrian", 7.0), ("cyclist", 3.0))
+    assert values.index is not None
+    assert values.index.name == "Detections (labels)"
+    omv = view.metric("Other", BarChartMetric)
+    assert omv.status is MetricStatus.FAIL_WARN
+    assert omv.values_data[0].name == "other data"
     assert "other data (labels)" in view.data_by_name
     assert omv.y_axis_name == "n"
-    assert statuses_of(data_of(view, omv.statuses_data_id[0])) == ["FAIL_WARN"]
+    assert statuses_of(omv.statuses_data[0]) == ["FAIL_WARN"]
 
 
 # ---------------------------------------------------------------- states over time
@@ -359,18 +371,18 @@ def test_states_over_time_with_given_and_inferred_states_sets() -> None:
     view = written(w)
     m = metric(view, "Planner state")
     assert m.type is MetricType.STATES_OVER_TIME
-    mv = m.raw.metric_values.states_over_time_metric_values
-    assert list(mv.states_set) == ["cruise", "slow", "stop"]
-    assert list(mv.failure_states) == ["stop"]
-    assert list(mv.legend_series_names) == ["planner"]
-    assert names_of(view, mv.states_over_time_data_id) == ["Planner"]
-    status = data_of(view, mv.statuses_over_time_data_id[0])
+    mv = view.metric("Planner state", StatesOverTimeMetric)
+    assert mv.states_set == ("cruise", "slow", "stop")
+    assert mv.failure_states == ("stop",)
+    assert mv.legend == ("planner",)
+    assert data_names(mv.states_over_time_data) == ["Planner"]
+    status = mv.statuses_over_time_data[0]
     assert status.name == "Planner (PASSED status)"
     assert status.index_id == view.data_by_name["T"].id
-    gear = metric(view, "Gear state").raw.metric_values.states_over_time_metric_values
-    assert list(gear.states_set) == ["1", "2", "3"]  # inferred, sorted
-    assert list(gear.failure_states) == []
-    assert list(gear.legend_series_names) == ["Gear"]
+    gear = view.metric("Gear state", StatesOverTimeMetric)
+    assert gear.states_set == ("1", "2", "3")  # inferred, sorted
+    assert gear.failure_states == ()
+    assert gear.legend == ("Gear",)
 
 
 def test_states_over_time_per_category() -> None:
@@ -379,9 +391,9 @@ def test_states_over_time_per_category() -> None:
     w = MetricsWriter(JOB)
     w.states_over_time("S over time", states, failure_states=["off"])
     view = written(w)
-    mv = metric(view, "S over time").raw.metric_values.states_over_time_metric_values
-    assert list(mv.states_set) == ["off", "on"]
-    status = data_of(view, mv.statuses_over_time_data_id[0])
+    mv = view.metric("S over time", StatesOverTimeMetric)
+    assert mv.states_set == ("off", "on")
+    status = mv.statuses_over_time_data[0]
     assert status.per_category
     assert status.categories == ("a", "b")
     assert status.category_series("a").to_list() == ["PASSED", "PASSED"]
@@ -397,17 +409,14 @@ def test_histogram_with_equal_width_buckets() -> None:
     view = written(w)
     m = metric(view, "Speed distribution")
     assert m.type is MetricType.HISTOGRAM
-    mv = m.raw.metric_values.histogram_metric_values
-    assert [(b.lower, b.upper) for b in mv.buckets] == [
-        (0.0, 0.5),
-        (0.5, 1.0),
-        (1.0, 1.5),
-        (1.5, 2.0),
-    ]
+    mv = view.metric("Speed distribution", HistogramMetric)
+    assert mv.buckets == ((0.0, 0.5), (0.5, 1.0), (1.0, 1.5), (1.5, 2.0))
     assert (mv.lower_bound, mv.upper_bound) == (0.0, 2.0)
     assert mv.x_axis_name == "speed"
-    assert data_of(view, mv.values_data_id).series().to_list() == [1.0, 7.5, 24.0]
-    assert data_of(view, mv.statuses_data_id).name == "Speeds (PASSED status)"
+    assert mv.values_data is not None
+    assert mv.values_data.values() == (1.0, 7.5, 24.0)
+    assert mv.statuses_data is not None
+    assert mv.statuses_data.name == "Speeds (PASSED status)"
 
 
 def test_histogram_with_explicit_buckets_and_statuses() -> None:
@@ -418,13 +427,14 @@ def test_histogram_with_explicit_buckets_and_statuses() -> None:
     w.histogram("h", values, buckets=buckets, lower=-1.0, upper=10.0, statuses=st_)
     w.histogram("h2", values, buckets=[(0, 1)])
     view = written(w)
-    mv = metric(view, "h").raw.metric_values.histogram_metric_values
-    assert [(b.lower, b.upper) for b in mv.buckets] == buckets
+    mv = view.metric("h", HistogramMetric)
+    assert list(mv.buckets) == buckets
     assert (mv.lower_bound, mv.upper_bound) == (-1.0, 10.0)
-    assert data_of(view, mv.statuses_data_id).name == "v st"
-    h2 = metric(view, "h2").raw.metric_values.histogram_metric_values
-    assert [(b.lower, b.upper) for b in h2.buckets] == [(0.0, 1.0)]
-    assert h2.x_axis_name == ""
+    assert mv.statuses_data is not None
+    assert mv.statuses_data.name == "v st"
+    h2 = view.metric("h2", HistogramMetric)
+    assert h2.buckets == ((0.0, 1.0),)
+    assert h2.x_axis_name is None
 
 
 # ---------------------------------------------------------------- batchwise bar chart
@@ -461,24 +471,25 @@ def test_batchwise_bar_chart_with_project_categories_colours_and_axes() -> None:
     view = written(w)
     m = metric(view, "Tests per batch")
     assert m.type is MetricType.BATCHWISE_BAR_CHART
-    mv = m.raw.metric_values.batchwise_bar_chart_metric_values
-    assert mv.project_id.data == str(PROJECT)
-    assert list(mv.categories) == ["PASSED", "FAILED"]
-    assert list(mv.colors) == ["#2e7d32", "#C62828AA"]
+    assert m.raw.metric_values.batchwise_bar_chart_metric_values.project_id.data == str(PROJECT)
+    mv = view.metric("Tests per batch", BatchwiseBarChartMetric)
+    assert mv.project_id == PROJECT
+    assert mv.categories == ("PASSED", "FAILED")
+    assert mv.colors == ("#2e7d32", "#C62828AA")
     assert (mv.x_axis_name, mv.y_axis_name) == ("batch", "tests")
     assert mv.stack_bars is True
-    assert names_of(view, mv.times_data_id) == ["Batch times", "Batch times"]
-    assert names_of(view, mv.values_data_id) == ["Passed", "Failed"]
-    assert names_of(view, mv.statuses_data_id) == ["Passed st", "Failed st"]
+    assert data_names(mv.times_data) == ["Batch times", "Batch times"]
+    assert data_names(mv.values_data) == ["Passed", "Failed"]
+    assert data_names(mv.statuses_data) == ["Passed st", "Failed st"]
     bt = view.data_by_name["Batch times"]
     assert bt.index_id == view.data_by_name["Batches"].id
     assert bt.series().dt.epoch("ns").to_list() == [
         epoch_ns(T0 - timedelta(days=d)) for d in (2, 1, 0)
     ]
-    minimal = metric(view, "Minimal").raw.metric_values.batchwise_bar_chart_metric_values
-    assert list(minimal.colors) == []
-    assert not minimal.HasField("stack_bars")
-    assert names_of(view, minimal.statuses_data_id) == ["Passed (PASSED status)"]
+    minimal = view.metric("Minimal", BatchwiseBarChartMetric)
+    assert minimal.colors == ()
+    assert minimal.stack_bars is None
+    assert data_names(minimal.statuses_data) == ["Passed (PASSED status)"]
     names = [d.name for d in view.data]
     assert len(names) == len(set(names))
     assert names.index("Batches") < names.index("Batch times")
@@ -504,28 +515,23 @@ def test_text_plotly_image_and_image_list() -> None:
     text = metric(view, "Notes")
     assert text.type is MetricType.TEXT
     assert text.importance is MetricImportance.LOW
-    assert text.raw.metric_values.text_metric_values.text == "**bold**\nsecond line"
-    plotly = metric(view, "Figure")
+    assert view.metric("Notes", TextMetric).text == "**bold**\nsecond line"
+    plotly = view.metric("Figure", PlotlyMetric)
     assert plotly.type is MetricType.PLOTLY
-    from google.protobuf.json_format import MessageToDict
-
-    assert MessageToDict(plotly.raw.metric_values.plotly_metric_values.json) == {
+    assert plotly.json == {
         "data": [{"type": "scatter", "y": [1.0, 2.5]}],
         "layout": {"title": "t", "show": True, "n": None},
     }
-    from_text = metric(view, "Figure text").raw.metric_values.plotly_metric_values.json
-    assert MessageToDict(from_text) == {"data": [], "layout": {"height": 300.0}}
-    image = metric(view, "Front camera")
+    assert view.metric("Figure text", PlotlyMetric).json == {
+        "data": [],
+        "layout": {"height": 300.0},
+    }
+    image = view.metric("Front camera", ImageMetric)
     assert image.type is MetricType.IMAGE
-    assert image.description == "front"
-    assert (
-        data_of(view, image.raw.metric_values.image_metric_values.image_data_id).external_path
-        == "front.png"
-    )
-    lst = metric(view, "Frames")
+    assert image.view.description == "front"
+    assert image.image_data is not None
+    assert image.image_data.external_path == "front.png"
+    lst = view.metric("Frames", ImageListMetric)
     assert lst.type is MetricType.IMAGE_LIST
-    assert names_of(view, lst.raw.metric_values.image_list_metric_values.image_data_ids) == [
-        "Front",
-        "Rear",
-    ]
+    assert data_names(lst.image_data) == ["Front", "Rear"]
     assert [d.name for d in view.data] == ["Front", "Rear"]

@@ -12,6 +12,8 @@ import resim.metrics.proto.metrics_pb2 as rp
 from resim.metrics.proto.validate_metrics_proto import validate_job_metrics as resim_validate
 
 from stook.sdk import (
+    BarChartMetric,
+    HistogramMetric,
     JobMetricsView,
     MetricsWriter,
     MetricType,
@@ -71,22 +73,16 @@ class Output:
         return m
 
     def histogram(self, name: str) -> tuple[list[float], list[tuple[float, float]], MetricView]:
-        m = self.metric(name, MetricType.HISTOGRAM)
-        hv = m.raw.metric_values.histogram_metric_values
-        values = self.view.data_by_id[uuid.UUID(hv.values_data_id.id.data)].series().to_list()
-        buckets = [(b.lower, b.upper) for b in hv.buckets]
-        assert hv.lower_bound == buckets[0][0]
-        assert hv.upper_bound == buckets[-1][1]
-        return values, buckets, m
+        hist = self.view.metric(name, HistogramMetric)
+        assert hist.values_data is not None
+        buckets: list[tuple[float, float]] = list(hist.buckets)
+        assert hist.lower_bound == buckets[0][0]
+        assert hist.upper_bound == buckets[-1][1]
+        return hist.values_data.series().to_list(), buckets, hist.view
 
     def bars(self, name: str) -> dict[str, float]:
-        m = self.metric(name, MetricType.BAR_CHART)
-        bv = m.raw.metric_values.bar_chart_metric_values
-        assert len(bv.values_data_id) == 1
-        values = self.view.data_by_id[uuid.UUID(bv.values_data_id[0].id.data)]
-        assert values.index_id is not None
-        labels = self.view.data_by_id[values.index_id].series().to_list()
-        return dict(zip(labels, values.series().to_list(), strict=True))
+        (values,) = self.view.metric(name, BarChartMetric).values_data
+        return values.by_label()
 
 
 def reference_counts(values: Iterable[float], edges: Sequence[tuple[float, float]]) -> list[int]:

@@ -7,12 +7,23 @@ validator and by ReSim's own (the platform's oracle); see `support.Output`.
 from __future__ import annotations
 
 import math
+import uuid
 
 import pytest
 
-from stook.sdk import MetricStatus, MetricType, WriterError
+from stook.sdk import (
+    HistogramMetric,
+    MetricStatus,
+    MetricsWriter,
+    MetricType,
+    SeriesKind,
+    TextMetric,
+    WriterError,
+    data,
+    read_metrics_data,
+)
 from stook.sdk._buckets import histogram_buckets
-from stook.sdk.aggregations import MergedHistogram
+from stook.sdk.aggregations import JobRecord, MergedHistogram
 from tests.sdk.aggregations.support import Output, fold, job, reference_counts
 
 
@@ -36,8 +47,7 @@ def test_histogram_exact_mode_holds_exactly_the_appended_values() -> None:
     values, buckets, m = out.histogram("Speed")
     assert values == [0.5, 1.0, 1.0, 2.5, 3.0, 3.75]
     assert buckets == [(0.0, 1.0), (1.0, 2.0), (2.0, 3.0), (3.0, 4.0)]
-    hv = m.raw.metric_values.histogram_metric_values
-    assert hv.x_axis_name == "v [m/s]"
+    assert out.view.metric("Speed", HistogramMetric).x_axis_name == "v [m/s]"
     assert m.description == "Histogram of 6 values of 'speed' from 3 jobs (1 NaN values dropped)."
     assert out.names == ["Speed"]
     assert out.view.data_by_name["Speed values"].series().to_list() == values
@@ -148,7 +158,7 @@ def test_histogram_without_values_is_not_applicable() -> None:
     out = Output(agg)
     m = out.metric("H", MetricType.TEXT)
     assert m.status is MetricStatus.NOT_APPLICABLE
-    assert m.raw.metric_values.text_metric_values.text == (
+    assert out.view.metric("H", TextMetric).text == (
         "No job wrote values for 'd'; nothing to draw."
     )
 
@@ -159,3 +169,32 @@ def test_histogram_needs_its_data_and_checks_its_bounds() -> None:
         MergedHistogram(name="H", data="d", lower=1, upper=1)
     with pytest.raises(ValueError, match="max_values must be at least 1"):
         MergedHistogram(name="H", data="d", lower=0, upper=1, max_values=0)
+
+
+def _per_category_record(name: str, values: dict[str, list[float]]) -> JobRecord:
+    """A job whose data `name` is per category, as the fetcher hands it: in `data`, with
+    no single series."""
+    index = data.per_category(
+        f"{name} index", SeriesKind.STRING, {k: ["x"] * len(v) for k, v in values.items()}
+    )
+    per_class = data.per_category(name, SeriesKind.DOUBLE, values, index=index)
+    writer = MetricsWriter(uuid.uuid4(), deterministic=True)
+    writer.bar_chart("bars", per_class)
+    msg = next(d for d in writer.to_proto().metrics_data if d.name == name)
+    return JobRecord(
+        job_id=uuid.uuid4(),
+        conflated_status="PASSED",
+        data={name: read_metrics_data(msg.SerializeToString())},
+    )
+
+
+def test_histogram_of_per_category_data_pools_the_categories() -> None:
+    jobs = [
+        _per_category_record("per class", {"car": [1.0, 3.0], "truck": [2.0]}),
+        job(series={"per class": [0.5]}),  # plain doubles of that name still count
+        _per_category_record("other", {"car": [9.0]}),
+    ]
+    agg = fold(MergedHistogram(name="H", data="per class", lower=0.0, upper=4.0, buckets=4), jobs)
+    assert isinstance(agg, MergedHistogram)
+    assert (agg.total, agg.jobs) == (4, 2)
+    assert agg.values().to_list() == [0.5, 1.0, 2.0, 3.0]

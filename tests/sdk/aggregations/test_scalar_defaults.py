@@ -13,7 +13,7 @@ import pytest
 import resim.metrics.proto.metrics_pb2 as rp
 from resim.metrics.proto.validate_metrics_proto import validate_job_metrics as resim_validate
 
-from stook.sdk import MetricsWriter, MetricType, validate_job_metrics
+from stook.sdk import HistogramMetric, MetricsWriter, MetricType, validate_job_metrics
 from stook.sdk.aggregations import (
     JobRecord,
     Scalar,
@@ -48,7 +48,7 @@ def test_scalar_defaults_mean_and_distribution_of_every_scalar() -> None:
     assert values == [1.0, 3.0, 8.0]
     # about sqrt(3) -> 2 equal buckets from the smallest to the largest value
     assert buckets == [(1.0, 4.5), (4.5, 8.0)]
-    assert hist.raw.metric_values.histogram_metric_values.x_axis_name == "dist [m]"
+    assert out.view.metric(hist.name, HistogramMetric).x_axis_name == "dist [m]"
     assert hist.description == "'dist' of each of the 3 jobs that reported it."
     assert out.view.data_by_name["dist (distribution) values"].unit == "m"
 
@@ -58,7 +58,7 @@ def test_scalar_defaults_mean_and_distribution_of_every_scalar() -> None:
     values, buckets, hist = out.histogram("count (distribution)")
     assert values == [2.0, 2.0]
     assert buckets == [(1.5, 2.5)]  # one value: a single bucket around it
-    assert hist.raw.metric_values.histogram_metric_values.x_axis_name == "count"
+    assert out.view.metric(hist.name, HistogramMetric).x_axis_name == "count"
 
 
 def test_scalar_defaults_bucket_count_grows_with_the_jobs() -> None:

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import pytest
 
-from stook.sdk import MetricStatus, MetricType
+from stook.sdk import BarChartMetric, MetricStatus, MetricType
 from stook.sdk.aggregations import JobStatusCounts, MetricStatusCounts, PassRate
 from tests.sdk.aggregations.support import Output, fold, job
 
@@ -40,7 +40,7 @@ def test_job_status_counts_in_app_order_with_unknown_statuses_last() -> None:
     m = out.by_name["Job statuses"]
     assert m.status is MetricStatus.FAIL_WARN
     assert m.description == "Conflated status of the batch's 8 jobs."
-    bv = m.raw.metric_values.bar_chart_metric_values
+    bv = out.view.metric(m.name, BarChartMetric)
     assert (bv.x_axis_name, bv.y_axis_name) == ("Conflated job status", "Jobs")
     assert out.writer.status is MetricStatus.FAIL_WARN
 
@@ -85,7 +85,7 @@ def test_metric_status_counts() -> None:
     }
     m = out.by_name["Job metric statuses"]
     assert m.status is MetricStatus.FAIL_WARN
-    bv = m.raw.metric_values.bar_chart_metric_values
+    bv = out.view.metric(m.name, BarChartMetric)
     assert (bv.x_axis_name, bv.y_axis_name) == ("Metric status", "Job metrics")
 
 

@@ -10,7 +10,7 @@ import math
 
 import pytest
 
-from stook.sdk import MetricStatus, MetricType
+from stook.sdk import MetricStatus, MetricType, TextMetric
 from stook.sdk.aggregations import Scalar, WeightedMean
 from tests.sdk.aggregations.support import Output, fold, job
 
@@ -66,7 +66,7 @@ def test_weighted_mean_zero_total_weight_is_not_applicable(weights: list[float])
     out = Output(fold(WeightedMean(name="WM", metric="x", weight="w"), jobs))
     m = out.metric("WM", MetricType.TEXT)
     assert m.status is MetricStatus.NOT_APPLICABLE
-    assert m.raw.metric_values.text_metric_values.text == (
+    assert out.view.metric("WM", TextMetric).text == (
         "No job reported both 'x' and a non-zero weight; nothing to average."
     )
     assert out.writer.status is MetricStatus.PASSED

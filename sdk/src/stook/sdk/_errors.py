@@ -11,6 +11,8 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
+    import uuid
+
     from google.protobuf.message import Message
 
 
@@ -37,6 +39,20 @@ class ReadError(StookError):
     The message names what was being read, e.g.
     ``could not read MetricsData from 'job 1234 / speeds': truncated or not a protobuf message``.
     """
+
+
+class MissingDataError(ReadError):
+    """A metric references a metrics data ID that the output it was read from does not hold.
+
+    ``metric`` is the metric's name, ``data_id`` the ID it references (None when the
+    reference is unset).
+    """
+
+    def __init__(self, metric: str, data_id: uuid.UUID | None) -> None:
+        self.metric = metric
+        self.data_id = data_id
+        what = f"metrics data {data_id}" if data_id is not None else "a metrics data with no ID"
+        super().__init__(f"metric {metric!r} references {what}, which the output does not hold")
 
 
 class MalformedError(Exception):

@@ -333,7 +333,7 @@ def _event_view(msg: pb.Event) -> EventView:
 
 def _job_view(msg: pb.JobMetrics, source: str) -> JobMetricsView:
     metrics = tuple(_metric_view(m, source) for m in msg.job_level_metrics.metrics)
-    data = tuple(_data_view(d, source) for d in msg.metrics_data)
+    data = _with_indexes(tuple(_data_view(d, source) for d in msg.metrics_data))
     return JobMetricsView(
         job_id=_optional_uuid(msg.job_id.id.data, "job id"),
         status=_enum(MetricStatus, msg.metrics_status),
@@ -344,6 +344,16 @@ def _job_view(msg: pb.JobMetrics, source: str) -> JobMetricsView:
         data_by_id=_first_wins((d.id, d) for d in data),
         data_by_name=_first_wins((d.name, d) for d in data),
         raw=msg,
+    )
+
+
+def _with_indexes(data: tuple[MetricsDataView, ...]) -> tuple[MetricsDataView, ...]:
+    """The data, each indexed one holding its index view (when the output holds it), so
+    that `MetricsDataView.labelled` needs nothing else."""
+    by_id = _first_wins((d.id, d) for d in data)
+    return tuple(
+        d.with_index(by_id[d.index_id]) if d.index_id is not None and d.index_id in by_id else d
+        for d in data
     )
 
 

@@ -9,21 +9,25 @@ messages, and deciding what is readable, is `_reader`'s job.
 
 from __future__ import annotations
 
+import dataclasses
 import uuid
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from functools import cache
-from typing import TYPE_CHECKING, Literal
+from typing import TYPE_CHECKING, Any, Literal, TypeVar, overload
 
 from stook.proto import metrics_pb2 as pb
 from stook.sdk._enums import MetricImportance, MetricStatus, MetricType, SeriesKind
 from stook.sdk._errors import MalformedError, read_error
+from stook.sdk._metric_views import TypedMetric, not_found, typed_metric
 
 if TYPE_CHECKING:
     import polars as pl
 
 # polars (and numpy, through `_series`) is imported when a series or frame is first asked
 # for, not with the views: `stook show` and `stook validate` read files without it.
+
+_T = TypeVar("_T", bound=TypedMetric)
 
 
 @dataclass(frozen=True, slots=True)
@@ -48,10 +52,93 @@ class MetricsDataView:
     external_path: str | None
     raw: pb.MetricsData = field(repr=False)
     source: str = field(default="<message>", repr=False, compare=False)
+    index: MetricsDataView | None = field(default=None, repr=False, compare=False)
+    """The index data itself, when this data was read as part of a `JobMetricsView`
+    that holds it; None otherwise (and for data without an index)."""
 
     @property
     def is_external(self) -> bool:
         return self.kind is SeriesKind.EXTERNAL_FILE
+
+    def with_index(self, index: MetricsDataView) -> MetricsDataView:
+        """This data holding `index` as its index view (for data read on their own, e.g.
+        with `read_metrics_data`); ValueError when `index` is not the data its
+        ``index_id`` names."""
+        if index.id != self.index_id:
+            raise ValueError(
+                f"metrics data {index.name!r} ({index.id}) is not the index of {self.name!r} "
+                f"({self.index_id})"
+            )
+        return dataclasses.replace(self, index=index)
+
+    def values(self) -> tuple[Any, ...]:
+        """The values of a plain (not per-category) series as Python values.
+
+        Doubles are floats, strings str, timestamps integer UTC nanoseconds, UUIDs
+        ``uuid.UUID``, statuses `MetricStatus` (None unset, an int if unknown). For a
+        few values without polars; `series` is the fast way for many.
+        """
+        self._check_has_series()
+        if self.per_category:
+            raise ValueError(
+                f"metrics data {self.name!r} is per category; use by_category() or frame()"
+            )
+        return self._plain(self.raw.series)
+
+    def labelled(self) -> tuple[tuple[Any, Any], ...]:
+        """(index value, value) pairs of an indexed plain series, in order.
+
+        For a bar chart's values (doubles indexed by strings) these are the (label,
+        value) pairs, labels kept as written (repeats included). Values and index values
+        are Python values as in `values`. Needs the index: read the data as part of the
+        `JobMetricsView` that holds it (``job.data_by_name[...]`` or a typed metric's
+        data); ValueError when the data has no index or it was read without it.
+        """
+        if self.index_id is None:
+            raise ValueError(f"metrics data {self.name!r} has no index")
+        if self.index is None:
+            raise ValueError(
+                f"the index of metrics data {self.name!r} ({self.index_id}) is not at hand; "
+                "read the data with the JobMetricsView that holds its index"
+            )
+        values, labels = self.values(), self.index.values()
+        if len(values) != len(labels):
+            raise read_error(
+                pb.MetricsData,
+                self.source,
+                f"data {self.name!r} has {len(values)} values but its index "
+                f"{self.index.name!r} has {len(labels)}",
+            )
+        return tuple(zip(labels, values, strict=True))
+
+    def by_label(self) -> dict[str, Any]:
+        """`labelled` as a dict, label -> value, for data indexed by strings (a bar chart's
+        values). ValueError if a label repeats (use `labelled` to keep repeats)."""
+        pairs = self.labelled()
+        assert self.index is not None  # labelled() checked
+        if self.index.kind is not SeriesKind.STRING:
+            raise ValueError(f"metrics data {self.name!r} is not indexed by strings")
+        result: dict[str, Any] = {}
+        for label, value in pairs:
+            if label in result:
+                raise ValueError(f"metrics data {self.name!r} repeats the label {label!r}")
+            result[label] = value
+        return result
+
+    def by_category(self) -> dict[str, pl.Series]:
+        """Per-category data as category -> series (named after its category), in
+        declared order, then any undeclared categories, sorted. ValueError when the data
+        is not per category."""
+        self._check_has_series()
+        if not self.per_category:
+            raise ValueError(f"metrics data {self.name!r} is not per category; use series()")
+        by_category = self.raw.series_per_category.category_to_series
+        extra = sorted(set(by_category) - set(self.categories))
+        return {
+            category: self._convert(by_category[category], category)
+            for category in (*self.categories, *extra)
+            if category in by_category
+        }
 
     def series(self) -> pl.Series:
         """The values of a plain (not per-category) series, named after the data.
@@ -111,6 +198,14 @@ class MetricsDataView:
                 "schema does not know; it has no series"
             )
         return self.kind
+
+    def _plain(self, series: pb.Series) -> tuple[Any, ...]:
+        from stook.sdk._elements import plain_values
+
+        try:
+            return plain_values(series, self._check_has_series())
+        except MalformedError as exc:
+            raise read_error(pb.MetricsData, self.source, f"data {self.name!r}: {exc}") from None
 
     def _convert(self, series: pb.Series, name: str) -> pl.Series:
         from stook.sdk._series import to_polars
@@ -177,6 +272,36 @@ class JobMetricsView:
     data_by_name: Mapping[str, MetricsDataView] = field(repr=False)
     """If names or IDs repeat (the validator refuses that), the first one wins."""
     raw: pb.JobMetrics = field(repr=False)
+
+    def metric_names(self) -> tuple[str, ...]:
+        """The names of the metrics, in the order written, without repeats."""
+        return tuple(dict.fromkeys(m.name for m in self.metrics))
+
+    def find_metric(self, name: str) -> MetricView | None:
+        """The metric named `name` (the first, if names repeat), or None."""
+        return next((m for m in self.metrics if m.name == name), None)
+
+    @overload
+    def metric(self, name: str) -> TypedMetric: ...
+    @overload
+    def metric(self, name: str, kind: type[_T]) -> _T: ...
+    def metric(self, name: str, kind: type[TypedMetric] | None = None) -> TypedMetric:
+        """The typed view of the metric `name`, its data resolved from this output.
+
+        One class per `MetricType` (`HistogramMetric`, `BarChartMetric`, ...;
+        `UnknownMetric` for a type this schema does not know). With `kind`, the view
+        must be of that class (TypeError otherwise), which also types the result.
+        KeyError (naming close names) when there is no such metric; `MissingDataError`
+        when it references data this output does not hold.
+        """
+        found = self.find_metric(name)
+        if found is None:
+            raise not_found(name, self.metric_names())
+        typed = typed_metric(found, self)
+        if kind is not None and not isinstance(typed, kind):
+            shown = found.type.name if isinstance(found.type, MetricType) else found.type
+            raise TypeError(f"metric {name!r} is a {shown} metric, not a {kind.__name__}")
+        return typed
 
     def scalars_frame(self) -> pl.DataFrame:
         """One row per SCALAR metric: metric_id, name, value (Float64), unit, status."""

@@ -11,7 +11,9 @@ The layers, lowest first, each importing only from those below it: `stook.servic
 (transport, retries, limits, clients, models, errors, redaction), `stook.service.fetch`
 (a batch's jobs or a report's batches as records), `stook.service.modes` (test, batch and
 report mode) and `stook.service.cli` (the `stook` command). This package re-exports what
-a program built on the first two needs; each layer's own ``__all__`` has the rest.
+a program built on the first two needs, and the fetch library (`fetch_batch`,
+`fetch_batch_frame`, `fetch_report`, from the modes layer, which reads the platform's
+inputs); each layer's own ``__all__`` has the rest.
 
 Names are imported on first use (see stook.service._lazy): `stook --help` imports this
 package before its signal handlers are in place, and without polars or aiohttp.
@@ -57,6 +59,7 @@ if TYPE_CHECKING:
         ReportNotFoundError,
         ReportOutcome,
     )
+    from stook.service.modes import fetch_batch, fetch_batch_frame, fetch_report
 else:
     from stook.service._lazy import lazy_exports
 
@@ -94,6 +97,9 @@ else:
             "ReportFetcher": "stook.service.fetch",
             "ReportNotFoundError": "stook.service.fetch",
             "ReportOutcome": "stook.service.fetch",
+            "fetch_batch": "stook.service.modes",
+            "fetch_batch_frame": "stook.service.modes",
+            "fetch_report": "stook.service.modes",
         },
     )
 
@@ -129,4 +135,7 @@ __all__ = [
     "StorageClient",
     "StorageError",
     "TransportError",
+    "fetch_batch",
+    "fetch_batch_frame",
+    "fetch_report",
 ]

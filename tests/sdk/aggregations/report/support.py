@@ -6,18 +6,20 @@ import uuid
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from datetime import UTC, datetime, timedelta
-from typing import Any
 
 import resim.metrics.proto.metrics_pb2 as rp
 from resim.metrics.proto.validate_metrics_proto import validate_job_metrics as resim_validate
 
 from stook.sdk import (
+    BarChartMetric,
     JobMetricsView,
+    LinePlotMetric,
     MetricStatus,
     MetricsWriter,
     MetricType,
     MetricView,
     SeriesKind,
+    TextMetric,
     read_job_metrics,
     validate_job_metrics,
 )
@@ -104,30 +106,23 @@ class Output:
         return m
 
     def text(self, name: str) -> tuple[str, MetricStatus | int | None]:
-        m = self.metric(name, MetricType.TEXT)
-        return m.raw.metric_values.text_metric_values.text, m.status
-
-    def _data(self, data_id: Any) -> Any:
-        return self.view.data_by_id[uuid.UUID(data_id.id.data)]
+        m = self.view.metric(name, TextMetric)
+        return m.text, m.status
 
     def lines(self, name: str) -> list[Line]:
-        lv = self.metric(name, MetricType.LINE_PLOT).raw.metric_values.line_plot_metric_values
+        lv = self.view.metric(name, LinePlotMetric)
         out = []
-        for xid, yid, sid in zip(
-            lv.x_doubles_data_id, lv.y_doubles_data_id, lv.statuses_data_id, strict=True
-        ):
-            x, y, s = self._data(xid), self._data(yid), self._data(sid)
+        for x, y, s in zip(lv.x_doubles_data, lv.y_doubles_data, lv.statuses_data, strict=True):
             assert x.unit == "days"
-            assert x.index_id is not None
+            assert x.index is not None
             assert x.index_id == y.index_id == s.index_id
-            times = self.view.data_by_id[x.index_id]
-            assert times.kind is SeriesKind.TIMESTAMP
+            assert x.index.kind is SeriesKind.TIMESTAMP
             out.append(
                 Line(
                     x=x.series().to_list(),
                     y=y.series().to_list(),
                     statuses=[str(v) for v in s.series().to_list()],
-                    times=times.series().to_list(),
+                    times=x.index.series().to_list(),
                     y_name=y.name,
                     y_unit=y.unit,
                 )
@@ -139,12 +134,8 @@ class Output:
         return only
 
     def bars(self, name: str) -> dict[str, float]:
-        bv = self.metric(name, MetricType.BAR_CHART).raw.metric_values.bar_chart_metric_values
-        assert len(bv.values_data_id) == 1
-        values = self._data(bv.values_data_id[0])
-        assert values.index_id is not None
-        labels = self.view.data_by_id[values.index_id].series().to_list()
-        return dict(zip(labels, values.series().to_list(), strict=True))
+        (values,) = self.view.metric(name, BarChartMetric).values_data
+        return values.by_label()
 
 
 def days(*moments: datetime) -> list[float]:

@@ -11,11 +11,13 @@ from __future__ import annotations
 from stook.sdk import MetricStatus
 from stook.sdk.aggregations import Scalar, build_all, default_report_aggregations
 from stook.sdk.aggregations.report import (
+    ChangePoints,
     FlakyExperiences,
     JobScalarDistributions,
     MostFailedExperiences,
     ScalarLines,
     TestStatusOverTime,
+    UnstableExperiences,
 )
 from tests.sdk.aggregations.report.support import PROJECT_ID, Output, batch, fold, scrambled
 
@@ -46,6 +48,8 @@ def test_default_report_aggregations_write_valid_metrics_together() -> None:
         "Batch metric statuses",
         "speed per batch",
         "Flaky experiences",
+        "Change points",
+        "Unstable experiences",
     ]
     assert out.bars("Most failed experiences") == {"b": 3.0}
     assert out.bars("Flaky experiences") == {"b": 5.0}
@@ -60,10 +64,16 @@ def test_default_report_aggregations_take_the_report_settings() -> None:
         regression_window=4,
         regression_threshold=2.0,
         job_metrics=["speed"],
+        change_penalty=5.0,
     )
-    lines, most, status, _, _, dist, flaky = aggregations
+    lines, most, status, _, _, dist, flaky, changes, unstable = aggregations
     assert isinstance(lines, ScalarLines)
     assert (lines.window, lines.threshold) == (4, 2.0)
+    assert (lines.change_points, lines.change_penalty) == (True, 5.0)
+    assert isinstance(changes, ChangePoints)
+    assert (changes.penalty, changes.top_n) == (5.0, 3)
+    assert isinstance(unstable, UnstableExperiences)
+    assert (unstable.top_n, unstable.metrics) == (3, ["speed"])
     assert isinstance(most, MostFailedExperiences)
     assert most.top_n == 3
     assert isinstance(status, TestStatusOverTime)
@@ -72,6 +82,16 @@ def test_default_report_aggregations_take_the_report_settings() -> None:
     assert dist.metrics == ["speed"]
     assert isinstance(flaky, FlakyExperiences)
     assert flaky.top_n == 3
+
+
+def test_change_points_and_unstable_experiences_can_be_turned_off() -> None:
+    aggregations = default_report_aggregations(
+        project_id=PROJECT_ID, change_points=False, unstable_experiences=False
+    )
+    assert len(aggregations) == 7
+    assert not any(isinstance(a, ChangePoints | UnstableExperiences) for a in aggregations)
+    (lines,) = [a for a in aggregations if isinstance(a, ScalarLines)]
+    assert lines.change_points is False
 
 
 def test_report_section_builds_report_kinds() -> None:

@@ -11,7 +11,7 @@ from __future__ import annotations
 import dataclasses
 import uuid
 
-from stook.sdk import MetricStatus
+from stook.sdk import BarChartMetric, MetricStatus
 from stook.sdk.aggregations.report import FlakyExperiences, MostFailedExperiences
 from tests.sdk.aggregations.report.support import Output, batch, fold, scrambled
 
@@ -55,7 +55,7 @@ def test_most_failed_experiences_ranks_failed_jobs_with_ties_by_name() -> None:
     assert m.description == (
         "Failed jobs (BLOCKER or ERROR) per experience over 4 batches; top 4 of 4 that failed."
     )
-    bv = m.raw.metric_values.bar_chart_metric_values
+    bv = out.view.metric(m.name, BarChartMetric)
     assert (bv.x_axis_name, bv.y_axis_name) == ("Experience", "Failed jobs")
 
 
@@ -148,7 +148,7 @@ def test_flaky_experiences_counts_flips_between_consecutive_outcomes() -> None:
         "Times each experience's outcome changed between consecutive batches "
         "(failed: any job BLOCKER or ERROR; passed: all jobs PASSED or WARNING)."
     )
-    bv = m.raw.metric_values.bar_chart_metric_values
+    bv = out.view.metric(m.name, BarChartMetric)
     assert (bv.x_axis_name, bv.y_axis_name) == ("Experience", "Pass/fail flips")
 
 

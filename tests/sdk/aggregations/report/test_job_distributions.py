@@ -15,7 +15,7 @@ from datetime import timedelta
 
 import pytest
 
-from stook.sdk import MetricStatus
+from stook.sdk import LinePlotMetric, MetricStatus
 from stook.sdk.aggregations.report import JobScalarDistributions
 from tests.sdk.aggregations.report.support import T0, Output, batch, fold, scrambled
 
@@ -68,8 +68,8 @@ def test_job_scalar_distributions_quantiles_per_batch() -> None:
         "speed per batch (p90)",
     ]
     m = out.by_name["speed per batch"]
-    lv = m.raw.metric_values.line_plot_metric_values
-    assert list(lv.legend_series_names) == ["p10", "median", "p90"]
+    lv = out.view.metric(m.name, LinePlotMetric)
+    assert lv.legend == ("p10", "median", "p90")
     assert lv.x_axis_name == "Days since 2024-03-01 12:00 UTC"
     assert lv.y_axis_name == "speed [m/s]"
     assert m.status is MetricStatus.PASSED
@@ -81,9 +81,7 @@ def test_job_scalar_distributions_quantiles_per_batch() -> None:
     dist = out.lines("dist per batch")
     assert [line.y for line in dist] == [[5.0], [5.0], [5.0]]
     assert dist[0].x == [1.0]
-    assert out.by_name["dist per batch"].raw.metric_values.line_plot_metric_values.y_axis_name == (
-        "dist [m]"
-    )
+    assert out.view.metric("dist per batch", LinePlotMetric).y_axis_name == "dist [m]"
 
 
 def test_job_scalar_distributions_against_interpolation_on_more_values() -> None:

@@ -12,7 +12,7 @@ import math
 
 import pytest
 
-from stook.sdk import MetricStatus
+from stook.sdk import LinePlotMetric, MetricStatus
 from stook.sdk.aggregations import Scalar
 from stook.sdk.aggregations.report import ScalarLines, check
 from tests.sdk.aggregations.report.support import Output, batch, days, fold, scrambled
@@ -84,11 +84,11 @@ def test_scalar_lines_values_by_creation_time_with_gaps() -> None:
     assert dist.y == [100.0, 101.0, 99.0, 100.0, 100.5]
     assert dist.statuses == ["PASSED"] * 4 + ["RAW"]
 
-    lv = out.by_name["lat over time"].raw.metric_values.line_plot_metric_values
+    lv = out.view.metric("lat over time", LinePlotMetric)
     assert lv.x_axis_name == "Days since 2024-03-01 12:00 UTC"
     assert lv.y_axis_name == "lat [ms]"
-    assert list(lv.legend_series_names) == ["lat"]
-    av = out.by_name["acc over time"].raw.metric_values.line_plot_metric_values
+    assert lv.legend == ("lat",)
+    av = out.view.metric("acc over time", LinePlotMetric)
     assert av.y_axis_name == "acc"
     assert av.x_axis_name == "Days since 2024-03-01 12:00 UTC"
 
@@ -187,7 +187,7 @@ def test_scalar_lines_single_batch_gives_no_verdict() -> None:
     assert (
         m.description == "'lat': no regression verdict (0 earlier batches; at least 3 are needed)."
     )
-    assert m.raw.metric_values.line_plot_metric_values.x_axis_name == (
+    assert out.view.metric(m.name, LinePlotMetric).x_axis_name == (
         "Days since 2024-03-03 12:00 UTC"
     )
     assert out.writer.status is MetricStatus.PASSED

@@ -23,12 +23,14 @@ from stook.sdk.aggregations import (
 )
 from stook.sdk.aggregations.report import (
     BatchMetricStatusCounts,
+    ChangePoints,
     FlakyExperiences,
     JobMetricStatusCounts,
     JobScalarDistributions,
     MostFailedExperiences,
     ScalarLines,
     TestStatusOverTime,
+    UnstableExperiences,
 )
 from tests import merge_laws
 from tests.hypothesis_profiles import examples
@@ -50,6 +52,12 @@ FACTORIES: dict[str, Callable[[], ReportAggregation]] = {
     "batch_metric_status_counts": BatchMetricStatusCounts,
     "job_scalar_distributions": JobScalarDistributions,
     "job_scalar_distributions_s": lambda: JobScalarDistributions(metrics=["s"]),
+    # a small penalty, so that change points are common in 6 to 8 batches
+    "change_points": lambda: ChangePoints(penalty=0.1, top_n=2),
+    "change_points_lines_only": lambda: ChangePoints(name="Lines", experiences=False),
+    "scalar_lines_changes": lambda: ScalarLines(name="Changes", change_penalty=0.1),
+    "unstable": UnstableExperiences,
+    "unstable_s_top_1": lambda: UnstableExperiences(name="Top unstable", top_n=1, metrics=["s"]),
 }
 
 # Awkward values on purpose: -0.0 sorts equal to 0.0; job values that are not finite are
@@ -80,6 +88,7 @@ def batch_records(draw: st.DrawFn, batch_id: uuid.UUID) -> BatchRecord:
             uuid.UUID(int=draw(st.integers(0, 2**64))),
             draw(st.sampled_from(["e1", "e2", "e3", ""])),
             draw(st.sampled_from([*JOB_STATUSES, "ODD"])),
+            scalars={name: draw(job_values) for name in draw(st.sets(st.sampled_from(["s", "t"])))},
         )
         for _ in range(draw(st.integers(0, 5)))
     ]
@@ -94,12 +103,13 @@ def batch_records(draw: st.DrawFn, batch_id: uuid.UUID) -> BatchRecord:
         job_scalars=job_scalars,
         job_scalar_units={name: draw(units) for name in job_scalars},
         job_metric_statuses=draw(st.lists(api_statuses, max_size=4)),
+        build_id=draw(st.sampled_from([None, uuid.UUID(int=7), uuid.UUID(int=8)])),
     )
 
 
 @st.composite
 def reports(draw: st.DrawFn) -> list[BatchRecord]:
-    n = draw(st.integers(0, 8))
+    n = draw(st.integers(0, 9))
     ids = draw(st.lists(st.integers(1, 2**32), unique=True, min_size=n, max_size=n))
     return [draw(batch_records(uuid.UUID(int=i))) for i in ids]
 
@@ -119,7 +129,7 @@ def fold_all(factory: Callable[[], ReportAggregation], records: list[BatchRecord
 def test_merging_partials_equals_folding_everything(
     records: list[BatchRecord], data: st.DataObject
 ) -> None:
-    merge_laws.assert_split_merge_equals_whole(FACTORIES, records, data, written, max_partials=4)
+    merge_laws.assert_split_merge_equals_whole(FACTORIES, records, data, max_partials=4)
 
 
 @examples(40)
@@ -127,7 +137,7 @@ def test_merging_partials_equals_folding_everything(
 def test_batch_order_does_not_change_the_output(
     records: list[BatchRecord], data: st.DataObject
 ) -> None:
-    merge_laws.assert_arrival_order_free(FACTORIES, records, data, written)
+    merge_laws.assert_arrival_order_free(FACTORIES, records, data)
 
 
 @examples(40)
@@ -135,7 +145,7 @@ def test_batch_order_does_not_change_the_output(
 def test_merge_order_does_not_change_the_output(
     records: list[BatchRecord], data: st.DataObject
 ) -> None:
-    merge_laws.assert_merge_order_free(FACTORIES, records, data, written)
+    merge_laws.assert_merge_order_free(FACTORIES, records, data)
 
 
 def test_fresh_keeps_the_configuration_and_drops_the_state() -> None:
@@ -174,7 +184,12 @@ def test_the_properties_are_not_vacuous() -> None:
 
     one = [record(1, 0, 1.0, "PASSED"), record(2, 6, 2.0, "FAIL_WARN")]
     swapped_times = [record(1, 6, 1.0, "PASSED"), record(2, 0, 2.0, "FAIL_WARN")]
+    # Change points need 6 batches and spreads 4: their own tests show them non-vacuous
+    # (test_change_report.py, test_unstable.py).
+    needs_more = ("change_points", "unstable")
     for kind in FACTORIES:
+        if kind.startswith(needs_more):
+            continue
         if kind.startswith("most_failed") or kind.endswith("counts"):
             continue  # order-free by nature
         if kind.startswith("flaky"):
@@ -182,5 +197,7 @@ def test_the_properties_are_not_vacuous() -> None:
         assert fold_all(FACTORIES[kind], one) != fold_all(FACTORIES[kind], swapped_times), kind
     other = [record(1, 0, 3.0, "FAIL_BLOCK"), record(2, 6, 4.0, "PASSED")]
     for kind, factory in FACTORIES.items():
+        if kind.startswith(needs_more):
+            continue
         assert fold_all(factory, one) != fold_all(factory, other), kind
     assert fold_all(FACTORIES["flaky"], one) != fold_all(FACTORIES["flaky"], one[:1])

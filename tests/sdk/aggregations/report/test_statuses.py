@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import uuid
 
-from stook.sdk import MetricStatus, MetricType
+from stook.sdk import BarChartMetric, BatchwiseBarChartMetric, MetricStatus, MetricType
 from stook.sdk.aggregations.report import (
     BatchMetricStatusCounts,
     JobMetricStatusCounts,
@@ -33,11 +33,11 @@ def test_status_over_time_counts_jobs_per_status_per_batch() -> None:
     ]
     out = Output(fold(TestStatusOverTime(project_id=PROJECT_ID), scrambled(records)))
     m = out.metric("Test status over time", MetricType.BATCHWISE_BAR_CHART)
-    bv = m.raw.metric_values.batchwise_bar_chart_metric_values
+    bv = out.view.metric(m.name, BatchwiseBarChartMetric)
     # PASSED always; others only when seen, in the app's order; unknown ones after, by name
-    assert list(bv.categories) == ["PASSED", "BLOCKER", "ERROR", "CANCELLED", "ODD"]
-    assert list(bv.colors) == ["#2e7d32", "#c62828", "#6a1b9a", "#757575", "#9e9e9e"]
-    assert bv.project_id.data == PROJECT_ID
+    assert bv.categories == ("PASSED", "BLOCKER", "ERROR", "CANCELLED", "ODD")
+    assert bv.colors == ("#2e7d32", "#c62828", "#6a1b9a", "#757575", "#9e9e9e")
+    assert bv.project_id == uuid.UUID(PROJECT_ID)
     assert (bv.x_axis_name, bv.y_axis_name, bv.stack_bars) == ("Batch", "Jobs", True)
     expected = {
         "PASSED": [2.0, 0.0, 1.0],
@@ -46,16 +46,12 @@ def test_status_over_time_counts_jobs_per_status_per_batch() -> None:
         "CANCELLED": [0.0, 0.0, 1.0],
         "ODD": [0.0, 0.0, 1.0],
     }
-    ids = [str(r.batch_id) for r in records]
-    for category, tid, vid in zip(bv.categories, bv.times_data_id, bv.values_data_id, strict=True):
-        times = out.view.data_by_id[uuid.UUID(tid.id.data)]
-        values = out.view.data_by_id[uuid.UUID(vid.id.data)]
+    ids = tuple(r.batch_id for r in records)
+    for category, times, values in zip(bv.categories, bv.times_data, bv.values_data, strict=True):
         assert values.name == f"Test status over time: {category}"
-        assert values.series().to_list() == expected[category]
+        assert values.labelled() == tuple(zip(ids, expected[category], strict=True))
         assert times.series().to_list() == [r.created for r in records]
-        assert values.index_id is not None
         assert values.index_id == times.index_id
-        assert out.view.data_by_id[values.index_id].series().to_list() == ids
     assert m.status is MetricStatus.PASSED
     assert m.description == "Jobs per conflated status in each of 3 batches."
 
@@ -64,10 +60,9 @@ def test_status_over_time_of_batches_without_jobs_shows_passed_zeros() -> None:
     out = Output(
         fold(TestStatusOverTime(project_id=PROJECT_ID, name="S"), [batch(0, 0.0), batch(1, 1.0)])
     )
-    bv = out.by_name["S"].raw.metric_values.batchwise_bar_chart_metric_values
-    assert list(bv.categories) == ["PASSED"]
-    values = out.view.data_by_id[uuid.UUID(bv.values_data_id[0].id.data)]
-    assert values.series().to_list() == [0.0, 0.0]
+    bv = out.view.metric("S", BatchwiseBarChartMetric)
+    assert bv.categories == ("PASSED",)
+    assert bv.values_data[0].values() == (0.0, 0.0)
     assert Output(TestStatusOverTime(project_id=PROJECT_ID)).names == []
 
 
@@ -95,7 +90,7 @@ def test_job_metric_status_counts_across_batches() -> None:
     m = out.by_name["Job metric statuses"]
     assert m.status is MetricStatus.FAIL_WARN
     assert m.description == "8 job metrics by status."
-    bv = m.raw.metric_values.bar_chart_metric_values
+    bv = out.view.metric(m.name, BarChartMetric)
     assert (bv.x_axis_name, bv.y_axis_name) == ("Metric status", "Job metrics")
 
 
@@ -116,7 +111,7 @@ def test_batch_metric_status_counts_across_batches() -> None:
     m = out.by_name["Batch metric statuses"]
     assert m.status is MetricStatus.FAIL_BLOCK
     assert m.description == "5 batch metrics by status."
-    assert m.raw.metric_values.bar_chart_metric_values.y_axis_name == "Batch metrics"
+    assert out.view.metric(m.name, BarChartMetric).y_axis_name == "Batch metrics"
 
 
 def test_status_counts_all_passed_and_empty() -> None:

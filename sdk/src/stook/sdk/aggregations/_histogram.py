@@ -8,7 +8,7 @@ from typing import TYPE_CHECKING, Self
 
 from stook.sdk import _data
 from stook.sdk._buckets import histogram_buckets
-from stook.sdk._enums import MetricStatus
+from stook.sdk._enums import MetricStatus, SeriesKind
 from stook.sdk._writer import MetricsWriter
 from stook.sdk.aggregations._base import Aggregation, Needs
 from stook.sdk.aggregations._record import JobRecord
@@ -21,9 +21,21 @@ _CONSOLIDATE_AT = 256
 _BIN_BATCH = 1 << 16
 
 
+def _pooled_categories(job: JobRecord, name: str) -> pl.Series | None:
+    """Per-category doubles have no single series: the histogram pools every category's
+    values, on purpose (one distribution across categories; `category_totals` keeps them
+    apart)."""
+    view = job.data.get(name)
+    if view is None or not view.per_category or view.kind is not SeriesKind.DOUBLE:
+        return None
+    return view.frame().get_column("value").alias(name)
+
+
 @dataclass
 class MergedHistogram(Aggregation[JobRecord]):
     """Appends the series `data` of every job and writes it as a HISTOGRAM.
+
+    Per-category data (doubles) contributes the values of all its categories, pooled.
 
     While the appended values number at most `max_values`, the histogram's values
     are exactly the appended series. Past that, memory must stay bounded, so the
@@ -126,6 +138,8 @@ class MergedHistogram(Aggregation[JobRecord]):
 
     def update(self, job: JobRecord) -> None:
         s = job.series.get(self.data)
+        if s is None:
+            s = _pooled_categories(job, self.data)
         if s is None:
             return
         self.jobs += 1

@@ -6,12 +6,16 @@ import uuid
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from datetime import datetime
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, TypeVar, overload
+
+from stook.sdk._metric_views import TypedMetric
 
 if TYPE_CHECKING:
     import polars as pl
 
     from stook.sdk._views import JobMetricsView, MetricsDataView
+
+_T = TypeVar("_T", bound=TypedMetric)
 
 #: The conflated status of a job the API listed without one. A status the platform adds
 #: later is kept under its own name; either way it is a category of its own in the charts,
@@ -33,8 +37,8 @@ class JobEvent:
     """One event of a job, as the API lists it (`Needs.events`).
 
     `status` is the API's spelling (PASSED, FAIL_WARN, ...; an unknown one as it came,
-    NO_STATUS_REPORTED when absent); `timestamp_type` is ABSOLUTE_TIMESTAMP or
-    RELATIVE_TIMESTAMP (or what the API sent); `timestamp` is None when absent.
+    NO_STATUS_REPORTED when absent); `timestamp_type` is the API's ABSOLUTE or RELATIVE
+    (or what the API sent; "" when absent); `timestamp` is None when absent.
     """
 
     event_id: uuid.UUID
@@ -80,6 +84,20 @@ class JobRecord:
     events: Sequence[JobEvent] = ()
     experience_tags: Sequence[str] = ()
 
+    @overload
+    def metric(self, name: str) -> TypedMetric | None: ...
+    @overload
+    def metric(self, name: str, kind: type[_T]) -> _T | None: ...
+    def metric(self, name: str, kind: type[TypedMetric] | None = None) -> TypedMetric | None:
+        """The typed view of the job metric `name` (`JobMetricsView.metric`), or None when
+        the job has no such metric or `job_metrics` is None. With `kind`, the view must be
+        of that class (TypeError otherwise)."""
+        if self.job_metrics is None or self.job_metrics.find_metric(name) is None:
+            return None
+        if kind is None:
+            return self.job_metrics.metric(name)
+        return self.job_metrics.metric(name, kind)
+
     def scalars_frame(self) -> pl.DataFrame:
         """The scalars as a frame with columns name, value, unit, status."""
         import polars as pl
@@ -97,12 +115,17 @@ class JobRecord:
 
 @dataclass(frozen=True, slots=True)
 class JobSummary:
-    """One job of a report's batch: what report aggregations read of it."""
+    """One job of a report's batch: what report aggregations read of it.
+
+    `scalars` holds the job's SCALAR job metric values by name when the plan asks for job
+    metrics (`Needs.job_metrics`), as `BatchRecord.job_scalars` pools them; else empty.
+    """
 
     job_id: uuid.UUID
     experience_name: str
     conflated_status: str
     experience_id: uuid.UUID | None = None
+    scalars: Mapping[str, float] = field(default_factory=dict, hash=False)
 
 
 @dataclass(frozen=True, slots=True)
@@ -112,7 +135,8 @@ class BatchRecord:
     `scalars` holds the batch's SCALAR batch metrics by name; `metric_statuses` the
     status of every batch metric. `jobs` lists its jobs. When the plan asks for job
     metrics, `job_scalars` holds each SCALAR job metric's values across the batch's
-    jobs and `job_metric_statuses` every job metric's status.
+    jobs and `job_metric_statuses` every job metric's status. `build_id` is the build the
+    batch ran, when the API said.
     """
 
     batch_id: uuid.UUID
@@ -125,3 +149,4 @@ class BatchRecord:
     job_scalars: Mapping[str, Sequence[float]] = field(default_factory=dict)
     job_scalar_units: Mapping[str, str] = field(default_factory=dict)
     job_metric_statuses: Sequence[str] = ()
+    build_id: uuid.UUID | None = None

@@ -24,12 +24,14 @@ from stook.sdk.aggregations._status_counts import JobStatusCounts, MetricStatusC
 from stook.sdk.aggregations._weighted_mean import WeightedMean
 from stook.sdk.aggregations.report import (
     BatchMetricStatusCounts,
+    ChangePoints,
     FlakyExperiences,
     JobMetricStatusCounts,
     JobScalarDistributions,
     MostFailedExperiences,
     ScalarLines,
     TestStatusOverTime,
+    UnstableExperiences,
 )
 
 ENTRY_POINT_GROUP = "stook.aggregations"
@@ -51,6 +53,8 @@ REPORT_BUILTIN: dict[str, type[Aggregation[Any]]] = {
     "job_metric_status_counts": JobMetricStatusCounts,
     "batch_metric_status_counts": BatchMetricStatusCounts,
     "job_scalar_distributions": JobScalarDistributions,
+    "change_points": ChangePoints,
+    "unstable_experiences": UnstableExperiences,
 }
 _BUILTIN_BY_SECTION = {"batch": BUILTIN, "report": REPORT_BUILTIN}
 
@@ -71,10 +75,18 @@ def default_report_aggregations(
     regression_window: int = 10,
     regression_threshold: float = 3.5,
     job_metrics: Sequence[str] | None = None,
+    change_points: bool = True,
+    change_penalty: float = 3.0,
+    unstable_experiences: bool = True,
 ) -> list[Aggregation[Any]]:
     """What every report gets; the arguments are the ``[report]`` settings."""
-    return [
-        ScalarLines(window=regression_window, threshold=regression_threshold),
+    aggregations: list[Aggregation[Any]] = [
+        ScalarLines(
+            window=regression_window,
+            threshold=regression_threshold,
+            change_points=change_points,
+            change_penalty=change_penalty,
+        ),
         MostFailedExperiences(top_n=top_n),
         TestStatusOverTime(project_id=project_id),
         JobMetricStatusCounts(),
@@ -82,6 +94,11 @@ def default_report_aggregations(
         JobScalarDistributions(metrics=job_metrics),
         FlakyExperiences(top_n=top_n),
     ]
+    if change_points:
+        aggregations.append(ChangePoints(penalty=change_penalty, top_n=top_n))
+    if unstable_experiences:
+        aggregations.append(UnstableExperiences(top_n=top_n, metrics=job_metrics))
+    return aggregations
 
 
 def load_class(reference: str, *, where: str) -> type[Aggregation[Any]]:

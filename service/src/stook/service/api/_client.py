@@ -31,7 +31,9 @@ from stook.service.api._models import (
     ApiMetricsData,
     Batch,
     Build,
+    ExperienceTag,
     Job,
+    JobEventListing,
     MetricOwner,
     Report,
 )
@@ -283,6 +285,20 @@ class ApiClient:
         """The metrics-data files of a job (all storage types; filter on ``is_standard``)."""
         path = f"/projects/{_id(project_id)}/batches/{_id(batch_id)}/jobs/{_id(job_id)}/metricsData"
         return self._list(path, "metricsData", _JOB_DATA)
+
+    def list_job_events(
+        self, project_id: IdLike, batch_id: IdLike, job_id: IdLike
+    ) -> AsyncIterator[JobEventListing]:
+        """The events a job's metrics build recorded (without their data)."""
+        path = f"/projects/{_id(project_id)}/batches/{_id(batch_id)}/jobs/{_id(job_id)}/events"
+        return self._list(path, "events", JobEventListing.from_json)
+
+    def list_experience_tags(
+        self, project_id: IdLike, experience_id: IdLike
+    ) -> AsyncIterator[ExperienceTag]:
+        """The tags of one experience."""
+        path = f"/projects/{_id(project_id)}/experiences/{_id(experience_id)}/experienceTags"
+        return self._list(path, "experienceTags", ExperienceTag.from_json)
 
     async def get_batch(self, project_id: IdLike, batch_id: IdLike) -> Batch:
         document = await self.get_json(f"/projects/{_id(project_id)}/batches/{_id(batch_id)}")

@@ -154,6 +154,24 @@ class Fields:
             raise self._error(key, f"should be a list, got {_json_type(value)}")
         return tuple(self._to_id(key, item) for item in value)
 
+    def strings(self, key: str) -> tuple[str, ...]:
+        """A list of strings; absent or null: empty."""
+        value = self._optional(key)
+        if value is None:
+            return ()
+        if not isinstance(value, list):
+            raise self._error(key, f"should be a list, got {_json_type(value)}")
+        return tuple(self._to_string(key, item) for item in value)
+
+    def string_map(self, key: str) -> dict[str, str]:
+        """An object of strings (the spec's ``additionalProperties: string``); absent: {}."""
+        value = self._optional(key)
+        if value is None:
+            return {}
+        if not isinstance(value, Mapping):
+            raise self._error(key, f"should be an object, got {_json_type(value)}")
+        return {str(k): self._to_string(f"{key}.{k}", v) for k, v in value.items()}
+
     def choice(self, key: str, kind: type[_E], *, default: _E) -> _E | str:
         value = self._optional(key)
         return default if value is None else self._to_choice(key, value, kind)

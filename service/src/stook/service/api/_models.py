@@ -38,7 +38,10 @@ __all__ = [
     "Build",
     "ConflatedBatchStatus",
     "ConflatedJobStatus",
+    "EventTimestampType",
+    "ExperienceTag",
     "Job",
+    "JobEventListing",
     "JobStatus",
     "MetricOwner",
     "MetricsDataStorageType",
@@ -116,6 +119,13 @@ class ApiMetricType(enum.StrEnum):
     COMPOSITE = "COMPOSITE"
 
 
+class EventTimestampType(enum.StrEnum):
+    """Whether an event's timestamp is a moment or a time since the experience began."""
+
+    ABSOLUTE = "ABSOLUTE"
+    RELATIVE = "RELATIVE"
+
+
 class MetricsDataStorageType(enum.StrEnum):
     """What a metrics-data URL points at; only ``STANDARD`` is a ``MetricsData`` message."""
 
@@ -145,6 +155,8 @@ class Job:
     experience_name: str | None = None
     build_id: uuid.UUID | None = None
     creation_timestamp: datetime | None = None
+    #: what a sweep or the batch gave the job (the spec's ``batchParameters``); absent: {}
+    parameters: Mapping[str, str] = field(default_factory=dict, hash=False)
 
     @classmethod
     def from_json(cls, data: Mapping[str, Any]) -> Self:
@@ -160,6 +172,7 @@ class Job:
             experience_name=f.opt_string("experienceName"),
             build_id=f.opt_id("buildID"),
             creation_timestamp=f.opt_timestamp("creationTimestamp"),
+            parameters=f.string_map("parameters"),
         )
 
 
@@ -362,4 +375,58 @@ class Build:
             name=f.opt_string("name"),
             version=f.opt_string("version"),
             creation_timestamp=f.opt_timestamp("creationTimestamp"),
+        )
+
+
+@dataclass(frozen=True, slots=True)
+class JobEventListing:
+    """One event of a job, as ``GET .../jobs/{jobID}/events`` lists it (the spec's ``event``).
+
+    The spec requires every field, but as elsewhere only the ID is relied on: a missing
+    name reads as "", a missing status as ``NO_STATUS_REPORTED``, a missing timestamp or
+    timestamp type as None, missing tags or metric IDs as empty. Unknown statuses and
+    timestamp types are kept as their raw strings.
+    """
+
+    event_id: uuid.UUID
+    name: str
+    status: ApiMetricStatus | str
+    timestamp: datetime | None = None
+    timestamp_type: EventTimestampType | str | None = None
+    description: str = ""
+    tags: tuple[str, ...] = ()
+    metric_ids: tuple[uuid.UUID, ...] = ()
+    creation_timestamp: datetime | None = None
+
+    @classmethod
+    def from_json(cls, data: Mapping[str, Any]) -> Self:
+        f = Fields("Event", data, "eventID")
+        return cls(
+            event_id=f.id("eventID"),
+            name=f.opt_string("name") or "",
+            status=f.choice("status", ApiMetricStatus, default=ApiMetricStatus.NO_STATUS_REPORTED),
+            timestamp=f.opt_timestamp("timestamp"),
+            timestamp_type=f.opt_choice("timestampType", EventTimestampType),
+            description=f.opt_string("description") or "",
+            tags=f.strings("tags"),
+            metric_ids=f.ids("metricsIDs"),
+            creation_timestamp=f.opt_timestamp("creationTimestamp"),
+        )
+
+
+@dataclass(frozen=True, slots=True)
+class ExperienceTag:
+    """A tag of an experience (the spec's ``experienceTag``); only its ID is required."""
+
+    experience_tag_id: uuid.UUID
+    name: str
+    description: str = ""
+
+    @classmethod
+    def from_json(cls, data: Mapping[str, Any]) -> Self:
+        f = Fields("ExperienceTag", data, "experienceTagID")
+        return cls(
+            experience_tag_id=f.id("experienceTagID"),
+            name=f.opt_string("name") or "",
+            description=f.opt_string("description") or "",
         )

@@ -10,9 +10,9 @@ from stook.service.fetch._batch_fetch import (
     FetchOutcome,
     InvalidDataError,
     MissingJob,
-    decode_values,
 )
 from stook.service.fetch._deadline import DeadlineReachedError, fetch_deadline
+from stook.service.fetch._job_blobs import decode_values
 from stook.service.fetch._report_fetch import (
     ReportFetcher,
     ReportNotFoundError,

@@ -2,24 +2,25 @@
 
 Jobs are listed page by page into a bounded queue; a fixed pool of workers takes
 each job as soon as its page arrives, lists its metrics (scalars come with the
-listing, so they cost no download), downloads only the metrics data the aggregations'
-`Needs` name, and hands the record to `on_job`. At most `workers + queue size` jobs are
+listing, so they cost no download), downloads only what the aggregations' `Needs` name
+(metrics data, job metrics with their data, events, experience tags; see _job_blobs and
+_job_extras), and hands the record to `on_job`. At most `workers + queue size` jobs are
 in memory at once, whatever the batch size.
 """
 
 from __future__ import annotations
 
 import asyncio
+import inspect
 import time
 import uuid
-from collections.abc import Callable
+from collections.abc import Awaitable, Callable
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
+from typing import Any
 
 import structlog
 
-from stook.sdk import ReadError, read_metrics_data
-from stook.sdk.aggregations import UNKNOWN_STATUS, JobRecord, Needs
+from stook.sdk.aggregations import UNKNOWN_STATUS, JobEvent, JobRecord, Needs
 from stook.service.api import (
     ApiClient,
     ApiError,
@@ -29,18 +30,13 @@ from stook.service.api import (
     Job,
     OriginUnavailableError,
 )
-from stook.service.fetch._presigned import fetch_listed
+from stook.service.fetch._job_blobs import InvalidDataError, JobBlobs
+from stook.service.fetch._job_extras import ExperienceTags, job_event
 from stook.service.fetch._scalars import is_scalar, read_scalars
 
-# polars comes with the first series decoded, after the first requests are out.
-if TYPE_CHECKING:
-    import polars as pl
+__all__ = ["BatchFetcher", "FetchOutcome", "InvalidDataError", "MissingJob", "OnJob"]
 
 log = structlog.get_logger("stook.fetch")
-
-
-class InvalidDataError(ReadError):
-    """A job's metrics data could not be decoded (exit code 4)."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -59,6 +55,7 @@ class FetchOutcome:
     jobs_with_metrics: int = 0
     missing: list[MissingJob] = field(default_factory=list)
     scalar_names: set[str] = field(default_factory=set)
+    metric_names: set[str] = field(default_factory=set)  # every named job metric listed
     data_names: set[str] = field(default_factory=set)
     unnamed_data: int = 0  # metrics data listed without a name: no plan can ask for it
     started: float = field(default_factory=time.monotonic)
@@ -66,6 +63,8 @@ class FetchOutcome:
 
 
 ProgressCallback = Callable[[FetchOutcome], None]
+#: What receives each record: a function, or a coroutine function (awaited: back-pressure).
+OnJob = Callable[[JobRecord], None] | Callable[[JobRecord], Awaitable[None]]
 
 
 class BatchFetcher:
@@ -89,10 +88,15 @@ class BatchFetcher:
         self._needs = needs
         self._workers = workers
         self._on_progress = on_progress
+        self._tags = ExperienceTags(api, project_id)
         self.outcome = FetchOutcome()
 
-    async def run(self, on_job: Callable[[JobRecord], None]) -> FetchOutcome:
-        """Fetch every job and call `on_job` with each record, in completion order."""
+    async def run(self, on_job: OnJob) -> FetchOutcome:
+        """Fetch every job and call `on_job` with each record, in completion order.
+
+        When `on_job` returns an awaitable it is awaited before that worker takes its next
+        job: a slow consumer slows the fetch instead of piling records up.
+        """
         queue: asyncio.Queue[Job | None] = asyncio.Queue(maxsize=2 * self._workers)
         try:
             async with asyncio.TaskGroup() as group:
@@ -102,6 +106,8 @@ class BatchFetcher:
         except ExceptionGroup as group_error:
             # The first failure is the cause; the rest are its echoes in sibling tasks.
             raise group_error.exceptions[0] from None
+        finally:
+            await self._tags.aclose()
         self.outcome.seconds = time.monotonic() - self.outcome.started
         return self.outcome
 
@@ -117,9 +123,7 @@ class BatchFetcher:
         for _ in range(self._workers):
             await queue.put(None)
 
-    async def _work(
-        self, queue: asyncio.Queue[Job | None], on_job: Callable[[JobRecord], None]
-    ) -> None:
+    async def _work(self, queue: asyncio.Queue[Job | None], on_job: OnJob) -> None:
         while (job := await queue.get()) is not None:
             try:
                 record = await self._fetch_job(job)
@@ -131,51 +135,69 @@ class BatchFetcher:
                 )
                 log.warning("job unavailable", job_id=str(job.job_id), reason=str(exc))
             else:
-                on_job(record)
+                handled = on_job(record)
+                if inspect.isawaitable(handled):
+                    await handled
                 self.outcome.jobs_done += 1
             if self._on_progress is not None:
                 self._on_progress(self.outcome)
 
     async def _fetch_job(self, job: Job) -> JobRecord:
-        data_items: list[ApiMetricsData] = []
-        if self._needs.data:
-            metrics, data_items = await asyncio.gather(
-                self._list_metrics(job), self._list_data(job)
-            )
-        else:
-            metrics = await self._list_metrics(job)
+        needs = self._needs
+        wants_blobs = bool(needs.data or needs.metrics) or needs.every_metric
+        listings: list[Awaitable[Any]] = [self._list_metrics(job)]
+        if wants_blobs:
+            listings.append(self._list_data(job))
+        if needs.events:
+            listings.append(self._list_events(job))
+        if needs.experience_tags:
+            listings.append(self._tags.of(job.experience_id))
+        listed = iter(await asyncio.gather(*listings) if len(listings) > 1 else [await listings[0]])
+        metrics: list[ApiMetric] = next(listed)
+        data_items: list[ApiMetricsData] = next(listed) if wants_blobs else []
+        events: tuple[JobEvent, ...] = tuple(next(listed)) if needs.events else ()
+        tags: tuple[str, ...] = next(listed) if needs.experience_tags else ()
         if metrics:
             self.outcome.jobs_with_metrics += 1
         scalars = await read_scalars(
             self._api.storage,
             metrics,
-            self._needs.wants_scalar,
+            needs.wants_scalar,
             source=f"job {job.job_id}",
             relist=lambda: self._list_metrics(job),
         )
         # Listed is enough: a name the job has is no typo, even when its value is absent.
         self.outcome.scalar_names.update(m.name for m in metrics if is_scalar(m))
+        self.outcome.metric_names.update(m.name for m in metrics if m.name)
         unnamed = sum(not d.name for d in data_items)
         if unnamed:
             self.outcome.unnamed_data += unnamed
             log.debug("unnamed metrics data skipped", job_id=str(job.job_id), count=unnamed)
         self.outcome.data_names.update(d.name for d in data_items if d.name)
-        wanted = [d for d in data_items if d.name in self._needs.data and d.is_standard]
-        if len(wanted) == 1:
-            # The common plan (one series per job) needs no task to gather.
-            series = {wanted[0].name: await self._download(job, wanted[0])}
-        else:
-            downloads = [self._download(job, d) for d in wanted]
-            values = await asyncio.gather(*downloads)
-            series = dict(zip((d.name for d in wanted), values, strict=True))
+        blobs = None
+        if wants_blobs:
+            blobs = await JobBlobs(
+                self._api.storage,
+                job.job_id,
+                needs,
+                metrics=metrics,
+                data=data_items,
+                relist_metrics=lambda: self._list_metrics(job),
+                relist_data=lambda: self._list_data(job),
+            ).fetch()
         return JobRecord(
             job_id=job.job_id,
             conflated_status=str(job.conflated_status or UNKNOWN_STATUS),
             experience_name=job.experience_name or "",
             experience_id=job.experience_id,
             scalars=scalars,
-            series=series,
+            series=blobs.series if blobs is not None else {},
             metric_statuses=[str(m.status) for m in metrics],
+            data=blobs.data if blobs is not None else {},
+            job_metrics=blobs.job_metrics if blobs is not None else None,
+            parameters=job.parameters,
+            events=events,
+            experience_tags=tags,
         )
 
     async def _list_metrics(self, job: Job) -> list[ApiMetric]:
@@ -192,27 +214,8 @@ class BatchFetcher:
             )
         ]
 
-    async def _download(self, job: Job, item: ApiMetricsData) -> pl.Series:
-        source = f"job {job.job_id} / metrics data {item.name!r}"
-        payload, _ = await fetch_listed(
-            self._api.storage,
-            item,
-            url_of=lambda d: d.metrics_data_url,
-            id_of=lambda d: d.data_id,
-            relist=lambda: self._list_data(job),
-            source=source,
-        )
-        if payload is None:
-            raise InvalidDataError(f"could not read MetricsData from {source}: it has no URL")
-        return decode_values(payload, source=source)
-
-
-def decode_values(payload: bytes, *, source: str) -> pl.Series:
-    """The values of a serialized MetricsData: its series, or all categories appended."""
-    try:
-        view = read_metrics_data(payload, source=source)
-        if view.per_category:
-            return view.frame().get_column("value").alias(view.name)
-        return view.series()
-    except ReadError as exc:
-        raise InvalidDataError(str(exc)) from None
+    async def _list_events(self, job: Job) -> list[JobEvent]:
+        return [
+            job_event(e)
+            async for e in self._api.list_job_events(self._project_id, self._batch_id, job.job_id)
+        ]

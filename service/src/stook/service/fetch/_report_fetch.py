@@ -11,6 +11,7 @@ of workers drains, so requests stay within the client's bound and memory within
 from __future__ import annotations
 
 import asyncio
+import dataclasses
 import time
 import uuid
 from collections import Counter
@@ -87,6 +88,8 @@ class _PendingBatch:
     job_scalars: dict[str, list[float]] = field(default_factory=dict)
     job_units: dict[str, str] = field(default_factory=dict)
     job_statuses: list[str] = field(default_factory=list)
+    # Per job: its scalar values by name, for report aggregations that read them per job.
+    job_values: dict[uuid.UUID, dict[str, float]] = field(default_factory=dict)
 
 
 class ReportFetcher:
@@ -228,6 +231,7 @@ class ReportFetcher:
                 for name, scalar in scalars.items():
                     pending.job_scalars.setdefault(name, []).append(scalar.value)
                     pending.job_units.setdefault(name, scalar.unit)
+                pending.job_values[job.job_id] = {n: s.value for n, s in scalars.items()}
                 # Listed is enough: a name a job has is no typo, even when its value is absent.
                 self.outcome.job_scalar_names.update(m.name for m in metrics if is_scalar(m))
             pending.remaining -= 1
@@ -263,10 +267,14 @@ class ReportFetcher:
                 conflated_status=str(batch.conflated_status or ""),
                 scalars=pending.scalars,
                 metric_statuses=sorted(pending.metric_statuses),
-                jobs=sorted(pending.jobs, key=lambda j: j.job_id),
+                jobs=[
+                    dataclasses.replace(j, scalars=pending.job_values.get(j.job_id, {}))
+                    for j in sorted(pending.jobs, key=lambda j: j.job_id)
+                ],
                 job_scalars={k: sorted(v) for k, v in pending.job_scalars.items()},
                 job_scalar_units=pending.job_units,
                 job_metric_statuses=sorted(job_statuses.elements()),
+                build_id=batch.build_id,
             )
         )
         if self._on_progress is not None:

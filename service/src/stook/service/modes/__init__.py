@@ -15,6 +15,7 @@ from stook.service.modes._inputs import (
     TestInputs,
     detect,
 )
+from stook.service.modes._library import fetch_batch, fetch_batch_frame, fetch_report
 from stook.service.modes._open_api import Traffic, open_api
 from stook.service.modes._outputs import OutputsError, check_outputs_folder
 from stook.service.modes._pipeline import (
@@ -54,6 +55,9 @@ __all__ = [
     "UserFunctionError",
     "check_outputs_folder",
     "detect",
+    "fetch_batch",
+    "fetch_batch_frame",
+    "fetch_report",
     "for_stream",
     "load",
     "open_api",

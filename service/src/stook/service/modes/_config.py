@@ -80,6 +80,9 @@ class ReportSettings:
     regression_window: int = 10
     regression_threshold: float = 3.5
     job_metrics: tuple[str, ...] | None = None  # None: every SCALAR job metric
+    change_points: bool = True
+    change_penalty: float = 3.0
+    unstable_experiences: bool = True
 
 
 @dataclass(frozen=True, slots=True)
@@ -202,11 +205,16 @@ def _report(
         if not isinstance(job_metrics, list) or not all(isinstance(m, str) for m in job_metrics):
             raise ConfigError(f"{source}: [report] job_metrics must be a list of metric names")
     known = {"defaults", "top_n", "regression_window", "regression_threshold"}
+    known |= {"change_points", "change_penalty", "unstable_experiences"}
     _only(settings, known, "[report]", source)
     defaults = ReportSettings()
     flag = settings.get("defaults", True)
     if not isinstance(flag, bool):
         raise ConfigError(f"{source}: [report] defaults must be true or false")
+    switches = {k: settings.get(k, True) for k in ("change_points", "unstable_experiences")}
+    for key, value in switches.items():
+        if not isinstance(value, bool):
+            raise ConfigError(f"{source}: [report] {key} must be true or false")
 
     def number(key: str, kind: type[int] | type[float], default: float) -> Any:
         value = settings.get(key, default)
@@ -225,6 +233,8 @@ def _report(
                 "regression_threshold", float, defaults.regression_threshold
             ),
             job_metrics=tuple(job_metrics) if job_metrics is not None else None,
+            change_penalty=number("change_penalty", float, defaults.change_penalty),
+            **switches,
         ),
         tables,
     )

@@ -38,6 +38,9 @@ def report_aggregations_for(config: StookConfig, project_id: str) -> list[Aggreg
             regression_window=settings.regression_window,
             regression_threshold=settings.regression_threshold,
             job_metrics=settings.job_metrics,
+            change_points=settings.change_points,
+            change_penalty=settings.change_penalty,
+            unstable_experiences=settings.unstable_experiences,
         )
     return defaults + config.report_aggregations()
 

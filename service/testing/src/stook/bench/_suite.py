@@ -15,6 +15,7 @@ from pathlib import Path
 from typing import Any, Final
 
 from stook.bench._adaptive import run_rate_limited
+from stook.bench._fetch_loads import run_fetch_loads
 from stook.bench._measure import (
     BARE_LOOP,
     BENCH_CONFIG,
@@ -37,6 +38,8 @@ _DATA_FILES: Final = ("sweep.csv", "bench.json", "tables.md")
 TARGET_REPEATS: Final = 5
 STARTUP_RUNS: Final = 7
 QUICK_STARTUP_RUNS: Final = 3
+FETCH_LOAD_JOBS: Final = 1000
+QUICK_FETCH_LOAD_JOBS: Final = 100
 
 
 def _warm(emulator: Any) -> None:
@@ -224,6 +227,12 @@ def run_bench(
         repeats=1 if quick else 2,
         say=say,
     )
+    load_jobs = QUICK_FETCH_LOAD_JOBS if quick else FETCH_LOAD_JOBS
+    say(
+        f"fetch loads, {load_jobs} jobs at 10 ms: defaults, one histogram metric, every "
+        "metric, against ReSim's fetcher ..."
+    )
+    fetch_loads = run_fetch_loads(load_jobs, 10.0, say=say)
     repeated: list[dict[str, Any]] = []
     if not quick:
         say(f"the target points again, {TARGET_REPEATS} runs each ...")
@@ -237,7 +246,11 @@ def run_bench(
                 "latency_ms": 10.0,
                 "speedup": resim["seconds"] / stook["seconds"],
             }
-    targets = {**startup_targets(startup), **evaluate_targets(rows, grid, compare, repeated)}
+    targets = {
+        **startup_targets(startup),
+        **evaluate_targets(rows, grid, compare, repeated),
+        **fetch_loads["targets"],
+    }
     for name, target in targets.items():
         verdict = "met" if target["met"] else "MISSED"
         say(f"target {name}: {target['measured']} ({target['target']}) {verdict}")
@@ -252,6 +265,7 @@ def run_bench(
         "target_points_repeated": repeated,
         "memory_exact_histogram": memory,
         "adaptive": adaptive,
+        "fetch_loads": fetch_loads,
     }
     out_dir.mkdir(parents=True, exist_ok=True)
     _write_csv(rows, out_dir / f"{prefix}sweep.csv")

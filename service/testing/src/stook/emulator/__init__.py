@@ -16,7 +16,7 @@ deterministic by seed; latency, transient faults and rate limits are configurabl
 from stook.emulator._config import EmulatorConfig, Origin, Outage
 from stook.emulator._dataset import Dataset
 from stook.emulator._faults import FaultKind
-from stook.emulator._generate import Truth
+from stook.emulator._generate import EventTruth, HistogramTruth, Truth
 from stook.emulator._server import (
     BATCH_CONFIG,
     REPORT_CONFIG,
@@ -28,7 +28,7 @@ from stook.emulator._server import (
     serve_with_inputs,
 )
 from stook.emulator._stats import EmulatorStats
-from stook.emulator._store import MetricsOutput, StoredData, StoredMetric
+from stook.emulator._store import MetricsOutput, StoredData, StoredEvent, StoredMetric
 from stook.emulator._world import BatchKind, BatchSpec, Experience, JobSpec, ReportSpec
 
 __all__ = [
@@ -42,14 +42,17 @@ __all__ = [
     "EmulatorInfo",
     "EmulatorProcess",
     "EmulatorStats",
+    "EventTruth",
     "Experience",
     "FaultKind",
+    "HistogramTruth",
     "JobSpec",
     "MetricsOutput",
     "Origin",
     "Outage",
     "ReportSpec",
     "StoredData",
+    "StoredEvent",
     "StoredMetric",
     "Truth",
     "main",

@@ -84,6 +84,11 @@ def build_api_app(state: EmulatorState) -> web.Application:
         routes.list_job_metrics_data,
         name="list_job_metrics_data",
     )
+    job = f"{p}/batches/{{batch_id}}/jobs/{{job_id}}"
+    app.router.add_get(f"{job}/events", routes.list_events, name="list_events")
+    app.router.add_get(f"{job}/events/{{event_id}}", routes.get_event, name="get_event")
+    app.router.add_get(f"{job}/eventMetrics", routes.list_event_metrics, name="list_event_metrics")
+    app.router.add_get(f"{job}/eventTags", routes.list_event_tags, name="list_event_tags")
     app.router.add_get(
         f"{p}/batches/{{batch_id}}/metrics", routes.list_batch_metrics, name="list_batch_metrics"
     )
@@ -151,6 +156,14 @@ class _ApiRoutes:
             raise ApiError(400, str(exc)) from None
         return list(page.items), page.next_token, page.total
 
+    @staticmethod
+    def _no_filter(request: web.Request, *names: str) -> None:
+        """The spec's optional filters this emulator does not implement answer 400, so that
+        a client relying on one fails loudly instead of reading an unfiltered list."""
+        for name in names:
+            if name in request.query:
+                raise ApiError(400, f"the emulator does not implement the {name!r} filter")
+
     def _broken(self, batch_id: uuid.UUID, job_id: uuid.UUID) -> bool:
         broken = self.state.config.broken_jobs
         if not broken or batch_id != self.ds.main_batch_id:
@@ -215,10 +228,20 @@ class _ApiRoutes:
         return batch_id, job_id, self.quirks.job_output(output)
 
     async def list_job_metrics(self, request: web.Request) -> web.Response:
+        return self._job_metrics_answer(request, event_only=False)
+
+    async def list_event_metrics(self, request: web.Request) -> web.Response:
+        self._no_filter(request, "text")
+        return self._job_metrics_answer(request, event_only=True)
+
+    def _job_metrics_answer(self, request: web.Request, *, event_only: bool) -> web.Response:
+        """A job's metrics (all, as `/metrics` lists them, or its event metrics only)."""
         batch_id, job_id, output = self._job_output(request)
         job = self.ds.job(batch_id, job_id)
         assert job is not None
-        items, token, _ = self._page(request, list(output.metrics), f"job-metrics:{job_id}")
+        metrics = output.event_metrics if event_only else output.metrics
+        key = f"job-{'event-' if event_only else ''}metrics:{job_id}"
+        items, token, _ = self._page(request, list(metrics), key)
         base = f"/{BUCKET}/projects/{self.ds.project_id}/batches/{batch_id}/jobs/{job_id}"
         owner = {"jobID": str(job_id), "batchID": str(batch_id)}
         created = job.created + timedelta(minutes=3)
@@ -271,6 +294,39 @@ class _ApiRoutes:
                 }
             )
         )
+
+    async def list_events(self, request: web.Request) -> web.Response:
+        self._no_filter(request, "eventTags")
+        batch_id, job_id, output = self._job_output(request)
+        job = self.ds.job(batch_id, job_id)
+        assert job is not None
+        items, token, _ = self._page(request, list(output.events), f"job-events:{job_id}")
+        created = job.created + timedelta(minutes=3)
+        return json_response(
+            self.quirks.page(
+                {
+                    "events": [self.quirks.event(_json.event(e, created)) for e in items],
+                    "nextPageToken": token,
+                }
+            )
+        )
+
+    async def get_event(self, request: web.Request) -> web.Response:
+        batch_id, job_id, output = self._job_output(request)
+        job = self.ds.job(batch_id, job_id)
+        assert job is not None
+        event_id = _uuid_arg(request, "event_id")
+        event = output.event(event_id)
+        if event is None:
+            raise ApiError(404, f"event {event_id} not found in job {job_id}")
+        created = job.created + timedelta(minutes=3)
+        return json_response(self.quirks.event(_json.event(event, created)))
+
+    async def list_event_tags(self, request: web.Request) -> web.Response:
+        self._no_filter(request, "name")
+        _, job_id, output = self._job_output(request)
+        items, token, _ = self._page(request, output.event_tags, f"job-event-tags:{job_id}")
+        return json_response(self.quirks.page({"eventTags": items, "nextPageToken": token}))
 
     def _batch_output(self, request: web.Request) -> tuple[uuid.UUID, MetricsOutput | None]:
         batch_id = self._batch(request)

@@ -59,6 +59,10 @@ class EmulatorConfig:
     # and of report batches whose batch metrics lack "Mean localization error" (gaps).
     report_batches_without_metrics: tuple[int, ...] = ()
     report_partial_metric_batches: tuple[int, ...] = ()
+    # From this report batch on, a step change: see _steps.py. None: no step.
+    report_step_change_batch: int | None = None
+    # Indices of experiences whose localization error varies wildly (see _steps.py).
+    report_unstable_experiences: tuple[int, ...] = ()
     cache_jobs: int = 256  # generated job outputs kept (an LRU); the rest is regenerated
 
     # ---- answers the API spec allows (see _quirks.py) ----
@@ -88,14 +92,18 @@ class EmulatorConfig:
     fault_origins: tuple[Origin, ...] = ORIGINS
     retry_after_max_s: int = 1  # a fault 429 carries Retry-After 0..this (whole seconds)
     max_consecutive_faults: int = 2  # the same request never faults more often in a row
-    # Indices of main-batch jobs whose metrics and metrics-data listings always answer 500:
-    # permanent, unlike the faults above, so a client exhausts its retries on them.
+    # Indices of main-batch jobs whose metrics, metrics-data and event listings always
+    # answer 500: permanent, unlike the faults above, so a client exhausts its retries.
     broken_jobs: tuple[int, ...] = ()
     # Whole-origin outages (503 to everything for a while); see Outage.
     outages: tuple[Outage, ...] = ()
     # Indices of main-batch jobs whose metrics-data blobs are garbage (not a MetricsData
     # message), every time: a client that downloads one must fail with invalid data.
     corrupt_data_jobs: tuple[int, ...] = ()
+    # Indices of main-batch jobs whose "Acceleration distribution" histogram uses other
+    # buckets than the rest (20 over -10..10 instead of 16 over -8..8): a client merging
+    # the jobs' histograms must refuse, naming two jobs.
+    histogram_bucket_mismatch_jobs: tuple[int, ...] = ()
     # After this many API requests the token counts as expired: every later API request is
     # answered 401, as when a platform token runs out mid-run. None: it never expires.
     revoke_token_after_requests: int | None = None
@@ -130,15 +138,20 @@ class EmulatorConfig:
                 raise ValueError("a rate limit must be positive (or None)")
         if any(o not in ORIGINS for o in self.fault_origins):
             raise ValueError(f"fault_origins must be drawn from {ORIGINS}")
+        step = self.report_step_change_batch
+        if step is not None and (isinstance(step, bool) or not isinstance(step, int) or step < 0):
+            raise ValueError("report_step_change_batch must be a batch index (from 0) or None")
         if self.revoke_token_after_requests is not None and self.revoke_token_after_requests < 0:
             raise ValueError("revoke_token_after_requests cannot be negative")
         for name in (
             "broken_jobs",
             "corrupt_data_jobs",
+            "histogram_bucket_mismatch_jobs",
             "report_batches_without_metrics",
             "report_partial_metric_batches",
             "future_status_jobs",
             "unreported_status_jobs",
+            "report_unstable_experiences",
         ):
             indices = getattr(self, name)
             if any(isinstance(i, bool) or not isinstance(i, int) or i < 0 for i in indices):
@@ -169,10 +182,12 @@ class EmulatorConfig:
             "fault_origins",
             "broken_jobs",
             "corrupt_data_jobs",
+            "histogram_bucket_mismatch_jobs",
             "report_batches_without_metrics",
             "report_partial_metric_batches",
             "future_status_jobs",
             "unreported_status_jobs",
+            "report_unstable_experiences",
         ):
             if name in clean:
                 clean[name] = tuple(clean[name])

@@ -9,6 +9,7 @@ answers the ground-truth questions tests ask of a batch or a report.
 from __future__ import annotations
 
 import uuid
+from collections import Counter
 from collections.abc import Iterator
 
 from stook.emulator._config import EmulatorConfig
@@ -83,6 +84,24 @@ class Dataset(World):
             for name, status in self._store.job_truth(job).statuses.items():
                 out.setdefault(name, {})[job.id] = status
         return out
+
+    def job_truths(self, batch_id: uuid.UUID) -> Iterator[tuple[JobSpec, Truth]]:
+        """Every job of a batch with what its metrics build wrote, in job order."""
+        for job in self.jobs(batch_id):
+            yield job, self._store.job_truth(job)
+
+    def event_counts(self, batch_id: uuid.UUID) -> Counter[tuple[str, str]]:
+        """How many events of each (name, status) the batch's jobs wrote."""
+        return Counter((e.name, e.status) for _, t in self.job_truths(batch_id) for e in t.events)
+
+    def label_totals(self, batch_id: uuid.UUID, data_name: str) -> dict[str, float]:
+        """Per label, the sum over the batch's jobs of a label-indexed doubles data (such
+        as "detections per class"), labels in order of first appearance."""
+        totals: dict[str, float] = {}
+        for _, truth in self.job_truths(batch_id):
+            for label, value in truth.labelled.get(data_name, {}).items():
+                totals[label] = totals.get(label, 0.0) + value
+        return totals
 
     def truth(self, batch_id: uuid.UUID, job_id: uuid.UUID) -> Truth:
         job = self.job(batch_id, job_id)

@@ -7,15 +7,17 @@ against is recorded alongside each call, never read back from the protobufs.
 
 from __future__ import annotations
 
+import itertools
 import math
 import random
 import uuid
 from dataclasses import dataclass, field
 
 from stook.emulator._config import EmulatorConfig
+from stook.emulator._steps import distance_factor
 from stook.emulator._world import BatchKind, BatchSpec, JobSpec
 from stook.proto import metrics_pb2 as pb
-from stook.sdk import MetricStatus, MetricsWriter, data
+from stook.sdk import MetricHandle, MetricStatus, MetricsWriter, SeriesKind, data
 
 # Scalar metric names the generator writes (and their units).
 SCALARS: dict[str, str | None] = {
@@ -23,6 +25,31 @@ SCALARS: dict[str, str | None] = {
     "Distance driven": "m",
     "Max speed": "m/s",
     "Collisions": None,
+    "Braking distance": "m",  # rises with the job's max_speed parameter
+}
+# Histogram metrics every job with metrics writes, on buckets shared by all jobs (but
+# those of EmulatorConfig.histogram_bucket_mismatch_jobs): name -> (values data, buckets,
+# lower, upper).
+HISTOGRAMS: dict[str, tuple[str, int, float, float]] = {
+    "Acceleration distribution": ("accelerations", 16, -8.0, 8.0),
+    "Speed histogram": ("speeds", 20, 0.0, 40.0),
+}
+ODD_BUCKETS = (20, -10.0, 10.0)  # "Acceleration distribution" of a mismatch job
+# The per-class detections: a BAR_CHART over doubles indexed by class labels, and the same
+# counts split over the run's quarters as per-category data. A class a job never saw is
+# left out of its labels (only "bus" can be), so label sets differ between jobs.
+OBJECT_CLASSES = ("car", "pedestrian", "cyclist", "truck", "bus")
+DETECTIONS_METRIC = "Detections per class"
+DETECTIONS_DATA = "detections per class"
+DETECTIONS_LABELS = "object classes"
+DETECTIONS_BY_CATEGORY = "detections per class (by category)"
+DETECTION_WINDOWS = 4
+# Events a job can write (each at most once), their tags, and the event metric each
+# references (None: the event references no metric).
+EVENTS: dict[str, tuple[tuple[str, ...], str | None]] = {
+    "Hard brake": (("braking", "longitudinal"), "Hard brake deceleration"),
+    "Lane departure": (("lateral",), None),
+    "Near miss": (("longitudinal", "safety"), "Near miss distance"),
 }
 DOUBLE_SERIES = ("speeds", "accelerations", "Lateral offset")
 STEP_NS = 100_000_000  # 10 Hz samples
@@ -38,6 +65,28 @@ LOCALIZATION_LIMIT = 0.3
 
 
 @dataclass(frozen=True, slots=True)
+class HistogramTruth:
+    """A HISTOGRAM metric as written: the data it bins and its buckets."""
+
+    values_data: str
+    buckets: tuple[tuple[float, float], ...]
+    values: tuple[float, ...]
+
+
+@dataclass(frozen=True, slots=True)
+class EventTruth:
+    """One event as written: absolute timestamp in ns, API status, and the name and
+    value of each event metric it references (all SCALAR)."""
+
+    name: str
+    description: str
+    timestamp_ns: int
+    status: str
+    tags: tuple[str, ...]
+    metrics: dict[str, float]
+
+
+@dataclass(frozen=True, slots=True)
 class Truth:
     """What the generator wrote, independent of any protobuf."""
 
@@ -49,6 +98,19 @@ class Truth:
     external_data_names: tuple[str, ...]
     overall_status: str
     units: dict[str, str] = field(default_factory=dict)  # scalar name -> unit ("" for none)
+    # Scalars above exclude event metrics (see `events`); statuses and metric_types do not.
+    parameters: dict[str, str] = field(default_factory=dict)  # the job's batch parameters
+    histograms: dict[str, HistogramTruth] = field(default_factory=dict)  # by metric name
+    # Doubles indexed by string labels, by data name: label -> value, in label order.
+    labelled: dict[str, dict[str, float]] = field(default_factory=dict)
+    # Per-category data, by data name: category -> its series.
+    per_category: dict[str, dict[str, tuple[float, ...]]] = field(default_factory=dict)
+    events: tuple[EventTruth, ...] = ()
+
+    @property
+    def event_scalars(self) -> dict[str, float]:
+        """The event metrics' values, by metric name."""
+        return {k: v for e in self.events for k, v in e.metrics.items()}
 
 
 class TruthBuilder:
@@ -59,6 +121,11 @@ class TruthBuilder:
         self.scalars: dict[str, float] = {}
         self.series: dict[str, tuple[float, ...]] = {}
         self.units: dict[str, str] = {}
+        self.parameters: dict[str, str] = {}
+        self.histograms: dict[str, HistogramTruth] = {}
+        self.labelled: dict[str, dict[str, float]] = {}
+        self.per_category: dict[str, dict[str, tuple[float, ...]]] = {}
+        self.events: list[EventTruth] = []
 
     def build(self, writer: MetricsWriter) -> Truth:
         metrics = writer.metrics
@@ -71,6 +138,11 @@ class TruthBuilder:
             external_data_names=tuple(d.name for d in writer.data if d.external_path is not None),
             overall_status=writer.status.name if metrics else "NO_STATUS_REPORTED",
             units=dict(self.units),
+            parameters=dict(self.parameters),
+            histograms=dict(self.histograms),
+            labelled={k: dict(v) for k, v in self.labelled.items()},
+            per_category={k: dict(v) for k, v in self.per_category.items()},
+            events=tuple(self.events),
         )
 
 
@@ -97,6 +169,7 @@ def generate_job(seed: int, job: JobSpec) -> WrittenMetrics:
     """A job's metrics as its metrics build would have written them."""
     writer = MetricsWriter(job.id, deterministic=True)
     truth = TruthBuilder()
+    truth.parameters = job.parameter_map
     if not job.has_metrics:
         return WrittenMetrics(writer, truth)
     rng = random.Random(f"{seed}:job-metrics:{job.id}")
@@ -140,6 +213,7 @@ def generate_job(seed: int, job: JobSpec) -> WrittenMetrics:
             loc_error = abs(rng.gauss(0.12, 0.04))
             na = rng.random() < 0.03
             loc_status = MetricStatus.NOT_APPLICABLE if na else MetricStatus.PASSED
+        loc_error *= job.localization_factor
         _scalar(writer, truth, "Localization error", loc_error, loc_status)
     _scalar(writer, truth, "Distance driven", sum(speeds) * dt, MetricStatus.RAW)
     top = max(speeds)
@@ -154,14 +228,7 @@ def generate_job(seed: int, job: JobSpec) -> WrittenMetrics:
         blocking=True,
     )
     writer.double_over_time("Lateral offset over time", lateral_data, y_axis_name="Offset (m)")
-    writer.histogram(
-        "Acceleration distribution",
-        accel_data,
-        buckets=16,
-        lower=-8.0,
-        upper=8.0,
-        x_axis_name="Acceleration (m/s^2)",
-    )
+    _histogram(writer, truth, job, "Acceleration distribution", accel_data, "Acceleration (m/s^2)")
     writer.text(
         "Run notes",
         f"**{job.experience.name}**: {n} steps at {cruise:.1f} m/s cruise, top {top:.1f} m/s.",
@@ -169,7 +236,123 @@ def generate_job(seed: int, job: JobSpec) -> WrittenMetrics:
     )
     if rng.random() < 0.2 or job.index % 16 == _IMAGE_SLOT:
         writer.image("Camera snapshot", data.external_file("Camera snapshot", "camera.png"))
+    # What came later draws from its own generator, so that the values above stay put.
+    extra = random.Random(f"{seed}:job-extras:{job.id}")
+    _histogram(writer, truth, job, "Speed histogram", speeds_data, "Speed (m/s)")
+    max_speed = job.parameter_map.get("max_speed")
+    # Stopping from the speed cap at about 7 m/s^2: a sweep over max_speed shows it rise.
+    cap = float(max_speed) if max_speed is not None else cruise
+    braking = cap * cap / 14.0 * extra.uniform(0.9, 1.1)
+    _scalar(writer, truth, "Braking distance", braking, MetricStatus.RAW)
+    _detections(writer, truth, extra)
+    _events(writer, truth, job, extra, start_ns, accelerations, lateral)
     return WrittenMetrics(writer, truth)
+
+
+def _histogram(
+    writer: MetricsWriter,
+    truth: TruthBuilder,
+    job: JobSpec,
+    name: str,
+    values: data.MetricsData,
+    x_axis_name: str,
+) -> None:
+    values_name, count, lower, upper = HISTOGRAMS[name]
+    if job.odd_histogram_buckets and name == "Acceleration distribution":
+        count, lower, upper = ODD_BUCKETS
+    handle = writer.histogram(
+        name, values, buckets=count, lower=lower, upper=upper, x_axis_name=x_axis_name
+    )
+    buckets = handle.proto.metric_values.histogram_metric_values.buckets
+    truth.histograms[name] = HistogramTruth(
+        values_name,
+        tuple((b.lower, b.upper) for b in buckets),
+        truth.series[values_name],
+    )
+
+
+def _detections(writer: MetricsWriter, truth: TruthBuilder, rng: random.Random) -> None:
+    """The per-class detection counts, as a bar chart and as per-category data."""
+    counts = {
+        "car": rng.randint(5, 40),
+        "pedestrian": rng.randint(0, 15),
+        "cyclist": rng.randint(0, 8),
+        "truck": rng.randint(1, 10),
+        "bus": rng.randint(0, 3),
+    }
+    if counts["bus"] == 0:
+        del counts["bus"]  # a class never seen is not a bar
+    labels = list(counts)
+    values = [float(counts[c]) for c in labels]
+    writer.bar_chart(
+        DETECTIONS_METRIC,
+        data.doubles(DETECTIONS_DATA, values, index=data.strings(DETECTIONS_LABELS, labels)),
+        x_axis_name="Class",
+        y_axis_name="Detections",
+        status=MetricStatus.RAW,
+    )
+    truth.labelled[DETECTIONS_DATA] = dict(zip(labels, values, strict=True))
+    windows: dict[str, tuple[float, ...]] = {}
+    for label, count in counts.items():
+        cuts = sorted(rng.randint(0, count) for _ in range(DETECTION_WINDOWS - 1))
+        edges = [0, *cuts, count]
+        windows[label] = tuple(float(b - a) for a, b in itertools.pairwise(edges))
+    writer.add_data(data.per_category(DETECTIONS_BY_CATEGORY, SeriesKind.DOUBLE, windows))
+    truth.per_category[DETECTIONS_BY_CATEGORY] = windows
+
+
+def _events(
+    writer: MetricsWriter,
+    truth: TruthBuilder,
+    job: JobSpec,
+    rng: random.Random,
+    start_ns: int,
+    accelerations: list[float],
+    lateral: list[float],
+) -> None:
+    """A few events at absolute times in the run; a near miss in every failing job."""
+    n = len(accelerations)
+    status = job.conflated_status
+    written: list[tuple[str, int, MetricStatus, str, float | None]] = []
+    if rng.random() < 0.7 or job.index % 4 == 0:
+        step = min(range(n), key=accelerations.__getitem__)
+        decel = accelerations[step]
+        # Nearly every run brakes at the clip (-8); how hard is not what a verdict judges.
+        verdict = MetricStatus.FAIL_WARN if rng.random() < 0.35 else MetricStatus.PASSED
+        written.append(("Hard brake", step, verdict, f"Braked at {decel:.2f} m/s^2", decel))
+    if rng.random() < 0.4 or job.index % 4 == 1:
+        step = max(range(n), key=lambda i: abs(lateral[i]))
+        verdict = MetricStatus.FAIL_WARN if rng.random() < 0.3 else MetricStatus.PASSED
+        text = f"Lateral offset reached {lateral[step]:.2f} m"
+        written.append(("Lane departure", step, verdict, text, None))
+    if status in ("WARNING", "BLOCKER") or rng.random() < 0.1:
+        step = rng.randrange(n)
+        gap = rng.uniform(0.3, 2.0)
+        verdict = {"BLOCKER": MetricStatus.FAIL_BLOCK, "WARNING": MetricStatus.FAIL_WARN}.get(
+            status, MetricStatus.PASSED
+        )
+        written.append(("Near miss", step, verdict, f"Closest gap {gap:.2f} m", gap))
+    for name, step, verdict, description, value in written:
+        tags, metric_name = EVENTS[name]
+        metrics: list[MetricHandle] = []
+        metric_values: dict[str, float] = {}
+        if metric_name is not None and value is not None:
+            unit = "m" if name == "Near miss" else "m/s^2"
+            # RAW, so that the job's metric statuses still follow its conflated status.
+            metrics.append(
+                writer.scalar(metric_name, value, unit=unit, status=MetricStatus.RAW, event=True)
+            )
+            metric_values[metric_name] = value
+        at = start_ns + step * STEP_NS
+        writer.event(
+            name,
+            timestamp=at,
+            metrics=metrics,
+            status=verdict,
+            description=description,
+            tags=tags,
+        )
+        truth.events.append(EventTruth(name, description, at, verdict.name, tags, metric_values))
 
 
 def _scalar(
@@ -194,6 +377,7 @@ class BatchMetricsPlan:
     with_metrics: bool = True
     with_localization: bool = True
     regressed: bool = False
+    distance_factor: float = 1.0  # a step change (see _steps.py)
 
 
 def batch_metrics_plan(config: EmulatorConfig, batch: BatchSpec) -> BatchMetricsPlan:
@@ -205,6 +389,7 @@ def batch_metrics_plan(config: EmulatorConfig, batch: BatchSpec) -> BatchMetrics
         with_metrics=batch.index not in c.report_batches_without_metrics,
         with_localization=batch.index not in c.report_partial_metric_batches,
         regressed=c.report_regression and batch.index == c.report_batches - 1,
+        distance_factor=distance_factor(c, batch.index),
     )
 
 
@@ -236,6 +421,7 @@ def generate_batch(
     distance = distance_level * (1.0 + rng.uniform(-STABLE_NOISE, STABLE_NOISE))
     if plan.regressed:
         loc *= REGRESSION_FACTOR
+    distance *= plan.distance_factor
     if plan.with_localization:
         writer.scalar("Mean localization error", loc, unit="m", fails_above=LOCALIZATION_LIMIT)
         truth.scalars["Mean localization error"] = loc

@@ -3,11 +3,11 @@
 from __future__ import annotations
 
 from collections import Counter
-from datetime import datetime, timedelta
+from datetime import UTC, datetime, timedelta
 from typing import Any
 
 from stook.emulator._dataset import Dataset
-from stook.emulator._store import StoredData, StoredMetric
+from stook.emulator._store import StoredData, StoredEvent, StoredMetric
 from stook.emulator._world import BatchSpec, Build, ExperienceTag, JobSpec, ReportSpec
 
 Json = dict[str, Any]
@@ -44,6 +44,7 @@ def job(ds: Dataset, j: JobSpec) -> Json:
         "lastRunTimestamp": timestamp(j.created),
         "lastUpdatedTimestamp": timestamp(finished),
         "outputLocation": f"s3://emulated-resim/{ds.project_id}/{j.batch_id}/{j.id}/",
+        "parameters": j.parameter_map,
         "userID": str(ds.user_id),
         "orgID": ds.org_id,
         "runCounter": 1,
@@ -219,6 +220,24 @@ def metrics_data(d: StoredData, url: str, created: datetime, owner: Json, ds: Da
         "userID": str(ds.user_id),
         "orgID": ds.org_id,
         **owner,
+    }
+
+
+def event(e: StoredEvent, created: datetime) -> Json:
+    """An event; a RELATIVE one's timestamp counts from the epoch."""
+    moment = datetime.fromtimestamp(e.timestamp_ns // 1_000_000_000, UTC) + timedelta(
+        microseconds=e.timestamp_ns % 1_000_000_000 // 1000
+    )
+    return {
+        "eventID": str(e.id),
+        "name": e.name,
+        "description": e.description,
+        "creationTimestamp": timestamp(created),
+        "timestampType": e.timestamp_type,
+        "timestamp": timestamp(moment),
+        "tags": list(e.tags),
+        "status": e.status,
+        "metricsIDs": [str(m) for m in e.metric_ids],
     }
 
 

@@ -85,6 +85,8 @@ async def admit(state: EmulatorState, request: web.Request, origin: Origin) -> w
         stats.first_request_at = now
     stats.requests[origin] += 1
     stats.endpoints[f"{origin}:{route_name(request)}"] += 1
+    if origin == "api":
+        stats.api_paths[request.path] += 1
     window = state.outages.refuses(origin, stats.requests[origin] - 1, now)
     if window is not None:
         # Before the latency: a load balancer with nothing behind it answers at once.

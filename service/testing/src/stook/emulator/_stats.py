@@ -13,6 +13,9 @@ class EmulatorStats:
 
     requests: Counter[str] = field(default_factory=Counter)  # per origin
     endpoints: Counter[str] = field(default_factory=Counter)  # "api:list_jobs", ...
+    # API requests per path (no query), e.g. to check that a client asks for each
+    # experience's tags once: "/v1/projects/<p>/experiences/<e>/experienceTags".
+    api_paths: Counter[str] = field(default_factory=Counter)
     statuses: Counter[str] = field(default_factory=Counter)  # "api:200", "storage:403", ...
     faults: Counter[str] = field(default_factory=Counter)  # "storage:reset", "api:5xx", ...
     rate_limited: Counter[str] = field(default_factory=Counter)  # per origin
@@ -32,6 +35,10 @@ class EmulatorStats:
     # When the first request arrived, in time.monotonic() seconds (one clock for every
     # process on the machine): `stook bench` times a client's start-up against it.
     first_request_at: float | None = None
+
+    def path_requests(self, suffix: str) -> dict[str, int]:
+        """API requests per path ending in `suffix` (e.g. "/experienceTags")."""
+        return {p: n for p, n in self.api_paths.items() if p.endswith(suffix)}
 
     def fault_count(self, kind: str | None = None, origin: str | None = None) -> int:
         total = 0
@@ -54,6 +61,7 @@ class EmulatorStats:
         return {
             "requests": dict(self.requests),
             "endpoints": dict(self.endpoints),
+            "api_paths": dict(self.api_paths),
             "statuses": dict(self.statuses),
             "faults": dict(self.faults),
             "rate_limited": dict(self.rate_limited),
@@ -74,6 +82,7 @@ class EmulatorStats:
         return cls(
             requests=Counter(values.get("requests", {})),
             endpoints=Counter(values.get("endpoints", {})),
+            api_paths=Counter(values.get("api_paths", {})),
             statuses=Counter(values.get("statuses", {})),
             faults=Counter(values.get("faults", {})),
             rate_limited=Counter(values.get("rate_limited", {})),

@@ -55,6 +55,20 @@ class StoredData:
 
 
 @dataclass(frozen=True, slots=True)
+class StoredEvent:
+    """One Event as the API lists it."""
+
+    id: uuid.UUID
+    name: str
+    description: str
+    timestamp_ns: int
+    timestamp_type: str  # ABSOLUTE or RELATIVE
+    tags: tuple[str, ...]
+    status: str
+    metric_ids: tuple[uuid.UUID, ...]
+
+
+@dataclass(frozen=True, slots=True)
 class MetricsOutput:
     """One job's (or batch's) output split into the per-object API view."""
 
@@ -64,6 +78,19 @@ class MetricsOutput:
     truth: Truth
     _metric_index: dict[uuid.UUID, StoredMetric] = field(repr=False)
     _data_index: dict[uuid.UUID, StoredData] = field(repr=False)
+    events: tuple[StoredEvent, ...] = ()
+
+    @property
+    def event_metrics(self) -> tuple[StoredMetric, ...]:
+        return tuple(m for m in self.metrics if m.event)
+
+    @property
+    def event_tags(self) -> list[str]:
+        """The distinct tags of the events, sorted."""
+        return sorted({t for e in self.events for t in e.tags})
+
+    def event(self, event_id: uuid.UUID) -> StoredEvent | None:
+        return next((e for e in self.events if e.id == event_id), None)
 
     def metric(self, metric_id: uuid.UUID) -> StoredMetric | None:
         return self._metric_index.get(metric_id)
@@ -183,6 +210,19 @@ def split_output(owner_id: uuid.UUID, written: WrittenMetrics) -> MetricsOutput:
                     "application/octet-stream",
                 )
             )
+    events = tuple(
+        StoredEvent(
+            id=uuid.UUID(e.event_id.id.data),
+            name=e.name,
+            description=e.description,
+            timestamp_ns=e.timestamp.seconds * 1_000_000_000 + e.timestamp.nanos,
+            timestamp_type="RELATIVE" if e.timestamp_type == pb.RELATIVE_TIMESTAMP else "ABSOLUTE",
+            tags=tuple(e.tags),
+            status=MetricStatus(e.status).name,
+            metric_ids=tuple(uuid.UUID(m.id.data) for m in e.metrics),
+        )
+        for e in proto.events
+    )
     return MetricsOutput(
         owner_id,
         tuple(metrics),
@@ -190,6 +230,7 @@ def split_output(owner_id: uuid.UUID, written: WrittenMetrics) -> MetricsOutput:
         written.truth(),
         {m.id: m for m in metrics},
         {d.id: d for d in stored},
+        events,
     )
 
 

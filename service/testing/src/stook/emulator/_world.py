@@ -14,6 +14,7 @@ from dataclasses import dataclass
 from datetime import UTC, datetime, timedelta
 
 from stook.emulator._config import EmulatorConfig
+from stook.emulator._steps import localization_factor, step_status
 
 _NAMESPACE = uuid.UUID("0b6f0c55-3a5e-4d0e-8c77-6f1d2b9e4a10")
 # Data is anchored to a fixed instant so that equal seeds give equal timestamps.
@@ -32,6 +33,12 @@ _SCENARIOS = (
     "Construction zone",
 )
 _TAG_NAMES = ("highway", "urban", "night", "rain", "merge", "pedestrian", "regression")
+# A parameter sweep: each job of a main or report batch runs with one value of each, cycled
+# by job index (max_speed fastest), so that every sizeable batch covers every combination.
+SWEEP_PARAMETERS: dict[str, tuple[str, ...]] = {
+    "max_speed": ("10", "15", "20", "25"),
+    "planner_mode": ("cautious", "assertive"),
+}
 
 # A fixed job slot that makes every seed show a job without metrics (in batches of 8 or
 # more jobs); `_generate` has the slots of the other cases every seed shows.
@@ -98,6 +105,16 @@ class JobSpec:
     has_metrics: bool
     created: datetime
     build_id: uuid.UUID
+    # The job's batch parameters (name, value), sorted by name; () for a job run without.
+    parameters: tuple[tuple[str, str], ...] = ()
+    # Its "Acceleration distribution" uses other buckets than every other job's
+    # (EmulatorConfig.histogram_bucket_mismatch_jobs).
+    odd_histogram_buckets: bool = False
+    localization_factor: float = 1.0  # see _steps.py
+
+    @property
+    def parameter_map(self) -> dict[str, str]:
+        return dict(self.parameters)
 
 
 @dataclass(frozen=True, slots=True)
@@ -318,6 +335,8 @@ class World:
             conflated = "WARNING"
         else:
             conflated = "PASSED"
+        report_index = batch.index if batch.kind is BatchKind.REPORT else None
+        conflated = step_status(self.config, report_index, experience.index, conflated)
         has_metrics = conflated != "CANCELLED" and not (conflated == "ERROR" and rng.random() < 0.6)
         if i == _ERROR_WITHOUT_METRICS and batch.job_count >= 8:
             # Every sizeable batch has a job that died before writing any metrics, so
@@ -340,4 +359,22 @@ class World:
             has_metrics,
             batch.created + timedelta(milliseconds=50 * i),
             batch.build_id,
+            _sweep_parameters(batch, i),
+            batch.kind is BatchKind.MAIN and i in self.config.histogram_bucket_mismatch_jobs,
+            localization_factor(self.config, experience.index, str(batch.id))
+            if report_index is not None
+            else 1.0,
         )
+
+
+def _sweep_parameters(batch: BatchSpec, i: int) -> tuple[tuple[str, str], ...]:
+    """A job's parameters: the sweep's values for its index; none in decoy batches, which
+    ran without a sweep."""
+    if batch.kind is BatchKind.DECOY:
+        return ()
+    out: list[tuple[str, str]] = []
+    stride = 1
+    for name, values in SWEEP_PARAMETERS.items():
+        out.append((name, values[(i // stride) % len(values)]))
+        stride *= len(values)
+    return tuple(sorted(out))

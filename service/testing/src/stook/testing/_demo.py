@@ -3,8 +3,9 @@
 1. Test mode: the SDK example writes every metric type for one synthetic test.
 2. Batch mode: the emulator (in its own process, with latency and transient faults)
    serves a batch; stook fetches and aggregates it with an example config.
-3. Report mode: the same emulator serves a test suite's batches over two weeks;
-   stook draws them over time and says what regressed.
+3. Report mode: the same emulator serves a test suite's batches over two weeks, with a
+   step change half-way; stook draws them over time, says what regressed in the latest
+   batch and where, earlier, a level moved (change points).
 Each output is validated and summarised; the batch summary adds jobs, requests,
 retries and seconds.
 """
@@ -79,6 +80,14 @@ def _print_output(path: Path) -> int:
     return len(problems)
 
 
+def _text_of(path: Path, name: str) -> str | None:
+    view = read_job_metrics(path.read_bytes(), source=str(path))
+    for metric in view.metrics:
+        if metric.name == name:
+            return str(metric.raw.metric_values.text_metric_values.text)
+    return None
+
+
 def run_demo(*, jobs: int, output: Path, seed: int) -> int:
     output.mkdir(parents=True, exist_ok=True)
     config_path = output / "stook.toml"
@@ -105,6 +114,12 @@ def run_demo(*, jobs: int, output: Path, seed: int) -> int:
         jobs_per_batch=jobs,
         report_batches=REPORT_BATCHES,
         report_jobs_per_batch=40,
+        # Half-way through the report a batch metric and one experience's failure rate
+        # move to a new level, for the change points to find; ten experiences, so that each
+        # runs four times per batch.
+        experiences=10,
+        report_step_change_batch=REPORT_BATCHES // 2,
+        report_unstable_experiences=(3,),
         cache_jobs=max(jobs, 1) + REPORT_BATCHES * 40,
         latency_ms=10.0,
         fault_5xx=0.03,
@@ -145,6 +160,9 @@ def run_demo(*, jobs: int, output: Path, seed: int) -> int:
     )
     if report.regressions is not None:
         print("  Regressions: " + report.regressions.text.replace("\n", "\n    "))
+    changes = _text_of(report.output, "Change points")
+    if changes is not None:
+        print("  Change points: " + changes.replace("\n", "\n    "))
     print(
         f"\nConfig used: {config_path}. Run it yourself: stook run --inputs {inputs} "
         f"--outputs {output} --config {config_path} (with `stook emulate` serving)."

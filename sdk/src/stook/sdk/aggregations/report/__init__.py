@@ -3,6 +3,7 @@
 Each folds in one `BatchRecord` at a time, like batch aggregations fold in jobs.
 """
 
+from stook.sdk.aggregations.report._change_report import ChangePoints, ChangePointSummary
 from stook.sdk.aggregations.report._experiences import FlakyExperiences, MostFailedExperiences
 from stook.sdk.aggregations.report._job_distributions import JobScalarDistributions
 from stook.sdk.aggregations.report._lines import RegressionSummary, ScalarLines
@@ -12,9 +13,12 @@ from stook.sdk.aggregations.report._statuses import (
     JobMetricStatusCounts,
     TestStatusOverTime,
 )
+from stook.sdk.aggregations.report._unstable import UnstableExperiences
 
 __all__ = [
     "BatchMetricStatusCounts",
+    "ChangePointSummary",
+    "ChangePoints",
     "FlakyExperiences",
     "JobMetricStatusCounts",
     "JobScalarDistributions",
@@ -22,6 +26,7 @@ __all__ = [
     "RegressionSummary",
     "ScalarLines",
     "TestStatusOverTime",
+    "UnstableExperiences",
     "Verdict",
     "check",
 ]

@@ -13,6 +13,12 @@ from stook.sdk._writer import MetricsWriter
 from stook.sdk.aggregations._base import Aggregation, Needs
 from stook.sdk.aggregations._record import BatchRecord
 from stook.sdk.aggregations._units import pick_unit
+from stook.sdk.aggregations.report._change_points import (
+    DEFAULT_PENALTY,
+    Shift,
+    fitted_levels,
+    level_shifts,
+)
 from stook.sdk.aggregations.report._regression import MIN_BASELINE, Verdict, check
 from stook.sdk.aggregations.report._timeline import BatchPoint, api_status, axis, axis_name
 
@@ -44,11 +50,18 @@ class ScalarLines(Aggregation[BatchRecord]):
     The latest batch is compared with the median and MAD of up to `window` batches
     before it; past `threshold` robust deviations the line's status is FAIL_WARN.
     A TEXT metric ``Regressions`` says what moved, by how much, since which batch.
+
+    With `change_points`, a line whose level moved within the report (penalised change
+    points, see `level_shifts`; `change_penalty` multiplies ln n in the penalty) gets a
+    second series, ``level``: the mean of each stretch between change points, its point
+    FAIL_WARN at the first batch of each new level. `ChangePoints` says it in words.
     """
 
     name: str = "Regressions"
     window: int = 10
     threshold: float = 3.5
+    change_points: bool = True
+    change_penalty: float = DEFAULT_PENALTY
 
     values: dict[str, dict[uuid.UUID, _Value]] = field(default_factory=dict, init=False)
     units: dict[str, Counter[str]] = field(default_factory=dict, init=False)
@@ -57,6 +70,8 @@ class ScalarLines(Aggregation[BatchRecord]):
     def __post_init__(self) -> None:
         if self.window < 1 or self.threshold <= 0:
             raise ValueError("window must be at least 1 and threshold positive")
+        if self.change_penalty <= 0:
+            raise ValueError("change_penalty must be positive")
 
     def needs(self) -> Needs:
         return Needs(every_scalar=True)  # every SCALAR batch metric
@@ -109,20 +124,51 @@ class ScalarLines(Aggregation[BatchRecord]):
             statuses = _data.statuses(
                 f"{label} (statuses)", [api_status(v.status) for v in series], index=times
             )
+            xs, ys, all_statuses, legend = [x], [y], [statuses], [metric]
+            description = _describe(metric, verdict, series, unit)
+            shifts = self._shifts(series)
+            if shifts:
+                starts = {s.index for s in shifts}
+                xs.append(x)
+                ys.append(
+                    _data.doubles(
+                        f"{label} (level)",
+                        fitted_levels(len(series), shifts),
+                        unit=unit,
+                        index=times,
+                    )
+                )
+                all_statuses.append(
+                    _data.statuses(
+                        f"{label} (level statuses)",
+                        [
+                            MetricStatus.FAIL_WARN if i in starts else MetricStatus.PASSED
+                            for i in range(len(series))
+                        ],
+                        index=times,
+                    )
+                )
+                legend.append("level")
+                description += " " + " ".join(_describe_shift(s, series, unit) for s in shifts)
             writer.line_plot(
                 label,
-                x,
-                y,
-                statuses=[statuses],
+                xs,
+                ys,
+                statuses=all_statuses,
                 x_axis_name=axis_name(origin),
                 y_axis_name=f"{metric} [{unit}]" if unit else metric,
-                legend=[metric],
+                legend=legend,
                 status=MetricStatus.FAIL_WARN if verdict.regressed else MetricStatus.PASSED,
-                description=_describe(metric, verdict, series, unit),
+                description=description,
             )
         summary = self.regressions()
         if summary is not None:
             writer.text(self.name, summary.text, status=summary.status)
+
+    def _shifts(self, series: list[_Value]) -> list[Shift]:
+        if not self.change_points:
+            return []
+        return level_shifts([v.value for v in series], factor=self.change_penalty)
 
     def regressions(self) -> RegressionSummary | None:
         """What the latest batch did against its baseline; None before any batch."""
@@ -178,4 +224,15 @@ def _describe(metric: str, verdict: Verdict, series: list[_Value], unit: str) ->
         f"{verdict.baseline_size} batches from {first.name} to {since.name}: "
         f"{verdict.change:+.6g}{u}{pct}, {verdict.deviations:.1f} robust deviations, "
         f"since batch {since.name} ({since.created:%Y-%m-%d})."
+    )
+
+
+def _describe_shift(shift: Shift, series: list[_Value], unit: str) -> str:
+    u = f" {unit}" if unit else ""
+    at = series[shift.index].point
+    relative = shift.relative_change
+    pct = f" ({relative:+.1%})" if relative is not None else ""
+    return (
+        f"Level moved at {at.name} ({at.created:%Y-%m-%d}): "
+        f"{shift.before:.6g}{u} -> {shift.after:.6g}{u}{pct}."
     )

@@ -1,0 +1,303 @@
+"""One job's blobs as the plan asks for them: metrics data by name, job metrics with their data.
+
+`Needs.data` names metrics data; `Needs.metrics` (or `every_metric`) names job metrics,
+each of which costs its ``Metric`` blob plus the blobs of the metrics data it references
+(by the listing's ``dataIDs`` and the message's own references), and of their index data.
+Every blob is downloaded at most once per job, however many of the plan's wants share it,
+and nothing the plan did not ask for is downloaded.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import uuid
+from collections.abc import Awaitable, Callable, Collection, Iterable, Mapping, Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, TypeVar
+
+import structlog
+
+from stook.proto import metrics_pb2 as pb
+from stook.sdk import (
+    JobMetricsView,
+    MetricsDataView,
+    MetricView,
+    ReadError,
+    SeriesKind,
+    parse_job_metrics,
+    parse_metrics_data,
+    read_metric,
+    read_metrics_data,
+)
+from stook.sdk.aggregations import Needs
+from stook.service.api import ApiMetric, ApiMetricsData, StorageClient
+from stook.service.fetch._presigned import fetch_listed
+
+if TYPE_CHECKING:
+    import polars as pl
+
+__all__ = ["InvalidDataError", "JobBlobs", "JobBlobsResult", "decode_values"]
+
+log = structlog.get_logger("stook.fetch")
+_T = TypeVar("_T")
+
+
+class InvalidDataError(ReadError):
+    """A job's metrics data could not be decoded (exit code 4)."""
+
+
+@dataclass(frozen=True, slots=True)
+class JobBlobsResult:
+    """What a job's blobs give its record."""
+
+    data: Mapping[str, MetricsDataView]
+    series: Mapping[str, pl.Series]
+    job_metrics: JobMetricsView | None
+
+
+class JobBlobs:
+    """Downloads one job's wanted blobs; `metrics` and `data` are the job's listings.
+
+    `relist_metrics` and `relist_data` list them again when a presigned URL has expired.
+    """
+
+    def __init__(
+        self,
+        storage: StorageClient,
+        job_id: uuid.UUID,
+        needs: Needs,
+        *,
+        metrics: Sequence[ApiMetric],
+        data: Sequence[ApiMetricsData],
+        relist_metrics: Callable[[], Awaitable[Sequence[ApiMetric]]],
+        relist_data: Callable[[], Awaitable[Sequence[ApiMetricsData]]],
+    ) -> None:
+        self._storage = storage
+        self._job_id = job_id
+        self._needs = needs
+        self._metrics = metrics
+        self._data = data
+        self._relist_metrics = relist_metrics
+        self._relist_data = relist_data
+        self._listed = {d.data_id: d for d in data if d.is_standard}
+        self._files = {d.data_id: d for d in data if not d.is_standard}
+        self._views: dict[uuid.UUID, MetricsDataView] = {}
+
+    @property
+    def wants_metrics(self) -> bool:
+        return bool(self._needs.metrics) or self._needs.every_metric
+
+    async def fetch(self) -> JobBlobsResult:
+        named = [d for d in self._data if d.name in self._needs.data and d.is_standard]
+        wanted = self._wanted_metrics()
+        # The data the listing says the wanted metrics reference go out with their Metric
+        # blobs and the named data, in one round; what only a blob names follows.
+        referenced: dict[uuid.UUID, str] = {}
+        for listed in wanted:
+            for data_id in listed.data_ids:
+                referenced.setdefault(data_id, listed.name)
+        if self._needs.every_metric:
+            for data_id in self._listed:
+                referenced.setdefault(data_id, "")
+        first = {d.data_id: d for d in (*named, *self._resolve(referenced))}
+        if wanted:
+            metric_views, _ = await asyncio.gather(
+                _gather(*(self._metric(m) for m in wanted)), self._download_all(first.values())
+            )
+        else:
+            metric_views = []
+            await self._download_all(first.values())
+        if wanted or self._needs.every_metric:
+            for listed, metric_view in zip(wanted, metric_views, strict=True):
+                for data_id in metric_view.data_ids:
+                    referenced.setdefault(data_id, listed.name)
+            await self._download_all(self._resolve(referenced))
+            # A metric's data comes with its index data (a series' timestamps), fetched
+            # until none is missing. Data asked for by name alone does not: its index
+            # would be a download no aggregation declared.
+            pending = list(referenced)
+            while missing := {
+                view.index_id: view.name
+                for view in (self._views[i] for i in pending)
+                if view.index_id is not None and view.index_id not in self._views
+            }:
+                await self._download_all(self._resolve(missing, index=True))
+                pending = list(missing)
+        data: dict[str, MetricsDataView] = {}
+        series: dict[str, pl.Series] = {}
+        for item in named:
+            view = self._views[item.data_id]
+            data[item.name] = view
+            # Per-category data keeps its categories in `data`: no single series of it.
+            if view.kind is SeriesKind.DOUBLE and not view.per_category:
+                series[item.name] = _series(view)
+        job_metrics = None
+        if self.wants_metrics:
+            job_metrics = self._job_metrics(metric_views)
+        return JobBlobsResult(data=data, series=series, job_metrics=job_metrics)
+
+    def _wanted_metrics(self) -> list[ApiMetric]:
+        wanted: list[ApiMetric] = []
+        for metric in self._metrics:
+            if not self._needs.wants_metric(metric.name):
+                continue
+            # Every metric means every metric that has a blob; a named one must have it.
+            if metric.metric_url is None and metric.name not in self._needs.metrics:
+                log.debug(
+                    "metric listed without a URL; left out",
+                    job_id=str(self._job_id),
+                    metric=metric.name,
+                )
+                continue
+            wanted.append(metric)
+        return wanted
+
+    def _where(self, what: str) -> str:
+        return f"job {self._job_id} / {what}"
+
+    async def _metric(self, metric: ApiMetric) -> MetricView:
+        source = self._where(f"metric {metric.name!r}")
+        payload, _ = await fetch_listed(
+            self._storage,
+            metric,
+            url_of=lambda m: m.metric_url,
+            id_of=lambda m: m.metric_id,
+            relist=self._relist_metrics,
+            source=source,
+        )
+        if payload is None:
+            raise InvalidDataError(f"could not read the Metric of {source}: it has no URL")
+        try:
+            return read_metric(payload, source=source)
+        except ReadError as exc:
+            raise InvalidDataError(str(exc)) from None
+
+    def _resolve(
+        self, ids: Mapping[uuid.UUID, str], *, index: bool = False
+    ) -> list[ApiMetricsData]:
+        """The listed data of `ids` not read yet; an ID the listing lacks is invalid data.
+
+        An external file is read from its listing: its URL serves the file, not a message.
+        """
+        items: list[ApiMetricsData] = []
+        for data_id, owner in ids.items():
+            if data_id in self._views:
+                continue
+            if data_id in self._files:
+                self._views[data_id] = self._file(self._files[data_id])
+                continue
+            item = self._listed.get(data_id)
+            if item is None:
+                if index:
+                    what = f"metrics data {owner!r} has index data {data_id}"
+                else:
+                    what = f"metric {owner!r} references metrics data {data_id}"
+                raise InvalidDataError(
+                    f"{self._where(what)}, which the job's metrics data listing does not have"
+                )
+            items.append(item)
+        return items
+
+    async def _download_all(self, items: Iterable[ApiMetricsData]) -> None:
+        todo = {i.data_id: i for i in items if i.data_id not in self._views}
+        if not todo:
+            return
+        views = await _gather(*(self._download(i) for i in todo.values()))
+        self._views.update(zip(todo, views, strict=True))
+
+    async def _download(self, item: ApiMetricsData) -> MetricsDataView:
+        source = self._where(f"metrics data {item.name!r}")
+        payload, _ = await fetch_listed(
+            self._storage,
+            item,
+            url_of=lambda d: d.metrics_data_url,
+            id_of=lambda d: d.data_id,
+            relist=self._relist_data,
+            source=source,
+        )
+        if payload is None:
+            raise InvalidDataError(f"could not read MetricsData from {source}: it has no URL")
+        try:
+            return read_metrics_data(payload, source=source)
+        except ReadError as exc:
+            raise InvalidDataError(str(exc)) from None
+
+    def _file(self, item: ApiMetricsData) -> MetricsDataView:
+        """An external file (an image, a video) as the MetricsData that references it: its
+        URL serves the file itself, not a message, and the file is no metrics data to
+        download."""
+        msg = pb.MetricsData(name=item.name, data_type=pb.EXTERNAL_FILE_DATA_TYPE)
+        msg.metrics_data_id.id.data = str(item.data_id)
+        msg.external_file.path = item.filename or item.name
+        try:
+            return parse_metrics_data(msg, source=self._where(f"metrics data {item.name!r}"))
+        except ReadError as exc:
+            raise InvalidDataError(str(exc)) from None
+
+    def _job_metrics(self, metrics: Sequence[MetricView]) -> JobMetricsView:
+        """The wanted metrics and the data they need as one JobMetrics, as a job wrote it."""
+        msg = pb.JobMetrics()
+        msg.job_id.id.data = str(self._job_id)
+        msg.job_level_metrics.metrics.extend(view.raw for view in metrics)
+        if self._needs.every_metric:
+            keep: Collection[uuid.UUID] = self._views
+        else:
+            keep = _closure(metrics, self._views)
+        # In listing order, so the view does not depend on the order downloads finished.
+        msg.metrics_data.extend(self._views[d.data_id].raw for d in self._data if d.data_id in keep)
+        try:
+            return parse_job_metrics(msg, source=self._where("metrics"))
+        except ReadError as exc:
+            raise InvalidDataError(str(exc)) from None
+
+
+def _closure(
+    metrics: Sequence[MetricView], views: Mapping[uuid.UUID, MetricsDataView]
+) -> set[uuid.UUID]:
+    """The data IDs the metrics reference, with their index data."""
+    keep: set[uuid.UUID] = set()
+    todo = [data_id for view in metrics for data_id in view.data_ids]
+    while todo:
+        data_id = todo.pop()
+        if data_id in keep or data_id not in views:
+            continue
+        keep.add(data_id)
+        index = views[data_id].index_id
+        if index is not None:
+            todo.append(index)
+    return keep
+
+
+async def _gather(*awaitables: Awaitable[_T]) -> list[_T]:
+    # One awaitable (the common plan: one series per job) needs no task to gather.
+    if len(awaitables) == 1:
+        return [await awaitables[0]]
+    if not awaitables:
+        return []
+    return list(await asyncio.gather(*awaitables))
+
+
+def _series(view: MetricsDataView) -> pl.Series:
+    try:
+        return view.series()
+    except ReadError as exc:
+        raise InvalidDataError(str(exc)) from None
+
+
+def decode_values(payload: bytes, *, source: str) -> pl.Series:
+    """The values of a serialized plain (not per-category) MetricsData, as a series.
+
+    Per-category data has no single series (its categories have names): InvalidDataError
+    says so; read it with `stook.sdk.read_metrics_data` instead.
+    """
+    try:
+        view = read_metrics_data(payload, source=source)
+        if view.per_category:
+            raise InvalidDataError(
+                f"{source}: metrics data {view.name!r} is per category; it has no single series"
+            )
+        return view.series()
+    except ReadError as exc:
+        if isinstance(exc, InvalidDataError):
+            raise
+        raise InvalidDataError(str(exc)) from None
