@@ -5,8 +5,12 @@ from __future__ import annotations
 
 import subprocess
 import sys
+import uuid
+from pathlib import Path
 
 import pytest
+
+from stook.sdk.example import every_metric_type
 
 # What `stook run` imports before its first request, without polars or numpy: those come
 # with the first series decoded. `stook show` and `validate` import stook.sdk alone.
@@ -17,6 +21,26 @@ MODULES = ["stook.sdk", "stook.sdk.aggregations", "stook.service.modes", "stook.
 def test_importing_does_not_import_polars_or_numpy(module: str) -> None:
     script = (
         f"import sys, {module}\nprint(sorted(m for m in ('polars', 'numpy') if m in sys.modules))\n"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", script], capture_output=True, text=True, timeout=60
+    )
+    assert done.returncode == 0, done.stderr
+    assert done.stdout == "[]\n"
+
+
+def test_previewing_imports_neither_plotly_nor_polars(tmp_path: Path) -> None:
+    # `stook preview` embeds plotly.js read from the plotly package's files: the Python
+    # package itself (and its numpy) is never imported, nor is polars.
+    from stook.sdk import MetricsWriter
+
+    writer = MetricsWriter(uuid.UUID(int=1))
+    every_metric_type(tmp_path, tmp_path, writer)
+    path = writer.write(tmp_path / "metrics.binproto")
+    script = (
+        "import sys\nfrom stook.service.preview import render_html\n"
+        f"assert render_html({str(path)!r}).startswith('<!DOCTYPE html>')\n"
+        "print(sorted(m for m in ('plotly', 'polars', 'numpy') if m in sys.modules))\n"
     )
     done = subprocess.run(
         [sys.executable, "-c", script], capture_output=True, text=True, timeout=60

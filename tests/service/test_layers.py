@@ -4,10 +4,12 @@ Every import of every module under service/src/stook/service is parsed (ast), in
 those inside functions and ``if TYPE_CHECKING:`` blocks, since a lazy import is a
 dependency all the same. The layers, lowest first:
 
-    api    transport, retry policy, limits, clients, models, errors, redaction
-    fetch  the batch and report fetch cores, on top of api
-    modes  test, batch and report mode and what they run on, on top of fetch
-    cli    the `stook` command, on top of modes
+    api      transport, retry policy, limits, clients, models, errors, redaction
+    fetch    the batch and report fetch cores, on top of api
+    preview  metrics.binproto drawn as HTML; reads files with stook.sdk only, so it needs
+             no layer below it, and the layers above it (run --preview, stook preview) use it
+    modes    test, batch and report mode and what they run on, on top of fetch
+    cli      the `stook` command, on top of modes
 
 A module may import its own layer and the layers below it; a lower layer only through its
 package (``stook.service.api``), never its ``_``-modules. Inside the API layer the modules
@@ -30,7 +32,7 @@ SERVICE = ROOT / "service" / "src" / "stook" / "service"
 TESTING = ROOT / "service" / "testing" / "src" / "stook"
 PACKAGE = "stook.service"
 
-LAYERS = ["api", "fetch", "modes", "cli"]
+LAYERS = ["api", "fetch", "preview", "modes", "cli"]
 # Within the API layer, lowest first: each may import only those before it.
 API_ORDER = [
     "_redact",

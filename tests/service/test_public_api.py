@@ -173,6 +173,7 @@ PUBLIC_API: dict[str, list[str]] = {
         "run_report",
         "run_test_mode",
     ],
+    "stook.service.preview": ["PREVIEW_NAME", "PreviewInput", "render_html", "write_preview"],
     "stook.service.cli": ["Voice", "build_parser", "main", "run_cli", "summary_lines"],
 }
 LAZY = ["stook.service", "stook.service.api", "stook.service.cli"]

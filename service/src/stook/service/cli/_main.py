@@ -108,6 +108,11 @@ def build_parser() -> argparse.ArgumentParser:
         "(env STOOK_ALLOW_MISSING_JOBS; default 0)",
     )
     run_p.add_argument(
+        "--preview",
+        action="store_true",
+        help="also write OUTPUTS/metrics.html, a preview of the output ([output] preview)",
+    )
+    run_p.add_argument(
         "--project-id",
         metavar="UUID",
         help="project for batch configs that lack projectID (env STOOK_PROJECT_ID)",
@@ -204,6 +209,30 @@ def build_parser() -> argparse.ArgumentParser:
         action="store_true",
         help="print TEXT metrics whole, below the table, and names untruncated",
     )
+
+    preview_p = sub.add_parser(
+        "preview",
+        help="draw metrics.binproto files into one self-contained HTML page",
+        description="Draw one or more metrics.binproto files (test, batch or report outputs) "
+        "into one HTML page that works offline, one column per file. Exit 2 for a missing "
+        "file, 4 for one that is not JobMetrics, 5 if the page cannot be written.",
+    )
+    preview_p.add_argument(
+        "files",
+        type=Path,
+        nargs="+",
+        metavar="FILE",
+        help="metrics.binproto files (JobMetrics, from stook or ReSim's own writer)",
+    )
+    preview_p.add_argument(
+        "-o",
+        "--output",
+        type=Path,
+        metavar="OUT.html",
+        help="where to write the page (default: FILE's name with .html beside one FILE, "
+        "preview.html here for several)",
+    )
+    preview_p.add_argument("--open", action="store_true", help="open the page in a browser")
     # One look for every command's help, those added above and any added later.
     for command in (parser, *sub.choices.values()):
         command.formatter_class = _help.HelpFormatter
@@ -336,7 +365,7 @@ def run_cli(argv: Sequence[str] | None = None, *, voice: Voice | None = None) ->
 
 
 # Commands that log nothing unless they fail: structlog (~30 ms) is set up only then.
-_QUIET_COMMANDS = ("show", "validate")
+_QUIET_COMMANDS = ("show", "validate", "preview")
 
 
 def _run_cli(argv: Sequence[str] | None, voice: Voice) -> int:
@@ -406,6 +435,7 @@ def _dispatch(args: argparse.Namespace, voice: Voice) -> int:
                 config=args.config,
                 allow_missing_jobs=args.allow_missing_jobs,
                 project_id=args.project_id,
+                preview=args.preview,
             )
             voice.progress = Tally(for_stream(label="jobs"))
             _signals.run(run(options, progress=voice.progress))
@@ -424,6 +454,10 @@ def _dispatch(args: argparse.Namespace, voice: Voice) -> int:
             bench = _testing_tool("bench", "stook.bench")
             bench.run_bench(Path(args.out), quick=args.quick)
             return 0
+        case "preview":
+            from stook.service.cli._preview import preview_files
+
+            return preview_files(args.files, args.output, open_browser=args.open)
         case "validate":
             from stook.service.cli._inspect import validate_file
 

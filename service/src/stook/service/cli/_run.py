@@ -86,6 +86,7 @@ class RunOptions:
     config: Path | None
     allow_missing_jobs: float = 0.0
     project_id: uuid.UUID | None = None
+    preview: bool = False
 
 
 def resolve_options(
@@ -95,6 +96,7 @@ def resolve_options(
     config: str | None,
     allow_missing_jobs: float | None,
     project_id: str | None,
+    preview: bool = False,
     cwd: Path | None = None,
 ) -> RunOptions:
     """Flags first, then STOOK_* environment variables, then the platform's defaults."""
@@ -125,6 +127,7 @@ def resolve_options(
         config=Path(config_path) if config_path else None,
         allow_missing_jobs=share,
         project_id=project,
+        preview=preview,
     )
 
 
@@ -141,7 +144,9 @@ async def run(options: RunOptions, *, progress: Progress | None = None) -> Path:
     _remove_stale_temp_files(output)
     if isinstance(mode, TestInputs):
         log.info("test mode", config=config.source)
-        return await run_test_mode(mode, config, output)
+        written = await run_test_mode(mode, config, output)
+        _preview(written, options, config)
+        return written
     pieces: BatchMode | ReportMode = (
         BatchMode(mode, config) if isinstance(mode, BatchInputs) else ReportMode(mode, config)
     )
@@ -157,7 +162,17 @@ async def run(options: RunOptions, *, progress: Progress | None = None) -> Path:
         progress=progress or for_stream(label="jobs"),
     )
     _log_written(result)
+    _preview(result.output, options, config)
     return result.output
+
+
+def _preview(output: Path, options: RunOptions, config: StookConfig) -> None:
+    """metrics.html beside the output when asked for (--preview, [output] preview)."""
+    if not (options.preview or config.preview):
+        return
+    from stook.service.cli._preview import write_run_preview
+
+    log.info("preview written", preview=str(write_run_preview(output)))
 
 
 def _remove_stale_temp_files(output: Path) -> None:

@@ -10,6 +10,9 @@ adaptive = false       # find the server's pace below `concurrency` (AIMD on 429
 max_body_mb = 256      # largest metrics data or metric download, decompressed
 max_api_body_mb = 16   # largest API answer (a JSON page), decompressed
 
+[output]
+preview = false        # also write metrics.html (stook preview) beside metrics.binproto
+
 [test]
 metrics = "my_metrics.test:compute"   # called as compute(experience_dir, logs_dir, writer)
 
@@ -102,6 +105,8 @@ class StookConfig:
     file: Path | None = None
     # [batch.baseline]: compare the batch with a baseline batch (None: no comparison).
     baseline: BaselineSettings | None = None
+    # [output] preview: write metrics.html beside metrics.binproto.
+    preview: bool = False
 
     def batch_aggregations(self) -> list[BatchAggregation]:
         try:
@@ -116,7 +121,7 @@ class StookConfig:
             raise ConfigError(f"{self.source}: {exc}") from None
 
 
-_SECTIONS = {"fetch", "test", "batch", "report"}
+_SECTIONS = {"fetch", "test", "batch", "report", "output"}
 
 
 def load(path: Path | None) -> StookConfig:
@@ -159,6 +164,11 @@ def parse(doc: Mapping[str, Any], *, source: str = "stook.toml") -> StookConfig:
         raise ConfigError(f"{source}: [batch] defaults must be true or false")
     baseline = _baseline(batch.pop("baseline", None), source)
     report, report_tables = _report(_table(doc, "report", source), source)
+    output = _table(doc, "output", source)
+    _only(output, {"preview"}, "[output]", source)
+    preview = output.get("preview", False)
+    if not isinstance(preview, bool):
+        raise ConfigError(f"{source}: [output] preview must be true or false")
     config = StookConfig(
         source=source,
         fetch=fetch,
@@ -168,6 +178,7 @@ def parse(doc: Mapping[str, Any], *, source: str = "stook.toml") -> StookConfig:
         report=report,
         report_tables=report_tables,
         baseline=baseline,
+        preview=preview,
     )
     # Fail now, before any fetching, on a bad table.
     config.batch_aggregations()

@@ -34,7 +34,9 @@ from stook.service.modes import (
     run_report,
     run_test_mode,
 )
+from stook.service.preview import PREVIEW_NAME, write_preview
 from stook.testing._demo_baseline import run_comparison_demo
+from stook.testing._frames import write_example_frames
 
 REPORT_BATCHES = 14
 
@@ -76,6 +78,8 @@ def _print_output(path: Path) -> int:
         print("  " + line)
     verdict = "valid" if not problems else f"INVALID: {problems[0]}"
     print(f"  {path}: {path.stat().st_size:,} bytes, {verdict}")
+    # Every metric drawn, offline: open it in a browser.
+    print(f"  preview: {write_preview([path], path.with_name(PREVIEW_NAME))}")
     return len(problems)
 
 
@@ -103,6 +107,8 @@ def run_demo(*, jobs: int, output: Path, seed: int) -> int:
     test_output = asyncio.run(
         run_test_mode(mode, config, output / "test-mode" / "metrics.binproto")
     )
+    # The example's IMAGE metrics name these files beside the output.
+    write_example_frames(test_output.parent)
     invalid += _print_output(test_output)
 
     print(f"\n== batch mode: {jobs} jobs from the emulated ReSim API ==")
