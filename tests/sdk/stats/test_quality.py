@@ -64,13 +64,15 @@ def alarm_rate(verdicts: list[list[ComparisonVerdict]]) -> float:
 
 @pytest.mark.slow
 def test_false_alarms_across_20_metrics_stay_under_5_percent_with_holm() -> None:
-    with_holm = simulate(300, correction="holm", jobs=30, seed=1)
+    with_holm = simulate(1000, correction="holm", jobs=30, seed=1)
     without = simulate(150, correction="none", jobs=30, seed=2)
     assert alarm_rate(with_holm) <= 0.05, alarm_rate(with_holm)
     assert alarm_rate(without) >= 0.2, alarm_rate(without)  # 1 - 0.975**20 = 40 % expected
-    # Every verdict counts as a change in either direction: still near the nominal 5 %.
+    # A significant verdict in either direction on any of the 20 metrics: Holm's family-wise
+    # rate, nominally 4.9 % (5.1 % over 4,000 comparisons, measured); 1,000 comparisons
+    # estimate it to within about 1.4 % (two standard errors).
     any_change = sum(any(v.is_alarm for v in row) for row in with_holm) / len(with_holm)
-    assert any_change <= 0.09, any_change
+    assert any_change <= 0.05 + 0.014, any_change
 
 
 @pytest.mark.slow
