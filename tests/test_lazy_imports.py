@@ -47,3 +47,20 @@ def test_previewing_imports_neither_plotly_nor_polars(tmp_path: Path) -> None:
     )
     assert done.returncode == 0, done.stderr
     assert done.stdout == "[]\n"
+
+
+def test_the_command_imports_structlog_without_rich_yet_rich_still_draws() -> None:
+    # structlog imports rich (~50 ms) for tracebacks stook never draws; the `stook` command
+    # hides it from structlog, and the progress bar imports it for real later.
+    code = (
+        "import sys\n"
+        "from stook.service.cli._main import _import_structlog_without_rich\n"
+        "_import_structlog_without_rich()\n"
+        "import structlog.dev\n"
+        "assert structlog.dev.rich is None, 'structlog imported rich'\n"
+        "assert 'rich' not in sys.modules\n"
+        "import rich.progress\n"
+        "print('ok')\n"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=False)
+    assert done.stdout.strip() == "ok", done.stderr
