@@ -155,13 +155,21 @@ class Fields:
     def id(self, key: str) -> uuid.UUID:
         value = self._data.get(key)
         if type(value) is str and value:
-            return self._to_id(key, value)
+            try:
+                return _parse_uuid(value)
+            except ValueError:
+                pass  # said below
         return self._to_id(key, self._required(key))
 
     def opt_id(self, key: str) -> uuid.UUID | None:
         value = self._data.get(key)
         if type(value) is str:
-            return self._to_id(key, value) if value else None
+            if not value:
+                return None
+            try:
+                return _parse_uuid(value)
+            except ValueError:
+                pass  # said below
         value = self._optional(key)
         return None if value is None else self._to_id(key, value)
 
