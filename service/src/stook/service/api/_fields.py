@@ -75,7 +75,7 @@ class Fields:
     # Each accessor first takes the shape a well-formed answer has (checked by exact type,
     # the cheapest test) and falls back to the general path, which also says what is wrong.
     # A listing item is read field by field, so this is most of the client's parsing time
-    # per request (about 6 µs per metric item before, 3 after).
+    # per request (a metric item: 6.0 µs before, 4.3 after).
     __slots__ = ("_data", "_id_key", "_kind")
 
     def __init__(self, kind: str, data: object, id_key: str) -> None:
