@@ -334,6 +334,20 @@ def test_plugins_from_entry_points(monkeypatch: pytest.MonkeyPatch) -> None:
     assert "max_of" in str(info.value)
 
 
+def test_a_built_in_kind_is_built_without_listing_the_plugins(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    # Listing the installed plugins reads every distribution's metadata (start-up time).
+    def no_scan(*, group: str) -> list[EntryPoint]:
+        raise AssertionError(f"plugins listed ({group}) for a built-in kind")
+
+    monkeypatch.setattr(_registry, "entry_points", no_scan)
+    built = build_all({"pass_rate": [{}]}, section="batch")
+    assert [type(a) for a in built] == [PassRate]
+    with pytest.raises(AssertionError, match="plugins listed"):
+        build_all({"not_built_in": [{}]}, section="batch")
+
+
 def test_needs_say_which_scalars_are_read() -> None:
     """Scalars listed without a value are downloaded only for aggregations that read them."""
     named = Needs(scalars=frozenset({"a"}))

@@ -143,6 +143,22 @@ async def test_malformed_json_names_the_url_without_secrets(
     assert len(server.hits(BATCH_PATH)) == 1
 
 
+async def test_json_the_fast_parser_refuses_is_read_as_the_standard_parser_reads_it(
+    server: ScriptedServer, fast_policy: RetryPolicy
+) -> None:
+    # orjson refuses NaN, numbers past a double's range and lone surrogates; json takes them.
+    body = b'{"value": NaN, "big": 1e400, "name": "\\ud800", "f": 0.1, "n": 7}'
+    server.script(BATCH_PATH, answer(200, body))
+    async with client(server, fast_policy) as api:
+        document = await api.get_json(f"/projects/{PROJECT}/batches/{BATCH}")
+    assert document["value"] != document["value"]  # NaN
+    assert document["big"] == float("inf")
+    assert document["name"] == "\ud800"
+    assert document["f"] == 0.1
+    assert document["n"] == 7
+    assert isinstance(document["n"], int)
+
+
 async def test_invalid_field_is_reported_with_object_and_field(
     server: ScriptedServer, fast_policy: RetryPolicy
 ) -> None:

@@ -176,22 +176,6 @@ class Job:
         )
 
 
-def _metric_fields(f: Fields) -> dict[str, Any]:
-    """The fields job and batch metrics share, as keyword arguments."""
-    return {
-        "metric_id": f.id("metricID"),
-        "name": f.opt_string("name") or "",
-        "type": f.opt_choice("type", ApiMetricType),
-        "status": f.choice("status", ApiMetricStatus, default=ApiMetricStatus.NO_STATUS_REPORTED),
-        "value": f.opt_number("value"),
-        "unit": f.opt_string("unit"),
-        "metric_url": f.opt_string("metricURL"),
-        "data_ids": f.ids("dataIDs"),
-        "event_metric": f.flag("eventMetric", default=False),
-        "creation_timestamp": f.opt_timestamp("creationTimestamp"),
-    }
-
-
 class MetricOwner(enum.StrEnum):
     """Whose metrics build produced a metric or metrics data: a job's, or the batch's own."""
 
@@ -233,26 +217,23 @@ class ApiMetric:
     @classmethod
     def from_json(cls, data: Mapping[str, Any], *, owner: MetricOwner) -> Self:
         f = Fields(_METRIC_KINDS[owner], data, "metricID")
+        # Keywords, not a shared dict of them: a listing builds one of these per item.
+        # The order of evaluation decides which error an item with two bad fields gets.
         return cls(
-            **_metric_fields(f),
+            metric_id=f.id("metricID"),
+            name=f.opt_string("name") or "",
+            type=f.opt_choice("type", ApiMetricType),
+            status=f.choice("status", ApiMetricStatus, default=ApiMetricStatus.NO_STATUS_REPORTED),
+            value=f.opt_number("value"),
+            unit=f.opt_string("unit"),
+            metric_url=f.opt_string("metricURL"),
+            data_ids=f.ids("dataIDs"),
+            event_metric=f.flag("eventMetric", default=False),
+            creation_timestamp=f.opt_timestamp("creationTimestamp"),
             owner=owner,
             job_id=f.opt_id("jobID") if owner is MetricOwner.JOB else None,
             batch_id=f.opt_id("batchID"),
         )
-
-
-def _data_fields(f: Fields) -> dict[str, Any]:
-    """The fields job and batch metrics data share, as keyword arguments."""
-    return {
-        "data_id": f.id("dataID"),
-        "name": f.opt_string("name") or "",
-        "metrics_data_type": f.choice(
-            "metricsDataType", MetricsDataStorageType, default=MetricsDataStorageType.STANDARD
-        ),
-        "metrics_data_url": f.opt_string("metricsDataURL"),
-        "filename": f.opt_string("filename"),
-        "creation_timestamp": f.opt_timestamp("creationTimestamp"),
-    }
 
 
 @dataclass(frozen=True, slots=True)
@@ -283,9 +264,29 @@ class ApiMetricsData:
     @classmethod
     def from_json(cls, data: Mapping[str, Any], *, owner: MetricOwner) -> Self:
         f = Fields(_DATA_KINDS[owner], data, "dataID")
+        data_id = f.id("dataID")
+        name = f.opt_string("name") or ""
+        metrics_data_type = f.choice(
+            "metricsDataType", MetricsDataStorageType, default=MetricsDataStorageType.STANDARD
+        )
+        metrics_data_url = f.opt_string("metricsDataURL")
+        filename = f.opt_string("filename")
+        creation_timestamp = f.opt_timestamp("creationTimestamp")
         if owner is MetricOwner.JOB:
-            return cls(**_data_fields(f), owner=owner, job_id=f.opt_id("jobID"))
-        return cls(**_data_fields(f), owner=owner, batch_id=f.opt_id("batchID"))
+            job_id, batch_id = f.opt_id("jobID"), None
+        else:
+            job_id, batch_id = None, f.opt_id("batchID")
+        return cls(
+            data_id=data_id,
+            name=name,
+            metrics_data_type=metrics_data_type,
+            metrics_data_url=metrics_data_url,
+            filename=filename,
+            owner=owner,
+            job_id=job_id,
+            batch_id=batch_id,
+            creation_timestamp=creation_timestamp,
+        )
 
 
 @dataclass(frozen=True, slots=True)

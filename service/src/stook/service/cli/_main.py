@@ -10,7 +10,7 @@ from __future__ import annotations
 import os
 import sys
 
-from stook.service.cli import _signals
+from stook.service.cli import _fast_exit, _signals
 from stook.service.cli._signals import Interrupted
 
 # typing.TYPE_CHECKING without importing typing, which alone costs milliseconds before the
@@ -247,6 +247,8 @@ def main(argv: Sequence[str] | None = None) -> None:
         code = run_cli(argv, voice=voice)
     except Interrupted as stop:  # before run_cli took over, or a second signal in its end
         code = (voice or Voice(argv)).interrupted(stop)
+    if argv is None:  # the process's entry point: `stook run` skips the teardown
+        _fast_exit.exit_now_if_armed(code)
     sys.exit(code)
 
 
@@ -458,6 +460,7 @@ def _dispatch(args: argparse.Namespace, voice: Voice) -> int:
                 preview=args.preview,
             )
             voice.progress = Tally(for_stream(label="jobs"))
+            _fast_exit.arm()
             _signals.run(run(options, progress=voice.progress))
             return 0
         case "demo":

@@ -33,6 +33,9 @@ from stook.bench._repeat import repeat_target_points
 from stook.bench._startup import measure_startup, startup_table, startup_targets
 from stook.bench._sweep import FULL, QUICK, Grid, emulator_for, run_sweep
 from stook.bench._tables import sweep_tables
+from stook.bench._whole_process import QUICK_JOBS as QUICK_WHOLE_JOBS
+from stook.bench._whole_process import QUICK_PAIRS as QUICK_WHOLE_PAIRS
+from stook.bench._whole_process import measure_whole_process, whole_process_target
 
 _DATA_FILES: Final = ("sweep.csv", "bench.json", "tables.md")
 TARGET_REPEATS: Final = 5
@@ -203,6 +206,7 @@ def run_bench(
     startup = measure_startup(runs, say)
     rows = run_sweep(grid, say)
     compare = None
+    whole = None
     memory: list[dict[str, Any]] = []
     if not quick:
         say("stook vs ReSim's fetch_job_metrics_by_batch: 400 jobs, 10 ms latency ...")
@@ -214,6 +218,8 @@ def run_bench(
                 "  ReSim's fetcher not measured: resim-open-core is not installed (it is in "
                 "the development environment: make setup)"
             )
+        say("stook run vs ReSim's fetcher as whole processes: 400 jobs, 10 ms ...")
+        whole = measure_whole_process(say=say)
         say("peak memory with an exact-mode histogram (every value kept) ...")
         memory = memory_scaling([1000, 5000], 64)
         for row in memory:
@@ -237,6 +243,9 @@ def run_bench(
     if not quick:
         say(f"the target points again, {TARGET_REPEATS} runs each ...")
         repeated = repeat_target_points(TARGET_REPEATS, say=say)
+    if quick:
+        say("stook run vs ReSim's fetcher as whole processes: 50 jobs, 10 ms ...")
+        whole = measure_whole_process(QUICK_WHOLE_JOBS, pairs=QUICK_WHOLE_PAIRS, say=say)
     if quick and compare is None:
         resim = _find(rows, RESIM, latency_ms=10.0, jobs=100)
         stook = _find(rows, STOOK, concurrency=64, latency_ms=10.0, jobs=100)
@@ -249,6 +258,7 @@ def run_bench(
     targets = {
         **startup_targets(startup),
         **evaluate_targets(rows, grid, compare, repeated),
+        **whole_process_target(whole),
         **fetch_loads["targets"],
     }
     for name, target in targets.items():
@@ -262,6 +272,7 @@ def run_bench(
         "startup": startup,
         "sweep": rows,
         "compare": compare,
+        "whole_process": whole,
         "target_points_repeated": repeated,
         "memory_exact_histogram": memory,
         "adaptive": adaptive,
