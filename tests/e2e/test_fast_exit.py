@@ -1,7 +1,9 @@
 """`stook run` ends its process without Python's teardown, after saying all it has to say.
 
 The teardown (finalizing ~800 modules) took ~0.1 s of every run; the process now ends at
-once when `run` returns. A marker registered with atexit shows whether the teardown ran.
+once when `run` returns. An object of `__main__` whose finalizer prints shows whether the
+teardown ran; a handler registered with atexit, which must run either way (a user's own,
+coverage's), shows that it did.
 """
 
 from __future__ import annotations
@@ -21,10 +23,14 @@ from tests.failures import failure_lines
 
 REPO = Path(__file__).resolve().parents[2]
 MARK = "teardown-ran"
-# The entry point as the console script calls it, with an atexit marker first.
+AT_EXIT = "atexit-ran"
+# The entry point as the console script calls it, with both markers first.
 ENTRY = (
     "import atexit, sys\n"
-    f"atexit.register(lambda: print({MARK!r}, file=sys.stderr))\n"
+    "class Mark:\n"
+    f"    def __del__(self): sys.stderr.write({MARK!r} + '\\n')\n"
+    "mark = Mark()\n"
+    f"atexit.register(lambda: print({AT_EXIT!r}, file=sys.stderr))\n"
     "from stook.service.cli import main\n"
     "main()\n"
 )
@@ -69,6 +75,7 @@ def test_a_run_that_succeeds_ends_without_the_teardown(tmp_path: Path, emu: Emul
     done = _stook(tmp_path, *_batch(tmp_path, emu))
     assert done.returncode == 0, done.stderr
     assert MARK not in done.stderr
+    assert AT_EXIT in done.stderr
     read_output(tmp_path / "outputs" / OUTPUT_NAME)
 
 
@@ -79,9 +86,11 @@ def test_a_run_that_fails_says_its_one_line_and_keeps_its_exit_code(
     assert done.returncode == 3
     assert len(failure_lines(done.stderr)) == 1, done.stderr
     assert MARK not in done.stderr
+    assert AT_EXIT in done.stderr
 
 
 def test_other_commands_end_as_usual(tmp_path: Path) -> None:
     done = _stook(tmp_path, "--version")
     assert done.returncode == 0
     assert MARK in done.stderr
+    assert AT_EXIT in done.stderr
