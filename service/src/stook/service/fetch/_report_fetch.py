@@ -22,7 +22,14 @@ from typing import TypeVar
 
 import structlog
 
-from stook.sdk.aggregations import UNKNOWN_STATUS, BatchRecord, JobSummary, Needs, Scalar
+from stook.sdk.aggregations import (
+    UNKNOWN_STATUS,
+    BatchRecord,
+    BatchSummary,
+    JobSummary,
+    Needs,
+    Scalar,
+)
 from stook.service.api import (
     ApiClient,
     ApiError,
@@ -36,6 +43,7 @@ from stook.service.api import (
 )
 from stook.service.fetch._batch_fetch import MissingJob
 from stook.service.fetch._scalars import is_scalar, read_scalars
+from stook.service.fetch._summaries import read_summary
 
 log = structlog.get_logger("stook.report")
 _T = TypeVar("_T")
@@ -60,6 +68,8 @@ class ReportOutcome:
     jobs_done: int = 0
     jobs_total: int | None = None
     jobs_with_metrics: int = 0
+    # Batches read from their stook summary (one listing and one download each).
+    batches_summarised: int = 0
     missing: list[MissingJob] = field(default_factory=list)
     job_scalar_names: set[str] = field(default_factory=set)
     first: datetime | None = None
@@ -91,11 +101,9 @@ class _PendingBatch:
     jobs: list[JobSummary]
     remaining: int
     listed: bool = False
-    job_scalars: dict[str, list[float]] = field(default_factory=dict)
-    job_units: dict[str, str] = field(default_factory=dict)
     job_statuses: list[str] = field(default_factory=list)
-    # Per job: its scalar values by name, for report aggregations that read them per job.
-    job_values: dict[uuid.UUID, dict[str, float]] = field(default_factory=dict)
+    # Per job: the scalars the plan reads, by name (pooled per batch when it is done).
+    job_values: dict[uuid.UUID, dict[str, Scalar]] = field(default_factory=dict)
 
 
 class ReportFetcher:
@@ -108,8 +116,10 @@ class ReportFetcher:
         *,
         workers: int = 64,
         on_progress: Callable[[ReportOutcome], None] | None = None,
+        use_summaries: bool = True,
     ) -> None:
         self._api = api
+        self._use_summaries = use_summaries
         self._project_id = project_id
         self._report_id = report_id
         self._needs = needs
@@ -180,10 +190,20 @@ class ReportFetcher:
         queue: asyncio.Queue[tuple[_PendingBatch, Job] | None],
         on_batch: Callable[[BatchRecord], None],
     ) -> None:
-        metrics, jobs = await asyncio.gather(
-            _collect(self._api.list_batch_metrics(self._project_id, batch.batch_id)),
-            _collect(self._api.list_jobs(self._project_id, batch.batch_id)),
-        )
+        if self._use_summaries:
+            metrics, summary = await asyncio.gather(
+                _collect(self._api.list_batch_metrics(self._project_id, batch.batch_id)),
+                read_summary(self._api, self._project_id, batch.batch_id),
+            )
+            if summary is not None:
+                await self._from_summary(batch, metrics, summary, on_batch)
+                return
+            jobs = await _collect(self._api.list_jobs(self._project_id, batch.batch_id))
+        else:
+            metrics, jobs = await asyncio.gather(
+                _collect(self._api.list_batch_metrics(self._project_id, batch.batch_id)),
+                _collect(self._api.list_jobs(self._project_id, batch.batch_id)),
+            )
         self.outcome.jobs += len(jobs)
         if self.outcome.jobs_total is not None:
             # The listing is the truth where it and the batch's totalJobs differ.
@@ -192,15 +212,7 @@ class ReportFetcher:
             self.outcome.jobs_done += len(jobs)
         pending = _PendingBatch(
             batch=batch,
-            scalars=await read_scalars(
-                self._api.storage,
-                metrics,
-                self._needs.wants_scalar,
-                source=f"batch {batch.batch_id}",
-                relist=lambda: _collect(
-                    self._api.list_batch_metrics(self._project_id, batch.batch_id)
-                ),
-            ),
+            scalars=await self._batch_scalars(batch, metrics),
             metric_statuses=[str(m.status) for m in metrics],
             jobs=[
                 JobSummary(
@@ -219,6 +231,53 @@ class ReportFetcher:
         pending.listed = True
         if pending.remaining == 0:
             self._finish(pending, on_batch)
+
+    async def _batch_scalars(self, batch: Batch, metrics: list[ApiMetric]) -> dict[str, Scalar]:
+        return await read_scalars(
+            self._api.storage,
+            metrics,
+            self._needs.wants_scalar,
+            source=f"batch {batch.batch_id}",
+            relist=lambda: _collect(self._api.list_batch_metrics(self._project_id, batch.batch_id)),
+        )
+
+    async def _from_summary(
+        self,
+        batch: Batch,
+        metrics: list[ApiMetric],
+        summary: BatchSummary,
+        on_batch: Callable[[BatchRecord], None],
+    ) -> None:
+        """The batch as its summary has it: what the job listings would have given."""
+        count = len(summary.jobs)
+        self.outcome.jobs += count
+        self.outcome.jobs_done += count
+        self.outcome.batches_summarised += 1
+        if self.outcome.jobs_total is not None:
+            self.outcome.jobs_total += count - (batch.total_jobs or 0)
+        pending = _PendingBatch(
+            batch=batch,
+            scalars=await self._batch_scalars(batch, metrics),
+            metric_statuses=[str(m.status) for m in metrics],
+            jobs=[
+                JobSummary(j.job_id, j.experience_name, j.conflated_status, j.experience_id)
+                for j in summary.jobs
+            ],
+            remaining=0,
+            listed=True,
+        )
+        if self._needs.job_metrics:
+            wanted = self._needs.wants_scalar
+            for job in summary.jobs:
+                self.outcome.jobs_with_metrics += job.has_metrics
+                self.outcome.job_scalar_names.update(job.scalars)
+                pending.job_values[job.job_id] = {
+                    name: Scalar(value, unit)
+                    for name, (value, unit) in job.scalars.items()
+                    if wanted(name)
+                }
+            pending.job_statuses = list(Counter(summary.metric_statuses).elements())
+        self._finish(pending, on_batch)
 
     async def _work(
         self,
@@ -243,10 +302,10 @@ class ReportFetcher:
                 if metrics:
                     self.outcome.jobs_with_metrics += 1
                 pending.job_statuses.extend(str(m.status) for m in metrics)
-                for name, scalar in scalars.items():
-                    pending.job_scalars.setdefault(name, []).append(scalar.value)
-                    pending.job_units.setdefault(name, scalar.unit)
-                pending.job_values[job.job_id] = {n: s.value for n, s in scalars.items()}
+                # Only what the plan reads, as a batch summary gives it (null scalars
+                # are read only when wanted, so others would come and go with the API).
+                wanted = self._needs.wants_scalar
+                pending.job_values[job.job_id] = {n: s for n, s in scalars.items() if wanted(n)}
                 # Listed is enough: a name a job has is no typo, even when its value is absent.
                 self.outcome.job_scalar_names.update(m.name for m in metrics if is_scalar(m))
             pending.remaining -= 1
@@ -277,6 +336,14 @@ class ReportFetcher:
             raise ApiError(f"batch {batch.batch_id} has no creationTimestamp to place it in time")
         # Sorted, so that the record does not depend on the order job listings returned in.
         job_statuses = Counter(pending.job_statuses)
+        # Pooled in job-ID order: a metric's unit is its first job's, whatever the order
+        # the listings (or a summary) came in.
+        job_scalars: dict[str, list[float]] = {}
+        job_units: dict[str, str] = {}
+        for job_id in sorted(pending.job_values):
+            for name, scalar in pending.job_values[job_id].items():
+                job_scalars.setdefault(name, []).append(scalar.value)
+                job_units.setdefault(name, scalar.unit)
         on_batch(
             BatchRecord(
                 batch_id=batch.batch_id,
@@ -286,11 +353,16 @@ class ReportFetcher:
                 scalars=pending.scalars,
                 metric_statuses=sorted(pending.metric_statuses),
                 jobs=[
-                    dataclasses.replace(j, scalars=pending.job_values.get(j.job_id, {}))
+                    dataclasses.replace(
+                        j,
+                        scalars={
+                            n: s.value for n, s in pending.job_values.get(j.job_id, {}).items()
+                        },
+                    )
                     for j in sorted(pending.jobs, key=lambda j: j.job_id)
                 ],
-                job_scalars={k: sorted(v) for k, v in pending.job_scalars.items()},
-                job_scalar_units=pending.job_units,
+                job_scalars={k: sorted(v) for k, v in sorted(job_scalars.items())},
+                job_scalar_units=dict(sorted(job_units.items())),
                 job_metric_statuses=sorted(job_statuses.elements()),
                 build_id=batch.build_id,
             )

@@ -85,6 +85,7 @@ class ReportMode:
             needs,
             workers=self.config.fetch.concurrency,
             on_progress=on_progress,
+            use_summaries=self.config.report.use_summaries,
         )
 
     def progress(self, outcome: ReportOutcome) -> Snapshot:
