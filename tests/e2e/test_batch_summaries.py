@@ -91,3 +91,59 @@ def test_batch_mode_writes_a_summary_a_report_can_read(tmp_path: Path) -> None:
     for job in summary.jobs:
         assert job.conflated_status == truth[job.job_id].conflated_status
         assert job.experience_name == truth[job.job_id].experience.name
+
+
+def _batch_data_names(emu: Emulator, tmp: Path, *extra: str, toml: str = "") -> list[str]:
+    """Batch mode on the emulator's main batch; the names of the metrics data it wrote."""
+    write_batch_inputs(tmp / "inputs", emu)
+    (tmp / "stook.toml").write_text(toml)
+    argv = ["run", "--inputs", str(tmp / "inputs"), "--outputs", str(tmp / "out")]
+    argv += ["--config", str(tmp / "stook.toml"), "--log-level", "error", *extra]
+    assert run_cli(argv) == 0
+    view = read_job_metrics((tmp / "out" / "metrics.binproto").read_bytes())
+    return [d.name for d in view.data]
+
+
+def test_output_summary_false_writes_none(tmp_path: Path) -> None:
+    with EmulatorThread(_emulator(jobs_per_batch=10)) as emu:
+        assert SUMMARY_DATA_NAME in _batch_data_names(emu, tmp_path / "on")
+        off = _batch_data_names(emu, tmp_path / "off", toml="[output]\nsummary = false\n")
+    assert SUMMARY_DATA_NAME not in off
+
+
+def test_no_summary_when_some_jobs_are_missing(tmp_path: Path) -> None:
+    # A summary without the broken job would give reports wrong numbers: none is written.
+    with EmulatorThread(_emulator(jobs_per_batch=20, broken_jobs=(3,))) as emu:
+        names = _batch_data_names(emu, tmp_path, "--allow-missing-jobs", "0.1")
+    assert names  # the batch's own data is there
+    assert SUMMARY_DATA_NAME not in names
+
+
+@pytest.mark.parametrize(
+    ("patch", "said"),
+    [
+        ("SUMMARY_VERSION", "batch summary written by a newer stook"),
+        ("summary_text", "batch summary unreadable"),
+    ],
+)
+def test_a_summary_it_cannot_read_falls_back_to_the_listings(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, patch: str, said: str
+) -> None:
+    from stook.sdk.aggregations import _summary
+
+    with EmulatorThread(_emulator()) as emu:
+        plain, _, _ = _report(emu, tmp_path / "plain")
+    with EmulatorThread(_emulator(batch_summaries="exact")) as emu:
+        with monkeypatch.context() as mp:
+            if patch == "SUMMARY_VERSION":
+                mp.setattr(_summary, "SUMMARY_VERSION", _summary.SUMMARY_VERSION + 1)
+            else:
+                mp.setattr(_summary, "summary_text", lambda summary: "AAAA")
+            for batch in emu.dataset.report_batches():
+                emu.dataset.batch_output(batch.id)  # written now, while patched
+        before = emu.stats.endpoints["api:list_jobs"]
+        run = run_report_cli(emu, tmp_path / "newer", REPORT_TOML)
+        assert emu.stats.endpoints["api:list_jobs"] - before >= BATCHES
+    assert run.code == 0, run.err
+    assert run.output.read_bytes() == plain
+    assert run.err.count(said) == BATCHES
