@@ -82,7 +82,7 @@ def test_many_names_widen_the_indexes() -> None:
 def test_equal_batches_give_equal_bytes_whatever_the_job_order() -> None:
     summary = _summary(40)
     shuffled = BatchSummary(
-        tuple(reversed(summary.jobs)), dict(reversed(summary.metric_statuses.items()))
+        tuple(reversed(summary.jobs)), dict(reversed(list(summary.metric_statuses.items())))
     )
     assert encode_summary(shuffled) == encode_summary(summary)
 

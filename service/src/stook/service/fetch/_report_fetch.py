@@ -11,11 +11,10 @@ of workers drains, so requests stay within the client's bound and memory within
 from __future__ import annotations
 
 import asyncio
-import dataclasses
 import time
 import uuid
 from collections import Counter
-from collections.abc import AsyncIterator, Callable
+from collections.abc import AsyncIterator, Callable, Mapping
 from dataclasses import dataclass, field
 from datetime import datetime
 from typing import TypeVar
@@ -102,8 +101,9 @@ class _PendingBatch:
     remaining: int
     listed: bool = False
     job_statuses: list[str] = field(default_factory=list)
-    # Per job: the scalars the plan reads, by name (pooled per batch when it is done).
-    job_values: dict[uuid.UUID, dict[str, Scalar]] = field(default_factory=dict)
+    # Per job: the scalars the plan reads, (value, unit) by name, as a summary has them
+    # (pooled per batch when it is done).
+    job_values: dict[uuid.UUID, Mapping[str, tuple[float, str]]] = field(default_factory=dict)
 
 
 class ReportFetcher:
@@ -268,14 +268,16 @@ class ReportFetcher:
         )
         if self._needs.job_metrics:
             wanted = self._needs.wants_scalar
+            names = {n for job in summary.jobs for n in job.scalars}
+            unwanted = {n for n in names if not wanted(n)}
+            self.outcome.job_scalar_names.update(names)
             for job in summary.jobs:
                 self.outcome.jobs_with_metrics += job.has_metrics
-                self.outcome.job_scalar_names.update(job.scalars)
-                pending.job_values[job.job_id] = {
-                    name: Scalar(value, unit)
-                    for name, (value, unit) in job.scalars.items()
-                    if wanted(name)
-                }
+                pending.job_values[job.job_id] = (
+                    {n: v for n, v in job.scalars.items() if n not in unwanted}
+                    if unwanted
+                    else job.scalars  # read-only from here on: no copy per job
+                )
             pending.job_statuses = list(Counter(summary.metric_statuses).elements())
         self._finish(pending, on_batch)
 
@@ -305,7 +307,9 @@ class ReportFetcher:
                 # Only what the plan reads, as a batch summary gives it (null scalars
                 # are read only when wanted, so others would come and go with the API).
                 wanted = self._needs.wants_scalar
-                pending.job_values[job.job_id] = {n: s for n, s in scalars.items() if wanted(n)}
+                pending.job_values[job.job_id] = {
+                    n: (s.value, s.unit) for n, s in scalars.items() if wanted(n)
+                }
                 # Listed is enough: a name a job has is no typo, even when its value is absent.
                 self.outcome.job_scalar_names.update(m.name for m in metrics if is_scalar(m))
             pending.remaining -= 1
@@ -340,10 +344,12 @@ class ReportFetcher:
         # the listings (or a summary) came in.
         job_scalars: dict[str, list[float]] = {}
         job_units: dict[str, str] = {}
-        for job_id in sorted(pending.job_values):
-            for name, scalar in pending.job_values[job_id].items():
-                job_scalars.setdefault(name, []).append(scalar.value)
-                job_units.setdefault(name, scalar.unit)
+        values = pending.job_values
+        for job_id in sorted(values):
+            for name, (value, unit) in values[job_id].items():
+                job_scalars.setdefault(name, []).append(value)
+                job_units.setdefault(name, unit)
+        empty: dict[str, tuple[float, str]] = {}
         on_batch(
             BatchRecord(
                 batch_id=batch.batch_id,
@@ -353,11 +359,12 @@ class ReportFetcher:
                 scalars=pending.scalars,
                 metric_statuses=sorted(pending.metric_statuses),
                 jobs=[
-                    dataclasses.replace(
-                        j,
-                        scalars={
-                            n: s.value for n, s in pending.job_values.get(j.job_id, {}).items()
-                        },
+                    JobSummary(
+                        j.job_id,
+                        j.experience_name,
+                        j.conflated_status,
+                        j.experience_id,
+                        {n: v for n, (v, _) in values.get(j.job_id, empty).items()},
                     )
                     for j in sorted(pending.jobs, key=lambda j: j.job_id)
                 ],
