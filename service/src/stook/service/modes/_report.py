@@ -106,6 +106,7 @@ class ReportMode:
             "batches": outcome.batches,
             "jobs": outcome.jobs,
             "jobs_missing": len(outcome.missing),
+            "batches_summarised": outcome.batches_summarised,
         }
 
     def missing(self, outcome: ReportOutcome) -> tuple[list[MissingJob], int]:
