@@ -219,8 +219,8 @@ def _l2_cost() -> Any:
         def fit(self, signal: np.ndarray) -> SummedL2Cost:
             self.signal = signal
             column = signal[:, 0]
-            self.sums = np.concatenate([[0.0], np.cumsum(column)]).tolist()
-            self.squares = np.concatenate([[0.0], np.cumsum(column * column)]).tolist()
+            self.sums: list[float] = np.concatenate([[0.0], np.cumsum(column)]).tolist()
+            self.squares: list[float] = np.concatenate([[0.0], np.cumsum(column**2)]).tolist()
             return self
 
         def error(self, start: int, end: int) -> float:
