@@ -101,8 +101,8 @@ class _PendingBatch:
     remaining: int
     listed: bool = False
     job_statuses: list[str] = field(default_factory=list)
-    # Per job: the scalars the plan reads, (value, unit) by name, as a summary has them
-    # (pooled per batch when it is done).
+    # Per job: its scalars, (value, unit) by name, as a summary has them (pooled per
+    # batch when it is done).
     job_values: dict[uuid.UUID, Mapping[str, tuple[float, str]]] = field(default_factory=dict)
 
 
@@ -267,17 +267,11 @@ class ReportFetcher:
             listed=True,
         )
         if self._needs.job_metrics:
-            wanted = self._needs.wants_scalar
-            names = {n for job in summary.jobs for n in job.scalars}
-            unwanted = {n for n in names if not wanted(n)}
-            self.outcome.job_scalar_names.update(names)
             for job in summary.jobs:
                 self.outcome.jobs_with_metrics += job.has_metrics
-                pending.job_values[job.job_id] = (
-                    {n: v for n, v in job.scalars.items() if n not in unwanted}
-                    if unwanted
-                    else job.scalars  # read-only from here on: no copy per job
-                )
+                self.outcome.job_scalar_names.update(job.scalars)
+                # Read-only from here on: no copy per job.
+                pending.job_values[job.job_id] = job.scalars
             pending.job_statuses = list(Counter(summary.metric_statuses).elements())
         self._finish(pending, on_batch)
 
@@ -304,12 +298,7 @@ class ReportFetcher:
                 if metrics:
                     self.outcome.jobs_with_metrics += 1
                 pending.job_statuses.extend(str(m.status) for m in metrics)
-                # Only what the plan reads, as a batch summary gives it (null scalars
-                # are read only when wanted, so others would come and go with the API).
-                wanted = self._needs.wants_scalar
-                pending.job_values[job.job_id] = {
-                    n: (s.value, s.unit) for n, s in scalars.items() if wanted(n)
-                }
+                pending.job_values[job.job_id] = {n: (s.value, s.unit) for n, s in scalars.items()}
                 # Listed is enough: a name a job has is no typo, even when its value is absent.
                 self.outcome.job_scalar_names.update(m.name for m in metrics if is_scalar(m))
             pending.remaining -= 1
