@@ -44,12 +44,26 @@ from stook.sdk.aggregations._status_counts import (
     MetricStatusCounts,
     PassRate,
 )
+from stook.sdk.aggregations._summary import (
+    SUMMARY_DATA_NAME,
+    SUMMARY_VERSION,
+    BatchSummary,
+    BatchSummaryWriter,
+    SummaryError,
+    SummaryJob,
+    SummaryVersionError,
+    decode_summary,
+    encode_summary,
+    summary_from_data,
+)
 from stook.sdk.aggregations._sweep import ParameterSweep
 from stook.sdk.aggregations._weighted_mean import WeightedMean
 
 __all__ = [
     "JOB_STATUSES",
     "METRIC_STATUSES",
+    "SUMMARY_DATA_NAME",
+    "SUMMARY_VERSION",
     "UNKNOWN_STATUS",
     "Aggregation",
     "AggregationConfigError",
@@ -57,6 +71,8 @@ __all__ = [
     "BaselineInfo",
     "BatchAggregation",
     "BatchRecord",
+    "BatchSummary",
+    "BatchSummaryWriter",
     "ByExperienceTag",
     "CategoryTotals",
     "ComparisonResult",
@@ -77,9 +93,15 @@ __all__ = [
     "Scalar",
     "ScalarDefaults",
     "ScalarStats",
+    "SummaryError",
+    "SummaryJob",
+    "SummaryVersionError",
     "WeightedMean",
     "build",
     "build_all",
+    "decode_summary",
     "default_batch_aggregations",
     "default_report_aggregations",
+    "encode_summary",
+    "summary_from_data",
 ]

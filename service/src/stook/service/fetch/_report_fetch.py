@@ -11,18 +11,24 @@ of workers drains, so requests stay within the client's bound and memory within
 from __future__ import annotations
 
 import asyncio
-import dataclasses
 import time
 import uuid
 from collections import Counter
-from collections.abc import AsyncIterator, Callable
+from collections.abc import AsyncIterator, Callable, Mapping
 from dataclasses import dataclass, field
 from datetime import datetime
 from typing import TypeVar
 
 import structlog
 
-from stook.sdk.aggregations import UNKNOWN_STATUS, BatchRecord, JobSummary, Needs, Scalar
+from stook.sdk.aggregations import (
+    UNKNOWN_STATUS,
+    BatchRecord,
+    BatchSummary,
+    JobSummary,
+    Needs,
+    Scalar,
+)
 from stook.service.api import (
     ApiClient,
     ApiError,
@@ -36,6 +42,7 @@ from stook.service.api import (
 )
 from stook.service.fetch._batch_fetch import MissingJob
 from stook.service.fetch._scalars import is_scalar, read_scalars
+from stook.service.fetch._summaries import read_summary
 
 log = structlog.get_logger("stook.report")
 _T = TypeVar("_T")
@@ -60,6 +67,8 @@ class ReportOutcome:
     jobs_done: int = 0
     jobs_total: int | None = None
     jobs_with_metrics: int = 0
+    # Batches read from their stook summary (one listing and one download each).
+    batches_summarised: int = 0
     missing: list[MissingJob] = field(default_factory=list)
     job_scalar_names: set[str] = field(default_factory=set)
     first: datetime | None = None
@@ -91,11 +100,10 @@ class _PendingBatch:
     jobs: list[JobSummary]
     remaining: int
     listed: bool = False
-    job_scalars: dict[str, list[float]] = field(default_factory=dict)
-    job_units: dict[str, str] = field(default_factory=dict)
     job_statuses: list[str] = field(default_factory=list)
-    # Per job: its scalar values by name, for report aggregations that read them per job.
-    job_values: dict[uuid.UUID, dict[str, float]] = field(default_factory=dict)
+    # Per job: its scalars, (value, unit) by name, as a summary has them (pooled per
+    # batch when it is done).
+    job_values: dict[uuid.UUID, Mapping[str, tuple[float, str]]] = field(default_factory=dict)
 
 
 class ReportFetcher:
@@ -108,8 +116,10 @@ class ReportFetcher:
         *,
         workers: int = 64,
         on_progress: Callable[[ReportOutcome], None] | None = None,
+        use_summaries: bool = True,
     ) -> None:
         self._api = api
+        self._use_summaries = use_summaries
         self._project_id = project_id
         self._report_id = report_id
         self._needs = needs
@@ -180,10 +190,20 @@ class ReportFetcher:
         queue: asyncio.Queue[tuple[_PendingBatch, Job] | None],
         on_batch: Callable[[BatchRecord], None],
     ) -> None:
-        metrics, jobs = await asyncio.gather(
-            _collect(self._api.list_batch_metrics(self._project_id, batch.batch_id)),
-            _collect(self._api.list_jobs(self._project_id, batch.batch_id)),
-        )
+        if self._use_summaries:
+            metrics, summary = await asyncio.gather(
+                _collect(self._api.list_batch_metrics(self._project_id, batch.batch_id)),
+                read_summary(self._api, self._project_id, batch.batch_id),
+            )
+            if summary is not None:
+                await self._from_summary(batch, metrics, summary, on_batch)
+                return
+            jobs = await _collect(self._api.list_jobs(self._project_id, batch.batch_id))
+        else:
+            metrics, jobs = await asyncio.gather(
+                _collect(self._api.list_batch_metrics(self._project_id, batch.batch_id)),
+                _collect(self._api.list_jobs(self._project_id, batch.batch_id)),
+            )
         self.outcome.jobs += len(jobs)
         if self.outcome.jobs_total is not None:
             # The listing is the truth where it and the batch's totalJobs differ.
@@ -192,15 +212,7 @@ class ReportFetcher:
             self.outcome.jobs_done += len(jobs)
         pending = _PendingBatch(
             batch=batch,
-            scalars=await read_scalars(
-                self._api.storage,
-                metrics,
-                self._needs.wants_scalar,
-                source=f"batch {batch.batch_id}",
-                relist=lambda: _collect(
-                    self._api.list_batch_metrics(self._project_id, batch.batch_id)
-                ),
-            ),
+            scalars=await self._batch_scalars(batch, metrics),
             metric_statuses=[str(m.status) for m in metrics],
             jobs=[
                 JobSummary(
@@ -219,6 +231,49 @@ class ReportFetcher:
         pending.listed = True
         if pending.remaining == 0:
             self._finish(pending, on_batch)
+
+    async def _batch_scalars(self, batch: Batch, metrics: list[ApiMetric]) -> dict[str, Scalar]:
+        return await read_scalars(
+            self._api.storage,
+            metrics,
+            self._needs.wants_scalar,
+            source=f"batch {batch.batch_id}",
+            relist=lambda: _collect(self._api.list_batch_metrics(self._project_id, batch.batch_id)),
+        )
+
+    async def _from_summary(
+        self,
+        batch: Batch,
+        metrics: list[ApiMetric],
+        summary: BatchSummary,
+        on_batch: Callable[[BatchRecord], None],
+    ) -> None:
+        """The batch as its summary has it: what the job listings would have given."""
+        count = len(summary.jobs)
+        self.outcome.jobs += count
+        self.outcome.jobs_done += count
+        self.outcome.batches_summarised += 1
+        if self.outcome.jobs_total is not None:
+            self.outcome.jobs_total += count - (batch.total_jobs or 0)
+        pending = _PendingBatch(
+            batch=batch,
+            scalars=await self._batch_scalars(batch, metrics),
+            metric_statuses=[str(m.status) for m in metrics],
+            jobs=[
+                JobSummary(j.job_id, j.experience_name, j.conflated_status, j.experience_id)
+                for j in summary.jobs
+            ],
+            remaining=0,
+            listed=True,
+        )
+        if self._needs.job_metrics:
+            for job in summary.jobs:
+                self.outcome.jobs_with_metrics += job.has_metrics
+                self.outcome.job_scalar_names.update(job.scalars)
+                # Read-only from here on: no copy per job.
+                pending.job_values[job.job_id] = job.scalars
+            pending.job_statuses = list(Counter(summary.metric_statuses).elements())
+        self._finish(pending, on_batch)
 
     async def _work(
         self,
@@ -243,10 +298,7 @@ class ReportFetcher:
                 if metrics:
                     self.outcome.jobs_with_metrics += 1
                 pending.job_statuses.extend(str(m.status) for m in metrics)
-                for name, scalar in scalars.items():
-                    pending.job_scalars.setdefault(name, []).append(scalar.value)
-                    pending.job_units.setdefault(name, scalar.unit)
-                pending.job_values[job.job_id] = {n: s.value for n, s in scalars.items()}
+                pending.job_values[job.job_id] = {n: (s.value, s.unit) for n, s in scalars.items()}
                 # Listed is enough: a name a job has is no typo, even when its value is absent.
                 self.outcome.job_scalar_names.update(m.name for m in metrics if is_scalar(m))
             pending.remaining -= 1
@@ -277,6 +329,16 @@ class ReportFetcher:
             raise ApiError(f"batch {batch.batch_id} has no creationTimestamp to place it in time")
         # Sorted, so that the record does not depend on the order job listings returned in.
         job_statuses = Counter(pending.job_statuses)
+        # Pooled in job-ID order: a metric's unit is its first job's, whatever the order
+        # the listings (or a summary) came in.
+        job_scalars: dict[str, list[float]] = {}
+        job_units: dict[str, str] = {}
+        values = pending.job_values
+        for job_id in sorted(values):
+            for name, (value, unit) in values[job_id].items():
+                job_scalars.setdefault(name, []).append(value)
+                job_units.setdefault(name, unit)
+        empty: dict[str, tuple[float, str]] = {}
         on_batch(
             BatchRecord(
                 batch_id=batch.batch_id,
@@ -286,11 +348,17 @@ class ReportFetcher:
                 scalars=pending.scalars,
                 metric_statuses=sorted(pending.metric_statuses),
                 jobs=[
-                    dataclasses.replace(j, scalars=pending.job_values.get(j.job_id, {}))
+                    JobSummary(
+                        j.job_id,
+                        j.experience_name,
+                        j.conflated_status,
+                        j.experience_id,
+                        {n: v for n, (v, _) in values.get(j.job_id, empty).items()},
+                    )
                     for j in sorted(pending.jobs, key=lambda j: j.job_id)
                 ],
-                job_scalars={k: sorted(v) for k, v in pending.job_scalars.items()},
-                job_scalar_units=pending.job_units,
+                job_scalars={k: sorted(v) for k, v in sorted(job_scalars.items())},
+                job_scalar_units=dict(sorted(job_units.items())),
                 job_metric_statuses=sorted(job_statuses.elements()),
                 build_id=batch.build_id,
             )

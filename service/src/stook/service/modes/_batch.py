@@ -12,6 +12,7 @@ from stook.sdk import MetricStatus, MetricsWriter
 from stook.sdk.aggregations import (
     BaselineComparison,
     BatchAggregation,
+    BatchSummaryWriter,
     Needs,
     default_batch_aggregations,
 )
@@ -56,12 +57,17 @@ class BatchMode:
     kind: str = "batch"
     # [batch.baseline]'s comparison, also among the aggregations; None without one.
     comparison: BaselineComparison | None = field(init=False, default=None)
+    # The batch's summary for later reports ([output] summary); None when off.
+    summary: BatchSummaryWriter | None = field(init=False, default=None)
 
     def __post_init__(self) -> None:
         self.aggregations = aggregations_for(self.config)
         if self.config.baseline is not None:
             self.comparison = self.config.baseline.comparison()
             self.aggregations.append(self.comparison)
+        if self.config.summary:
+            self.summary = BatchSummaryWriter()
+            self.aggregations.append(self.summary)
 
     @property
     def output_id(self) -> uuid.UUID:
@@ -110,6 +116,9 @@ class BatchMode:
         check_names(needs, outcome, self.config.source)
 
     def preface(self, writer: MetricsWriter, outcome: FetchOutcome) -> None:
+        if self.summary is not None and outcome.missing:
+            # A summary without some jobs would make reports wrong; they list this batch.
+            self.summary.skip(f"{len(outcome.missing)} jobs' metrics could not be read")
         if outcome.jobs_listed == 0:
             writer.text(
                 "Batch summary",

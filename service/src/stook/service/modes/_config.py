@@ -12,6 +12,7 @@ max_api_body_mb = 16   # largest API answer (a JSON page), decompressed
 
 [output]
 preview = false        # also write metrics.html (stook preview) beside metrics.binproto
+summary = true         # batch mode: also write the batch's summary (docs/batch-summaries.md)
 
 [test]
 metrics = "my_metrics.test:compute"   # called as compute(experience_dir, logs_dir, writer)
@@ -88,6 +89,8 @@ class ReportSettings:
     change_points: bool = True
     change_penalty: float = 3.0
     unstable_experiences: bool = True
+    # Read a batch's stook summary where it has one, instead of listing its jobs.
+    use_summaries: bool = True
 
 
 @dataclass(frozen=True, slots=True)
@@ -107,6 +110,8 @@ class StookConfig:
     baseline: BaselineSettings | None = None
     # [output] preview: write metrics.html beside metrics.binproto.
     preview: bool = False
+    # [output] summary: batch mode also writes the batch's summary (BatchSummaryWriter).
+    summary: bool = True
 
     def batch_aggregations(self) -> list[BatchAggregation]:
         try:
@@ -165,10 +170,13 @@ def parse(doc: Mapping[str, Any], *, source: str = "stook.toml") -> StookConfig:
     baseline = _baseline(batch.pop("baseline", None), source)
     report, report_tables = _report(_table(doc, "report", source), source)
     output = _table(doc, "output", source)
-    _only(output, {"preview"}, "[output]", source)
+    _only(output, {"preview", "summary"}, "[output]", source)
     preview = output.get("preview", False)
     if not isinstance(preview, bool):
         raise ConfigError(f"{source}: [output] preview must be true or false")
+    summary = output.get("summary", True)
+    if not isinstance(summary, bool):
+        raise ConfigError(f"{source}: [output] summary must be true or false")
     config = StookConfig(
         source=source,
         fetch=fetch,
@@ -179,6 +187,7 @@ def parse(doc: Mapping[str, Any], *, source: str = "stook.toml") -> StookConfig:
         report_tables=report_tables,
         baseline=baseline,
         preview=preview,
+        summary=summary,
     )
     # Fail now, before any fetching, on a bad table.
     config.batch_aggregations()
@@ -223,13 +232,15 @@ def _report(
         if not isinstance(job_metrics, list) or not all(isinstance(m, str) for m in job_metrics):
             raise ConfigError(f"{source}: [report] job_metrics must be a list of metric names")
     known = {"defaults", "top_n", "regression_window", "regression_threshold"}
-    known |= {"change_points", "change_penalty", "unstable_experiences"}
+    known |= {"change_points", "change_penalty", "unstable_experiences", "use_summaries"}
     _only(settings, known, "[report]", source)
     defaults = ReportSettings()
     flag = settings.get("defaults", True)
     if not isinstance(flag, bool):
         raise ConfigError(f"{source}: [report] defaults must be true or false")
-    switches = {k: settings.get(k, True) for k in ("change_points", "unstable_experiences")}
+    switches = {
+        k: settings.get(k, True) for k in ("change_points", "unstable_experiences", "use_summaries")
+    }
     for key, value in switches.items():
         if not isinstance(value, bool):
             raise ConfigError(f"{source}: [report] {key} must be true or false")

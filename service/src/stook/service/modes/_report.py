@@ -85,6 +85,7 @@ class ReportMode:
             needs,
             workers=self.config.fetch.concurrency,
             on_progress=on_progress,
+            use_summaries=self.config.report.use_summaries,
         )
 
     def progress(self, outcome: ReportOutcome) -> Snapshot:
@@ -105,6 +106,7 @@ class ReportMode:
             "batches": outcome.batches,
             "jobs": outcome.jobs,
             "jobs_missing": len(outcome.missing),
+            "batches_summarised": outcome.batches_summarised,
         }
 
     def missing(self, outcome: ReportOutcome) -> tuple[list[MissingJob], int]:

@@ -31,6 +31,7 @@ from stook.bench._measure import (
 from stook.bench._plots import plots_available, write_plots
 from stook.bench._repeat import repeat_target_points
 from stook.bench._startup import measure_startup, startup_table, startup_targets
+from stook.bench._summaries import run_summary_bench
 from stook.bench._sweep import FULL, QUICK, Grid, emulator_for, run_sweep
 from stook.bench._tables import sweep_tables
 from stook.bench._whole_process import QUICK_JOBS as QUICK_WHOLE_JOBS
@@ -239,6 +240,7 @@ def run_bench(
         "metric, against ReSim's fetcher ..."
     )
     fetch_loads = run_fetch_loads(load_jobs, 10.0, say=say)
+    summaries = run_summary_bench(quick, say)
     repeated: list[dict[str, Any]] = []
     if not quick:
         say(f"the target points again, {TARGET_REPEATS} runs each ...")
@@ -277,6 +279,7 @@ def run_bench(
         "memory_exact_histogram": memory,
         "adaptive": adaptive,
         "fetch_loads": fetch_loads,
+        "batch_summaries": summaries,
     }
     out_dir.mkdir(parents=True, exist_ok=True)
     _write_csv(rows, out_dir / f"{prefix}sweep.csv")

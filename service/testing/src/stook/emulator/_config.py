@@ -71,6 +71,13 @@ class EmulatorConfig:
     baseline_shift_metric: str = "Localization error"
     baseline_shift: float = 0.0
     cache_jobs: int = 256  # generated job outputs kept (an LRU); the rest is regenerated
+    # stook batch summaries in the report batches' batch metrics data (see _summaries.py):
+    # "off"; "exact", built from every job's generated metrics as stook's batch mode
+    # would; "synthetic", from the job specs alone with cheap values (benchmarks of a
+    # million jobs: the job endpoints do not agree with it). Report batches (indices)
+    # in report_batches_without_summary have none, as if written by another build.
+    batch_summaries: str = "off"
+    report_batches_without_summary: tuple[int, ...] = ()
 
     # ---- answers the API spec allows (see _quirks.py) ----
     # Everything at once that changes no correct client's output: empty fields left out,
@@ -140,6 +147,8 @@ class EmulatorConfig:
             raise ValueError("max_consecutive_faults and retry_after_max_s cannot be negative")
         if self.cache_jobs < 1:
             raise ValueError("cache_jobs must be at least 1")
+        if self.batch_summaries not in ("off", "exact", "synthetic"):
+            raise ValueError("batch_summaries must be 'off', 'exact' or 'synthetic'")
         for rate in (self.rate_limit_rps, self.storage_rate_limit_rps):
             if rate is not None and rate <= 0:
                 raise ValueError("a rate limit must be positive (or None)")
@@ -160,6 +169,7 @@ class EmulatorConfig:
             "unreported_status_jobs",
             "report_unstable_experiences",
             "baseline_regressed_experiences",
+            "report_batches_without_summary",
         ):
             indices = getattr(self, name)
             if any(isinstance(i, bool) or not isinstance(i, int) or i < 0 for i in indices):
@@ -197,6 +207,7 @@ class EmulatorConfig:
             "unreported_status_jobs",
             "report_unstable_experiences",
             "baseline_regressed_experiences",
+            "report_batches_without_summary",
         ):
             if name in clean:
                 clean[name] = tuple(clean[name])

@@ -23,6 +23,7 @@ from stook.emulator._generate import (
     generate_batch,
     generate_job,
 )
+from stook.emulator._summaries import add_summary
 from stook.emulator._world import JobSpec, World
 from stook.proto import metrics_pb2 as pb
 from stook.sdk import MetricStatus
@@ -162,6 +163,7 @@ class OutputStore:
             generated = generate_batch(
                 world.seed, batch, world.jobs(batch_id), batch_metrics_plan(world.config, batch)
             )
+            add_summary(world, self, batch, generated)
             cached = split_output(batch_id, generated)
             self._batch_outputs[batch_id] = cached
         return cached

@@ -1,0 +1,338 @@
+"""A batch's summary: what report mode needs of its jobs, written once by batch mode.
+
+Report mode otherwise lists every job and every job's metrics of every batch it reads.
+Batch mode has all of that in hand, so it also writes a compact summary of it as one
+metrics data item referenced by no metric (`SUMMARY_DATA_NAME`): a STRING series of one
+element, the base64 of the binary layout below. A report then reads one listing and one
+download per batch. See docs/batch-summaries.md.
+
+Layout (little-endian), version 1; columnar so that decoding a thousand jobs is a few
+`struct` calls, and sorted throughout so that equal batches give equal bytes:
+
+    b"STKS" u16 version
+    u8 width                       bytes of every index below (1, 2 or 4)
+    u32 strings, each u32 length + UTF-8          (sorted: names, statuses, units)
+    u32 experiences, each u8 has-id, 16 id bytes, index of its name
+    u32 jobs: job IDs (16 bytes each, sorted); per job the index of its experience, the
+        index of its conflated status; a bitmap of the jobs that have metrics
+    u32 scalar metrics (sorted by name), each: name index, bitmap of the jobs that have
+        it, their values (f64), the index of each value's unit
+    u32 job metric statuses, each: status index, u32 count
+
+A summary of a newer version than this code knows raises `SummaryVersionError`: the
+reader falls back to the listings instead of guessing at its meaning.
+"""
+
+from __future__ import annotations
+
+import base64
+import struct
+import uuid
+from collections import Counter
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Self
+
+from stook.sdk._data import strings
+from stook.sdk._errors import StookError
+from stook.sdk.aggregations._base import Aggregation, Needs
+from stook.sdk.aggregations._record import JobRecord
+
+if TYPE_CHECKING:
+    from stook.sdk._views import MetricsDataView
+    from stook.sdk._writer import MetricsWriter
+
+#: the name of the metrics data that holds a batch's summary
+SUMMARY_DATA_NAME = "stook batch summary"
+#: the newest summary layout this code writes and reads
+SUMMARY_VERSION = 1
+
+_MAGIC = b"STKS"
+_U8 = struct.Struct("<B")
+_U16 = struct.Struct("<H")
+_U32 = struct.Struct("<I")
+_WIDTH_CODES = {1: "B", 2: "H", 4: "I"}
+_NO_ID = bytes(16)
+
+
+class SummaryError(StookError):
+    """Bytes that are not a stook batch summary (truncated, or another format)."""
+
+
+class SummaryVersionError(SummaryError):
+    """A summary written by a newer stook, in a layout this one does not know."""
+
+
+@dataclass(frozen=True, slots=True)
+class SummaryJob:
+    """One job of a summary: its facts, whether it has metrics, and its SCALAR job
+    metrics as (value, unit) by name."""
+
+    job_id: uuid.UUID
+    experience_name: str
+    conflated_status: str
+    experience_id: uuid.UUID | None = None
+    has_metrics: bool = False
+    scalars: Mapping[str, tuple[float, str]] = field(default_factory=dict, hash=False)
+
+
+@dataclass(frozen=True, slots=True)
+class BatchSummary:
+    """A batch's jobs (sorted by ID) and the counts of its job metrics' statuses."""
+
+    jobs: tuple[SummaryJob, ...] = ()
+    metric_statuses: Mapping[str, int] = field(default_factory=dict, hash=False)
+
+
+# ---- encoding ----
+
+
+def encode_summary(summary: BatchSummary) -> bytes:
+    """The summary's bytes (version `SUMMARY_VERSION`); equal summaries, equal bytes."""
+    jobs = sorted(summary.jobs, key=lambda j: j.job_id.bytes)
+    metric_names = sorted({name for j in jobs for name in j.scalars})
+    experiences = sorted(
+        {(j.experience_name, j.experience_id.bytes if j.experience_id else _NO_ID) for j in jobs}
+    )
+    texts = sorted(
+        {j.experience_name for j in jobs}
+        | {j.conflated_status for j in jobs}
+        | set(metric_names)
+        | {unit for j in jobs for _, unit in j.scalars.values()}
+        | set(summary.metric_statuses)
+    )
+    text_index = {t: i for i, t in enumerate(texts)}
+    experience_index = {e: i for i, e in enumerate(experiences)}
+    width = _width(max(len(texts), len(experiences)))
+    code = _WIDTH_CODES[width]
+    out = bytearray(_MAGIC + _U16.pack(SUMMARY_VERSION) + _U8.pack(width))
+    out += _U32.pack(len(texts))
+    for text in texts:
+        encoded = text.encode()
+        out += _U32.pack(len(encoded)) + encoded
+    out += _U32.pack(len(experiences))
+    for name, id_bytes in experiences:
+        out += _U8.pack(id_bytes != _NO_ID) + id_bytes + _index(code, text_index[name])
+    out += _U32.pack(len(jobs))
+    out += b"".join(j.job_id.bytes for j in jobs)
+    out += _indexes(
+        code,
+        [
+            experience_index[
+                (j.experience_name, j.experience_id.bytes if j.experience_id else _NO_ID)
+            ]
+            for j in jobs
+        ],
+    )
+    out += _indexes(code, [text_index[j.conflated_status] for j in jobs])
+    out += _bitmap([j.has_metrics for j in jobs])
+    out += _U32.pack(len(metric_names))
+    for name in metric_names:
+        present = [name in j.scalars for j in jobs]
+        pairs = [j.scalars[name] for j in jobs if name in j.scalars]
+        out += _index(code, text_index[name]) + _bitmap(present)
+        out += struct.pack(f"<{len(pairs)}d", *(value for value, _ in pairs))
+        out += _indexes(code, [text_index[unit] for _, unit in pairs])
+    statuses = sorted(summary.metric_statuses.items())
+    out += _U32.pack(len(statuses))
+    for status, count in statuses:
+        out += _index(code, text_index[status]) + _U32.pack(count)
+    return bytes(out)
+
+
+def _width(size: int) -> int:
+    return 1 if size <= 0xFF else 2 if size <= 0xFFFF else 4
+
+
+def _index(code: str, value: int) -> bytes:
+    return struct.pack(f"<{code}", value)
+
+
+def _indexes(code: str, values: list[int]) -> bytes:
+    return struct.pack(f"<{len(values)}{code}", *values)
+
+
+def _bitmap(flags: list[bool]) -> bytes:
+    bits = bytearray((len(flags) + 7) // 8)
+    for i, flag in enumerate(flags):
+        if flag:
+            bits[i >> 3] |= 1 << (i & 7)
+    return bytes(bits)
+
+
+# ---- decoding ----
+
+
+def summary_version(payload: bytes) -> int:
+    """The layout version of a summary's bytes (SummaryError when they are none)."""
+    if len(payload) < 6 or payload[:4] != _MAGIC:
+        raise SummaryError("not a stook batch summary (no STKS header)")
+    version: int = _U16.unpack_from(payload, 4)[0]
+    return version
+
+
+def decode_summary(payload: bytes) -> BatchSummary:
+    """The summary in `payload`; SummaryVersionError for a layout newer than this code's,
+    SummaryError for bytes that are not a summary."""
+    version = summary_version(payload)
+    if version > SUMMARY_VERSION:
+        raise SummaryVersionError(
+            f"batch summary version {version} is newer than this stook reads "
+            f"(up to {SUMMARY_VERSION})"
+        )
+    if version < 1:
+        raise SummaryError(f"batch summary version {version} does not exist")
+    try:
+        return _Decoder(payload).summary()
+    except (struct.error, UnicodeDecodeError, IndexError, KeyError) as exc:
+        raise SummaryError(f"batch summary is truncated or corrupt ({exc})") from None
+
+
+class _Decoder:
+    def __init__(self, payload: bytes) -> None:
+        self._buf = memoryview(payload)
+        self._at = 6
+        self._width: int = self._take(_U8)
+        if self._width not in _WIDTH_CODES:
+            raise SummaryError(f"batch summary index width {self._width} is not 1, 2 or 4")
+        self._code = _WIDTH_CODES[self._width]
+
+    def _take(self, shape: struct.Struct) -> int:
+        (value,) = shape.unpack_from(self._buf, self._at)
+        self._at += shape.size
+        return int(value)
+
+    def _bytes(self, size: int) -> bytes:
+        end = self._at + size
+        if end > len(self._buf):
+            raise SummaryError("batch summary is truncated")
+        chunk = bytes(self._buf[self._at : end])
+        self._at = end
+        return chunk
+
+    def _indexes(self, count: int) -> tuple[int, ...]:
+        values = struct.unpack_from(f"<{count}{self._code}", self._buf, self._at)
+        self._at += count * self._width
+        return values
+
+    def _bits(self, count: int) -> list[bool]:
+        raw = self._bytes((count + 7) // 8)
+        return [bool(raw[i >> 3] >> (i & 7) & 1) for i in range(count)]
+
+    def summary(self) -> BatchSummary:
+        texts = [self._bytes(self._take(_U32)).decode() for _ in range(self._take(_U32))]
+        experiences: list[tuple[str, uuid.UUID | None]] = []
+        for _ in range(self._take(_U32)):
+            has_id = self._take(_U8)
+            id_bytes = self._bytes(16)
+            name = texts[self._indexes(1)[0]]
+            experiences.append((name, uuid.UUID(bytes=id_bytes) if has_id else None))
+        n = self._take(_U32)
+        ids = self._bytes(16 * n)
+        job_experiences = self._indexes(n)
+        job_statuses = self._indexes(n)
+        has_metrics = self._bits(n)
+        scalars: list[dict[str, tuple[float, str]]] = [{} for _ in range(n)]
+        for _ in range(self._take(_U32)):
+            name = texts[self._indexes(1)[0]]
+            present = [i for i, flag in enumerate(self._bits(n)) if flag]
+            values = struct.unpack_from(f"<{len(present)}d", self._buf, self._at)
+            self._at += 8 * len(present)
+            units = self._indexes(len(present))
+            for job, value, unit in zip(present, values, units, strict=True):
+                scalars[job][name] = (value, texts[unit])
+        statuses: dict[str, int] = {}
+        for _ in range(self._take(_U32)):
+            status = texts[self._indexes(1)[0]]
+            statuses[status] = self._take(_U32)
+        if self._at != len(self._buf):
+            raise SummaryError("batch summary has bytes past its end")
+        jobs = tuple(
+            SummaryJob(
+                uuid.UUID(bytes=ids[16 * i : 16 * i + 16]),
+                experiences[job_experiences[i]][0],
+                texts[job_statuses[i]],
+                experiences[job_experiences[i]][1],
+                has_metrics[i],
+                scalars[i],
+            )
+            for i in range(n)
+        )
+        return BatchSummary(jobs, statuses)
+
+
+# ---- as metrics data ----
+
+
+def summary_text(summary: BatchSummary) -> str:
+    """The summary as the one element of its STRING metrics data (base64: protobuf
+    strings must be UTF-8)."""
+    return base64.b64encode(encode_summary(summary)).decode("ascii")
+
+
+def summary_from_text(text: str) -> BatchSummary:
+    try:
+        payload = base64.b64decode(text.encode("ascii"), validate=True)
+    except (ValueError, UnicodeEncodeError):
+        raise SummaryError("batch summary is not base64 text") from None
+    return decode_summary(payload)
+
+
+def summary_from_data(view: MetricsDataView) -> BatchSummary:
+    """The summary held by its metrics data (read with `read_metrics_data`)."""
+    values = view.values() if view.kind is not None and not view.per_category else ()
+    if len(values) != 1 or not isinstance(values[0], str):
+        raise SummaryError(f"metrics data {view.name!r} does not hold one summary string")
+    return summary_from_text(values[0])
+
+
+# ---- written by batch mode ----
+
+
+@dataclass
+class BatchSummaryWriter(Aggregation[JobRecord]):
+    """Folds every job of a batch into its `BatchSummary` and writes it as metrics data
+    referenced by no metric. It reads every SCALAR (`every_scalar`), so that the summary
+    holds what a report's per-job listings would give, whatever the report asks for.
+
+    `skip(reason)` withholds the summary (a job whose metrics could not be read): a
+    report then lists that batch's jobs itself rather than trust an incomplete summary.
+    """
+
+    name: str = SUMMARY_DATA_NAME
+    jobs: dict[uuid.UUID, SummaryJob] = field(default_factory=dict, init=False)
+    statuses: Counter[str] = field(default_factory=Counter, init=False)
+    skipped: str | None = field(default=None, init=False)
+
+    def needs(self) -> Needs:
+        return Needs(every_scalar=True)
+
+    def update(self, record: JobRecord) -> None:
+        self.jobs[record.job_id] = SummaryJob(
+            record.job_id,
+            record.experience_name,
+            record.conflated_status,
+            record.experience_id,
+            bool(record.metric_statuses),
+            {name: (s.value, s.unit) for name, s in record.scalars.items()},
+        )
+        self.statuses.update(record.metric_statuses)
+
+    def merge(self, other: Self) -> None:
+        self.jobs.update(other.jobs)
+        self.statuses.update(other.statuses)
+        self.skipped = self.skipped or other.skipped
+
+    def skip(self, reason: str) -> None:
+        self.skipped = reason
+
+    def summary(self) -> BatchSummary:
+        return BatchSummary(
+            tuple(self.jobs[k] for k in sorted(self.jobs, key=lambda k: k.bytes)),
+            dict(sorted(self.statuses.items())),
+        )
+
+    def finish(self, writer: MetricsWriter) -> None:
+        if self.skipped is not None:
+            return
+        writer.add_data(strings(SUMMARY_DATA_NAME, [summary_text(self.summary())]))
