@@ -20,7 +20,7 @@ import tomllib
 from pathlib import Path
 
 from stook.emulator import EmulatorConfig, EmulatorProcess
-from stook.sdk import find_problems, read_job_metrics
+from stook.sdk import TextMetric, find_problems, read_job_metrics
 from stook.service.cli import summary_lines
 from stook.service.modes import (
     BatchInputs,
@@ -85,10 +85,9 @@ def _print_output(path: Path) -> int:
 
 def _text_of(path: Path, name: str) -> str | None:
     view = read_job_metrics(path.read_bytes(), source=str(path))
-    for metric in view.metrics:
-        if metric.name == name:
-            return str(metric.raw.metric_values.text_metric_values.text)
-    return None
+    if name not in view.metric_names():
+        return None
+    return view.metric(name, TextMetric).text
 
 
 def run_demo(*, jobs: int, output: Path, seed: int) -> int:

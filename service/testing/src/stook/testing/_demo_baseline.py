@@ -14,7 +14,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 from stook.emulator import EmulatorConfig, EmulatorProcess
-from stook.sdk import read_job_metrics
+from stook.sdk import TextMetric, read_job_metrics
 from stook.service.modes import BatchInputs, detect, for_stream, parse, run_batch
 
 COMPARISON_CONFIG = """\
@@ -56,6 +56,6 @@ def run_comparison_demo(output: Path, *, seed: int, print_output: Callable[[Path
         result = asyncio.run(run_batch(batch, config, folder, progress=for_stream(label="jobs")))
     invalid = print_output(result.output)
     view = read_job_metrics(result.output.read_bytes(), source=str(result.output))
-    text = next(m for m in view.metrics if m.name == "Compared with baseline")
-    print("  " + text.raw.metric_values.text_metric_values.text.replace("\n", "\n    "))
+    text = view.metric("Compared with baseline", TextMetric).text
+    print("  " + text.replace("\n", "\n    "))
     return invalid
