@@ -18,13 +18,20 @@ import uuid
 from collections.abc import AsyncGenerator, Awaitable, Callable, Iterable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, TypeVar
 
 import structlog
 
 from stook.sdk.aggregations import BatchRecord, JobRecord, Needs
-from stook.service.api import configure_logging
-from stook.service.fetch import BatchFetcher, MissingJob, ReportFetcher, fetch_deadline
+from stook.service.api import ApiClient, configure_logging
+from stook.service.fetch import (
+    BatchFetcher,
+    FetchOutcome,
+    MissingJob,
+    ReportFetcher,
+    ReportOutcome,
+    fetch_deadline,
+)
 from stook.service.modes._config import FetchSettings, parse
 from stook.service.modes._inputs import (
     BATCH_CONFIG,
@@ -218,6 +225,27 @@ async def _stream(
                 await producer
 
 
+_O = TypeVar("_O")
+
+
+async def _fetch_within_deadline(
+    access: ApiAccess,
+    settings: FetchSettings,
+    start: Callable[[ApiClient], tuple[_O, Awaitable[_O]]],
+    how_far: Callable[[_O], str],
+) -> _O:
+    """Open the API, start a fetch on it (`start` gives its outcome, kept up to date, and
+    the run to await) and await it within `[fetch] deadline`; the outcome when it ends."""
+    started = asyncio.get_running_loop().time()
+    async with open_api(access, settings) as api:
+        outcome, running = start(api)
+        async with fetch_deadline(
+            settings.deadline, started=started, progress=lambda: how_far(outcome)
+        ):
+            await running
+    return outcome
+
+
 def _check_missing(missing: list[MissingJob], total: int, allowed: int, what: str) -> None:
     if len(missing) <= allowed:
         for job in missing:
@@ -274,18 +302,15 @@ def fetch_batch(
     _default_logging()
 
     async def run(hand_over: _Handover) -> None:
-        started = asyncio.get_running_loop().time()
-        async with open_api(access, settings) as api:
+        def start(api: ApiClient) -> tuple[FetchOutcome, Awaitable[FetchOutcome]]:
             fetcher = BatchFetcher(
                 api, access.project_id, batch, needs, workers=settings.concurrency
             )
-            outcome = fetcher.outcome
-            async with fetch_deadline(
-                settings.deadline,
-                started=started,
-                progress=lambda: f"{outcome.jobs_done:,} of {outcome.jobs_listed:,} jobs",
-            ):
-                await fetcher.run(hand_over.put)
+            return fetcher.outcome, fetcher.run(hand_over.put)
+
+        outcome = await _fetch_within_deadline(
+            access, settings, start, lambda o: f"{o.jobs_done:,} of {o.jobs_listed:,} jobs"
+        )
         _check_missing(outcome.missing, outcome.jobs_listed, allow_missing, f"batch {batch}")
 
     return _stream(run, settings.concurrency)
@@ -324,18 +349,15 @@ def fetch_report(
     _default_logging()
 
     async def run(hand_over: _Handover) -> None:
-        started = asyncio.get_running_loop().time()
-        async with open_api(access, settings) as api:
+        def start(api: ApiClient) -> tuple[ReportOutcome, Awaitable[ReportOutcome]]:
             fetcher = ReportFetcher(
                 api, access.project_id, report, needs, workers=settings.concurrency
             )
-            outcome = fetcher.outcome
-            async with fetch_deadline(
-                settings.deadline,
-                started=started,
-                progress=lambda: f"{outcome.jobs:,} jobs of {outcome.batches:,} batches",
-            ):
-                await fetcher.run(hand_over.put_nowait)
+            return fetcher.outcome, fetcher.run(hand_over.put_nowait)
+
+        outcome = await _fetch_within_deadline(
+            access, settings, start, lambda o: f"{o.jobs:,} jobs of {o.batches:,} batches"
+        )
         _check_missing(outcome.missing, outcome.jobs, allow_missing, f"report {report}")
 
     return _stream(run, 0)
