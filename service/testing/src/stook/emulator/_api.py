@@ -7,7 +7,7 @@ does. Metrics and metrics data are listed with presigned URLs into the storage o
 from __future__ import annotations
 
 import uuid
-from datetime import timedelta
+from datetime import datetime, timedelta
 from typing import Any
 
 from aiohttp import web
@@ -339,14 +339,18 @@ class _ApiRoutes:
             return batch_id, None
         return batch_id, self.ds.batch_output(batch_id)
 
+    def _batch_blobs(self, batch_id: uuid.UUID) -> tuple[str, datetime]:
+        """Where a batch's metric blobs are stored, and when its metrics build wrote them."""
+        batch = self.ds.batch(batch_id)
+        assert batch is not None
+        base = f"/{BUCKET}/projects/{self.ds.project_id}/batches/{batch_id}"
+        return base, batch.created + timedelta(minutes=30)
+
     async def list_batch_metrics(self, request: web.Request) -> web.Response:
         batch_id, output = self._batch_output(request)
         metrics = list(output.metrics) if output is not None else []
         items, token, _ = self._page(request, metrics, f"batch-metrics:{batch_id}")
-        batch = self.ds.batch(batch_id)
-        assert batch is not None
-        base = f"/{BUCKET}/projects/{self.ds.project_id}/batches/{batch_id}"
-        created = batch.created + timedelta(minutes=30)
+        base, created = self._batch_blobs(batch_id)
         return json_response(
             self.quirks.page(
                 {
@@ -372,10 +376,7 @@ class _ApiRoutes:
         batch_id, output = self._batch_output(request)
         data = list(output.data) if output is not None else []
         items, token, _ = self._page(request, data, f"batch-data:{batch_id}")
-        batch = self.ds.batch(batch_id)
-        assert batch is not None
-        base = f"/{BUCKET}/projects/{self.ds.project_id}/batches/{batch_id}"
-        created = batch.created + timedelta(minutes=30)
+        base, created = self._batch_blobs(batch_id)
         return json_response(
             self.quirks.page(
                 {
