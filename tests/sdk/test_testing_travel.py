@@ -107,3 +107,12 @@ def test_without_travel_the_round_trip_is_skipped() -> None:
     laws.check_travel()  # nothing to check
     laws.check_split([[0, 1], [2, 3, 4, 5, 6]])
     laws.check_tree()
+
+
+def test_a_class_defined_in_a_function_is_named_with_the_fix() -> None:
+    @dataclass
+    class Local(Total):
+        pass
+
+    with pytest.raises(AssertionError, match=r"Local 'Total' cannot travel .* define the class at"):
+        check_merge_laws(Local, RECORDS, rounds=1)

@@ -199,9 +199,9 @@ class MergeLaws(Generic[R]):
             raise AssertionError(
                 f"{self._label} cannot travel between processes: pickling a partial state "
                 f"raised {type(exc).__name__}: {exc}. The processes and ray engines send "
-                "partials between processes by pickle: keep the state to picklable values "
-                "(no lambdas, locks, open files or generators), or define "
-                "__getstate__/__setstate__ (see Aggregation)"
+                "partials between processes by pickle: define the class at the top level "
+                "of a module, keep its state to picklable values (no lambdas, locks, open "
+                "files or generators), or define __getstate__/__setstate__ (see Aggregation)"
             ) from None
         try:
             travelled = pickle.loads(payload)
