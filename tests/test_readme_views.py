@@ -40,4 +40,4 @@ def test_merge_laws_example(monkeypatch: pytest.MonkeyPatch) -> None:
         JobRecord(uuid.uuid4(), "PASSED", scalars={"speed": Scalar(float(v))}) for v in (3, 9, 1)
     ]
     exec(_block("check_merge_laws("), namespace)
-    namespace["test_max_of_scalar_merges"]()  # type: ignore[operator]
+    namespace["test_max_of_scalar_merges"]()
