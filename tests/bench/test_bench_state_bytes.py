@@ -6,7 +6,10 @@ import pickle
 import subprocess
 import sys
 
+import pytest
+
 from stook.bench._state_bytes import (
+    main,
     measured_aggregations,
     shards_of,
     state_bytes,
@@ -72,3 +75,10 @@ def test_the_command_prints_a_table() -> None:
     assert bad.returncode == 2
     assert "--jobs and --shards must be at least 1" in bad.stderr
     assert table([]).startswith("| Aggregation |")
+
+
+def test_main_prints_the_table_in_process(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["--jobs", "20", "--shards", "2"]) == 0
+    out = capsys.readouterr().out
+    assert out.startswith("20 synthetic jobs in 2 shards:")
+    assert out.rstrip().endswith("|")
