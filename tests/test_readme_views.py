@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import sys
+import types
 import uuid
 from pathlib import Path
 
@@ -27,11 +29,15 @@ def test_reading_outputs_example(tmp_path: Path, monkeypatch: pytest.MonkeyPatch
     assert hist.buckets == ((0.0, 20.0), (20.0, 40.0))  # type: ignore[attr-defined]
 
 
-def test_merge_laws_example() -> None:
-    namespace: dict[str, object] = {}
+def test_merge_laws_example(monkeypatch: pytest.MonkeyPatch) -> None:
+    # The class lives in a module of its own, as a user's does: check_merge_laws pickles
+    # its partials, and pickle finds a class by its module and name.
+    module = types.ModuleType("readme_merge_laws_example")
+    monkeypatch.setitem(sys.modules, module.__name__, module)
+    namespace = module.__dict__
     exec(_block("class MaxOfScalar"), namespace)
     namespace["records"] = [
         JobRecord(uuid.uuid4(), "PASSED", scalars={"speed": Scalar(float(v))}) for v in (3, 9, 1)
     ]
     exec(_block("check_merge_laws("), namespace)
-    namespace["test_max_of_scalar_merges"]()  # type: ignore[operator]
+    namespace["test_max_of_scalar_merges"]()

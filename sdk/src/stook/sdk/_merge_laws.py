@@ -8,11 +8,17 @@ depend on how the records were split, in which order they arrived, or in which o
 partials were merged. Outputs are compared as the bytes of a deterministic `MetricsWriter`:
 equal bytes, not merely close numbers, because stook's outputs are byte-identical for the
 same inputs.
+
+Partials travel: the processes and Ray engines fold each shard of records in another
+process and send its partial back, pickled, to be merged. So every partial the checks
+merge first goes through a pickle round trip, and an aggregation whose state does not
+pickle (a lambda, a lock, an open file) fails with a message naming it.
 """
 
 from __future__ import annotations
 
 import difflib
+import pickle
 import random
 import uuid
 from collections.abc import Callable, Sequence
@@ -37,7 +43,9 @@ class MergeLaws(Generic[R]):
     `factory` makes a new, empty aggregation (the same configuration each call); the
     reference output is that of one partial that folded every record in the given order.
     ``check_merge_laws`` runs them all; these methods let a property-based test choose the
-    orders and splits itself.
+    orders and splits itself. With `travel` (the default), every partial is pickled and
+    unpickled before it is merged, as it is between processes; ``travel=False`` checks an
+    aggregation meant only for the local engine.
     """
 
     def __init__(
@@ -46,10 +54,12 @@ class MergeLaws(Generic[R]):
         records: Sequence[R],
         *,
         job_id: uuid.UUID = CHECK_JOB_ID,
+        travel: bool = True,
     ) -> None:
         self.factory = factory
         self.records = list(records)
         self.job_id = job_id
+        self.travel = travel
         self._label = _label(factory())
         self._expected: bytes | str | None = None
 
@@ -97,7 +107,7 @@ class MergeLaws(Generic[R]):
         order = list(merge_order) if merge_order is not None else list(range(len(groups)))
         if sorted(order) != list(range(len(groups))):
             raise ValueError(f"merge order {order} is not an order of the {len(groups)} partials")
-        partials = [self._fold(group) for group in groups]
+        partials = [self._travelled(self._fold(group)) for group in groups]
         first, *rest = (partials[i] for i in order)
         for other in rest:
             first.merge(other)
@@ -109,26 +119,45 @@ class MergeLaws(Generic[R]):
     def check_tree(self) -> None:
         """One partial per record, merged pairwise, then the merged pairs pairwise, and so
         on: merging partials that are themselves merged writes the same."""
-        level = [self._fold([i]) for i in range(len(self.records))] or [self.factory()]
+        level = [self._travelled(self._fold([i])) for i in range(len(self.records))] or [
+            self.factory()
+        ]
         while len(level) > 1:
             merged = []
             for left, right in zip(level[::2], level[1::2], strict=False):
                 left.merge(right)
-                merged.append(left)
+                merged.append(self._travelled(left))
             if len(level) % 2:
                 merged.append(level[-1])
             level = merged
         self._compare(level[0], self.expected(), "one partial per record, merged pairwise")
 
+    def check_travel(self) -> None:
+        """A partial survives a pickle round trip (skipped without `travel`): a new one
+        unpickles to one that writes what a new one writes, and one that folded the first
+        half of the records unpickles to one that, fed the rest, writes the reference."""
+        if not self.travel:
+            return
+        new = self._written(self.factory())
+        self._compare(self._travelled(self.factory()), new, "a new partial, pickled", "a new one")
+        half = len(self.records) // 2
+        partial = self._travelled(self._fold(range(half)))
+        for record in self.records[half:]:
+            partial.update(record)
+        self._compare(
+            partial, self.expected(), f"the first {half} records, pickled, then the rest folded in"
+        )
+
     def check_all(self, *, seed: int = 0, rounds: int = 10, max_partials: int = 4) -> None:
-        """Every law: `fresh`, reversed and `rounds` shuffled arrival orders, every record in
-        one partial merged with an empty one (both ways), one partial per record merged in
-        order, reversed and as a tree, and `rounds` random splits into up to `max_partials`
-        partials (records dealt out at random, merged in a random order). The same `seed`
-        checks the same cases."""
+        """Every law: a pickle round trip (`check_travel`), `fresh`, reversed and `rounds`
+        shuffled arrival orders, every record in one partial merged with an empty one (both
+        ways), one partial per record merged in order, reversed and as a tree, and `rounds`
+        random splits into up to `max_partials` partials (records dealt out at random,
+        merged in a random order). The same `seed` checks the same cases."""
         rng = random.Random(seed)
         n = len(self.records)
         everything = list(range(n))
+        self.check_travel()
         self.check_fresh()
         self.check_order(everything[::-1])
         self.check_split([everything, []])
@@ -158,6 +187,36 @@ class MergeLaws(Generic[R]):
         for i in indexes:
             partial.update(self.records[i])
         return partial
+
+    def _travelled(self, partial: Aggregation[R]) -> Aggregation[R]:
+        """The partial after a pickle round trip, as it reaches another process; itself
+        without `travel`. A partial that cannot make the trip fails naming the aggregation."""
+        if not self.travel:
+            return partial
+        try:
+            payload = pickle.dumps(partial, protocol=pickle.HIGHEST_PROTOCOL)
+        except Exception as exc:  # pickling raises whatever the state's objects raise
+            raise AssertionError(
+                f"{self._label} cannot travel between processes: pickling a partial state "
+                f"raised {type(exc).__name__}: {exc}. The processes and ray engines send "
+                "partials between processes by pickle: define the class at the top level "
+                "of a module, keep its state to picklable values (no lambdas, locks, open "
+                "files or generators), or define __getstate__/__setstate__ (see Aggregation)"
+            ) from None
+        try:
+            travelled = pickle.loads(payload)
+        except Exception as exc:
+            raise AssertionError(
+                f"{self._label} cannot travel between processes: unpickling a pickled "
+                f"partial state raised {type(exc).__name__}: {exc}"
+            ) from None
+        if type(travelled) is not type(partial):
+            raise AssertionError(
+                f"{self._label} cannot travel between processes: a pickled "
+                f"{type(partial).__name__} unpickled as a {type(travelled).__name__}"
+            )
+        result: Aggregation[R] = travelled
+        return result
 
     def _written(self, aggregation: Aggregation[R]) -> bytes | str:
         """The bytes `finish` writes; if it raises, the text of the error (so that two
@@ -199,21 +258,25 @@ def check_merge_laws(
     rounds: int = 10,
     max_partials: int = 4,
     job_id: uuid.UUID = CHECK_JOB_ID,
+    travel: bool = True,
 ) -> None:
     """Check that `factory`'s aggregation obeys the update/merge/finish laws on `records`.
 
     Folding the records into several partials and merging them -- in any split, any
     arrival order, any merge order -- must make ``finish`` write byte for byte what one
     partial that folded every record writes, and ``fresh()`` must be an empty partial of
-    the same configuration. Raises AssertionError naming the split or order that differed,
-    with a diff of the two outputs. See `MergeLaws.check_all` for the cases tried.
+    the same configuration. Partials are pickled and unpickled before they are merged, as
+    between the processes of the processes and ray engines (``travel=False`` skips that,
+    for an aggregation only ever run locally). Raises AssertionError naming the split or
+    order that differed, with a diff of the two outputs, or naming the aggregation whose
+    partial does not pickle. See `MergeLaws.check_all` for the cases tried.
 
         from stook.sdk.testing import check_merge_laws
 
         def test_my_aggregation_merges() -> None:
             check_merge_laws(lambda: MyAggregation(name="Mean speed"), records)
     """
-    MergeLaws(factory, records, job_id=job_id).check_all(
+    MergeLaws(factory, records, job_id=job_id, travel=travel).check_all(
         seed=seed, rounds=rounds, max_partials=max_partials
     )
 

@@ -2,7 +2,8 @@
 
 `check_merge_laws` checks in one line that an aggregation obeys the update/merge/finish
 contract: however the records are split into partials, whatever order they arrive or
-the partials merge in, ``finish`` writes the same bytes, and ``fresh()`` is empty.
+the partials merge in, ``finish`` writes the same bytes, and ``fresh()`` is empty. Every
+partial is pickled and unpickled before it merges, as between worker processes.
 
     from stook.sdk.testing import check_merge_laws
 

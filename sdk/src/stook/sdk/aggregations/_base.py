@@ -78,6 +78,14 @@ class Aggregation(ABC, Generic[R]):
     from other records), and `finish` writes the result. Folding records into several
     partials and merging them must give what folding them all into one gives, in any
     order.
+
+    Partial states travel between processes: the processes and Ray engines fold each
+    shard in a worker and pickle its partial back to be merged. So a partial must pickle
+    (no lambdas, locks, open files or generators in its state) and unpickle to one that
+    updates, merges and finishes as the original would; `stook.sdk.testing.check_merge_laws`
+    checks both. Keep what is pickled compact: counts where the output needs only counts,
+    per-record values packed (``array("d")``, 8 bytes each) where it needs the values;
+    ``__getstate__`` / ``__setstate__`` may pack a state that is cheaper to update unpacked.
     """
 
     #: the name of the first metric it writes; used in errors and logs

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import math
 import uuid
+from array import array
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from datetime import datetime
@@ -64,7 +65,7 @@ class _Experience:
     name: str
     passed: int = 0
     failed: int = 0
-    values: dict[str, list[float]] = field(default_factory=dict)
+    values: dict[str, array[float]] = field(default_factory=dict)
 
     @property
     def outcome(self) -> str | None:
@@ -102,7 +103,7 @@ class _Side:
         for name, scalar in job.scalars.items():
             if (wanted is not None and name not in wanted) or not math.isfinite(scalar.value):
                 continue
-            experience.values.setdefault(name, []).append(scalar.value)
+            experience.values.setdefault(name, array("d")).append(scalar.value)
             known = self.example_jobs.get(name)
             if known is None or job.job_id < known:
                 self.example_jobs[name] = job.job_id
@@ -115,7 +116,7 @@ class _Side:
             mine.passed += theirs.passed
             mine.failed += theirs.failed
             for name, values in theirs.values.items():
-                mine.values.setdefault(name, []).extend(values)
+                mine.values.setdefault(name, array("d")).extend(values)
         for name, job_id in other.example_jobs.items():
             known = self.example_jobs.get(name)
             if known is None or job_id < known:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from array import array
 from collections import Counter
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -34,7 +35,7 @@ class ByExperienceTag(Aggregation[JobRecord]):
 
     jobs: Counter[str] = field(default_factory=Counter, init=False)
     passed: Counter[str] = field(default_factory=Counter, init=False)
-    values: dict[str, dict[str, list[float]]] = field(default_factory=dict, init=False)
+    values: dict[str, dict[str, array[float]]] = field(default_factory=dict, init=False)
     units: dict[str, Counter[str]] = field(default_factory=dict, init=False)
 
     def __post_init__(self) -> None:
@@ -57,7 +58,7 @@ class ByExperienceTag(Aggregation[JobRecord]):
             self.units.setdefault(metric, Counter())[scalar.unit] += 1
             by_tag = self.values.setdefault(metric, {})
             for tag in tags:
-                by_tag.setdefault(tag, []).append(scalar.value)
+                by_tag.setdefault(tag, array("d")).append(scalar.value)
 
     def merge(self, other: Self) -> None:
         self.jobs.update(other.jobs)
@@ -65,7 +66,7 @@ class ByExperienceTag(Aggregation[JobRecord]):
         for metric, by_tag in other.values.items():
             mine = self.values.setdefault(metric, {})
             for tag, values in by_tag.items():
-                mine.setdefault(tag, []).extend(values)
+                mine.setdefault(tag, array("d")).extend(values)
         for metric, units in other.units.items():
             self.units.setdefault(metric, Counter()).update(units)
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from array import array
 from dataclasses import dataclass, field
 from typing import Self
 
@@ -40,7 +41,7 @@ class CategoryTotals(Aggregation[JobRecord]):
     # series (legend name, "" for data) → label → one exact sum per job that had the label:
     # a job's values summed at once keep memory at jobs x labels, and the total of the
     # per-job sums (exact, correctly rounded) does not depend on the order jobs arrive in.
-    values: dict[str, dict[str, list[float]]] = field(default_factory=dict, init=False)
+    values: dict[str, dict[str, array[float]]] = field(default_factory=dict, init=False)
     jobs: int = field(default=0, init=False)
     dropped: int = field(default=0, init=False)
 
@@ -78,7 +79,7 @@ class CategoryTotals(Aggregation[JobRecord]):
             self.dropped += dropped
             mine = self.values.setdefault(series, {})
             for label, values in kept.items():
-                mine.setdefault(label, []).append(exact_sum(values))
+                mine.setdefault(label, array("d")).append(exact_sum(values))
 
     def merge(self, other: Self) -> None:
         self.jobs += other.jobs
@@ -86,13 +87,13 @@ class CategoryTotals(Aggregation[JobRecord]):
         for series, labelled in other.values.items():
             mine = self.values.setdefault(series, {})
             for label, values in labelled.items():
-                mine.setdefault(label, []).extend(values)
+                mine.setdefault(label, array("d")).extend(values)
 
     def totals(self) -> dict[str, dict[str, float]]:
         """series → label → exact sum, series and labels sorted; every series has every label."""
         labels = sorted({label for labelled in self.values.values() for label in labelled})
         return {
-            series: {label: exact_sum(self.values[series].get(label, [])) for label in labels}
+            series: {label: exact_sum(self.values[series].get(label, ())) for label in labels}
             for series in sorted(self.values)
         }
 

@@ -244,6 +244,18 @@ class MergedHistogram(Aggregation[JobRecord]):
         for chunk in other.chunks:
             self._add(chunk)
 
+    def __getstate__(self) -> dict[str, object]:
+        """What travels between processes (see `Aggregation`): pending values binned first,
+        so a histogram in counts mode is its bucket counts (a few hundred bytes, whatever
+        the number of values), and kept values as one Series (8 bytes a value) rather than
+        a Series per job, each with its own few hundred bytes of framing."""
+        self._flush()
+        if len(self.chunks) > 1:
+            import polars as pl
+
+            self.chunks = [pl.concat(self.chunks, rechunk=True)]
+        return dict(self.__dict__)
+
     def values(self) -> pl.Series:
         """The appended series (exact mode only), sorted: jobs arrive in any order, and a
         histogram does not depend on the order of its values, so sorted output is stable."""

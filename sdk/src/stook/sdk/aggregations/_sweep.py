@@ -4,6 +4,7 @@ Markdown table and as a line per metric and parameter."""
 from __future__ import annotations
 
 import math
+from array import array
 from collections import Counter
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
@@ -61,7 +62,7 @@ class ParameterSweep(Aggregation[JobRecord]):
     name: str = "Parameter sweep"
 
     # parameter-value combination → metric → values; and jobs per combination
-    values: dict[Key, dict[str, list[float]]] = field(default_factory=dict, init=False)
+    values: dict[Key, dict[str, array[float]]] = field(default_factory=dict, init=False)
     jobs: Counter[Key] = field(default_factory=Counter, init=False)
     units: dict[str, Counter[str]] = field(default_factory=dict, init=False)
 
@@ -84,7 +85,7 @@ class ParameterSweep(Aggregation[JobRecord]):
             scalar = job.scalars.get(metric)
             if scalar is None or not math.isfinite(scalar.value):
                 continue
-            row.setdefault(metric, []).append(scalar.value)
+            row.setdefault(metric, array("d")).append(scalar.value)
             self.units.setdefault(metric, Counter())[scalar.unit] += 1
 
     def merge(self, other: Self) -> None:
@@ -92,7 +93,7 @@ class ParameterSweep(Aggregation[JobRecord]):
         for key, row in other.values.items():
             mine = self.values.setdefault(key, {})
             for metric, values in row.items():
-                mine.setdefault(metric, []).extend(values)
+                mine.setdefault(metric, array("d")).extend(values)
         for metric, units in other.units.items():
             self.units.setdefault(metric, Counter()).update(units)
 
