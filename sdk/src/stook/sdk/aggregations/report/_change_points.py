@@ -311,7 +311,8 @@ def _l2_cost() -> Any:
             """`error(start, end)` for every start at once."""
             total = self.sums[end] - self.sums_array[starts]
             squares = self.squares[end] - self.squares_array[starts]
-            return np.maximum(0.0, squares - total * total / (end - starts))
+            out: np.ndarray = np.maximum(0.0, squares - total * total / (end - starts))
+            return out
 
     return SummedL2Cost
 
