@@ -217,3 +217,27 @@ def test_report_aggregations_read_columns_and_make_no_job_objects() -> None:
     for record in records:
         assert isinstance(record.jobs, JobSummaries)
         assert record.jobs._jobs is None  # never made
+
+
+def test_the_views_are_sequences_and_mappings() -> None:
+    jobs = tuple(
+        SummaryJob(uuid.UUID(int=i + 1), "e", "PASSED", None, True, {"s": (3.0 - i, "m")})
+        for i in range(3)
+    )
+    record = BatchRecord.with_columns(
+        uuid.UUID(int=1), "b", T0, _built(BatchSummary(jobs, {"PASSED": 2, "ODD": 1}))
+    )
+    assert record.jobs[0].job_id == uuid.UUID(int=1)
+    assert [j.scalars["s"] for j in record.jobs[1:]] == [2.0, 1.0]
+    assert record.jobs != "abc"  # type: ignore[comparison-overlap]
+    assert repr(record.jobs) == "JobSummaries(3 jobs)"
+    assert record.job_scalars["s"] == [1.0, 2.0, 3.0]
+    assert record.job_scalars.get("t") is None
+    assert record.job_scalars != 1  # type: ignore[comparison-overlap]
+    assert "PooledScalars" in repr(record.job_scalars)
+    assert record.job_metric_statuses[0] == "ODD"
+    assert list(record.job_metric_statuses[1:]) == ["PASSED", "PASSED"]
+    assert record.job_metric_statuses != "ODD"
+    assert "StatusList" in repr(record.job_metric_statuses)
+    assert record.job_columns() != "columns"
+    assert record.job_columns().job_id(2) == uuid.UUID(int=3)
