@@ -17,6 +17,7 @@ from stook.sdk.aggregations._baseline import (
 )
 from stook.sdk.aggregations._by_tag import ByExperienceTag
 from stook.sdk.aggregations._category_totals import CategoryTotals
+from stook.sdk.aggregations._columns import JobColumns, ScalarColumn
 from stook.sdk.aggregations._errors import JobDataError
 from stook.sdk.aggregations._event_counts import EventCounts
 from stook.sdk.aggregations._histogram import MergedHistogram
@@ -49,11 +50,13 @@ from stook.sdk.aggregations._summary import (
     SUMMARY_VERSION,
     BatchSummary,
     BatchSummaryWriter,
+    ColumnarSummary,
     SummaryError,
     SummaryJob,
     SummaryVersionError,
     decode_summary,
     encode_summary,
+    summary_columns_from_data,
     summary_from_data,
 )
 from stook.sdk.aggregations._sweep import ParameterSweep
@@ -75,8 +78,10 @@ __all__ = [
     "BatchSummaryWriter",
     "ByExperienceTag",
     "CategoryTotals",
+    "ColumnarSummary",
     "ComparisonResult",
     "EventCounts",
+    "JobColumns",
     "JobDataError",
     "JobEvent",
     "JobRecord",
@@ -91,6 +96,7 @@ __all__ = [
     "PassRateComparison",
     "ReportAggregation",
     "Scalar",
+    "ScalarColumn",
     "ScalarDefaults",
     "ScalarStats",
     "SummaryError",
@@ -103,5 +109,6 @@ __all__ = [
     "default_batch_aggregations",
     "default_report_aggregations",
     "encode_summary",
+    "summary_columns_from_data",
     "summary_from_data",
 ]

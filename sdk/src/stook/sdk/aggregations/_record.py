@@ -14,6 +14,7 @@ if TYPE_CHECKING:
     import polars as pl
 
     from stook.sdk._views import JobMetricsView, MetricsDataView
+    from stook.sdk.aggregations._columns import JobColumns
 
 _T = TypeVar("_T", bound=TypedMetric)
 
@@ -137,6 +138,12 @@ class BatchRecord:
     metrics, `job_scalars` holds each SCALAR job metric's values across the batch's
     jobs and `job_metric_statuses` every job metric's status. `build_id` is the build the
     batch ran, when the API said.
+
+    `columns` holds the same job data as arrays (`JobColumns`), which report
+    aggregations reduce per batch; report mode sets it, and then `jobs`, `job_scalars`
+    and `job_metric_statuses` are views made from it when read (`with_columns`). A
+    record built from the per-job fields alone gets its columns from them
+    (`job_columns`).
     """
 
     batch_id: uuid.UUID
@@ -150,3 +157,44 @@ class BatchRecord:
     job_scalar_units: Mapping[str, str] = field(default_factory=dict)
     job_metric_statuses: Sequence[str] = ()
     build_id: uuid.UUID | None = None
+    columns: JobColumns | None = field(default=None, repr=False)
+
+    @classmethod
+    def with_columns(
+        cls,
+        batch_id: uuid.UUID,
+        name: str,
+        created: datetime,
+        columns: JobColumns,
+        *,
+        conflated_status: str = "",
+        scalars: Mapping[str, Scalar] | None = None,
+        metric_statuses: Sequence[str] = (),
+        build_id: uuid.UUID | None = None,
+    ) -> BatchRecord:
+        """A record whose job data is `columns`; its per-job fields are made from them
+        only when read."""
+        from stook.sdk.aggregations._columns import JobSummaries, PooledScalars, StatusList
+
+        return cls(
+            batch_id=batch_id,
+            name=name,
+            created=created,
+            conflated_status=conflated_status,
+            scalars=dict(scalars or {}),
+            metric_statuses=metric_statuses,
+            jobs=JobSummaries(columns),
+            job_scalars=PooledScalars(columns),
+            job_scalar_units=columns.units(),
+            job_metric_statuses=StatusList(columns.metric_statuses),
+            build_id=build_id,
+            columns=columns,
+        )
+
+    def job_columns(self) -> JobColumns:
+        """The batch's job data as columns: `columns`, or made from the per-job fields."""
+        if self.columns is not None:
+            return self.columns
+        from stook.sdk.aggregations._columns import columns_of
+
+        return columns_of(self.jobs, self.job_scalars, self.job_metric_statuses)

@@ -36,9 +36,12 @@ from typing import TYPE_CHECKING, Self
 from stook.sdk._data import strings
 from stook.sdk._errors import StookError
 from stook.sdk.aggregations._base import Aggregation, Needs
+from stook.sdk.aggregations._columns import JobColumns, ScalarColumn
 from stook.sdk.aggregations._record import JobRecord
 
 if TYPE_CHECKING:
+    import numpy as np
+
     from stook.sdk._views import MetricsDataView
     from stook.sdk._writer import MetricsWriter
 
@@ -82,6 +85,15 @@ class BatchSummary:
 
     jobs: tuple[SummaryJob, ...] = ()
     metric_statuses: Mapping[str, int] = field(default_factory=dict, hash=False)
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class ColumnarSummary:
+    """A summary as report mode folds it: the batch's jobs as `JobColumns` (what a
+    report reads of their per-job listings) and how many of them have metrics."""
+
+    columns: JobColumns
+    jobs_with_metrics: int
 
 
 # ---- encoding ----
@@ -171,9 +183,7 @@ def summary_version(payload: bytes) -> int:
     return version
 
 
-def decode_summary(payload: bytes) -> BatchSummary:
-    """The summary in `payload`; SummaryVersionError for a layout newer than this code's,
-    SummaryError for bytes that are not a summary."""
+def _check_version(payload: bytes) -> None:
     version = summary_version(payload)
     if version > SUMMARY_VERSION:
         raise SummaryVersionError(
@@ -182,9 +192,27 @@ def decode_summary(payload: bytes) -> BatchSummary:
         )
     if version < 1:
         raise SummaryError(f"batch summary version {version} does not exist")
+
+
+def decode_summary(payload: bytes) -> BatchSummary:
+    """The summary in `payload`; SummaryVersionError for a layout newer than this code's,
+    SummaryError for bytes that are not a summary."""
+    _check_version(payload)
     try:
         return _Decoder(payload).summary()
     except (struct.error, UnicodeDecodeError, IndexError, KeyError) as exc:
+        raise SummaryError(f"batch summary is truncated or corrupt ({exc})") from None
+
+
+def decode_summary_columns(payload: bytes) -> ColumnarSummary:
+    """The summary in `payload` as columns, decoded straight into arrays (no object per
+    job); the same errors as `decode_summary`."""
+    _check_version(payload)
+    try:
+        return _Decoder(payload).columns()
+    except (struct.error, UnicodeDecodeError, IndexError, KeyError, ValueError) as exc:
+        if isinstance(exc, SummaryError):
+            raise
         raise SummaryError(f"batch summary is truncated or corrupt ({exc})") from None
 
 
@@ -219,7 +247,24 @@ class _Decoder:
         raw = self._bytes((count + 7) // 8)
         return [bool(raw[i >> 3] >> (i & 7) & 1) for i in range(count)]
 
-    def summary(self) -> BatchSummary:
+    def _array(self, count: int, dtype: str) -> np.ndarray:
+        import numpy as np
+
+        size = count * np.dtype(dtype).itemsize
+        if self._at + size > len(self._buf):
+            raise SummaryError("batch summary is truncated")
+        out = np.frombuffer(self._buf, dtype=dtype, count=count, offset=self._at).copy()
+        self._at += size
+        return out
+
+    def _bit_array(self, count: int) -> np.ndarray:
+        import numpy as np
+
+        raw = np.frombuffer(self._bytes((count + 7) // 8), dtype=np.uint8)
+        flags: np.ndarray = np.unpackbits(raw, count=count, bitorder="little").astype(bool)
+        return flags
+
+    def _head(self) -> tuple[list[str], list[tuple[str, uuid.UUID | None]]]:
         texts = [self._bytes(self._take(_U32)).decode() for _ in range(self._take(_U32))]
         experiences: list[tuple[str, uuid.UUID | None]] = []
         for _ in range(self._take(_U32)):
@@ -227,6 +272,52 @@ class _Decoder:
             id_bytes = self._bytes(16)
             name = texts[self._indexes(1)[0]]
             experiences.append((name, uuid.UUID(bytes=id_bytes) if has_id else None))
+        return texts, experiences
+
+    def _statuses(self, texts: list[str]) -> dict[str, int]:
+        statuses: dict[str, int] = {}
+        for _ in range(self._take(_U32)):
+            status = texts[self._indexes(1)[0]]
+            statuses[status] = self._take(_U32)
+        if self._at != len(self._buf):
+            raise SummaryError("batch summary has bytes past its end")
+        return statuses
+
+    def columns(self) -> ColumnarSummary:
+        import numpy as np
+
+        index = f"<u{self._width}"
+        texts, experiences = self._head()
+        n = self._take(_U32)
+        ids = self._bytes(16 * n)
+        job_experiences = self._array(n, index).astype(np.int64)
+        if n and int(job_experiences.max()) >= len(experiences):
+            raise SummaryError("batch summary names an experience it does not hold")
+        job_statuses = self._array(n, index)
+        used, status = np.unique(job_statuses, return_inverse=True)
+        has_metrics = self._bit_array(n)
+        scalars: dict[str, ScalarColumn] = {}
+        for _ in range(self._take(_U32)):
+            name = texts[self._indexes(1)[0]]
+            present = np.flatnonzero(self._bit_array(n))
+            values = self._array(len(present), "<f8").astype(np.float64)
+            units = self._array(len(present), index)
+            if len(present):
+                scalars[name] = ScalarColumn(present.astype(np.int64), values, texts[units[0]])
+        statuses = self._statuses(texts)
+        columns = JobColumns(
+            job_ids=ids,
+            experiences=tuple(experiences),
+            experience=job_experiences,
+            statuses=tuple(texts[i] for i in used.tolist()),
+            status=status.reshape(-1).astype(np.int64),
+            scalars=dict(sorted(scalars.items())),
+            metric_statuses=dict(sorted(statuses.items())),
+        )
+        return ColumnarSummary(columns, int(has_metrics.sum()))
+
+    def summary(self) -> BatchSummary:
+        texts, experiences = self._head()
         n = self._take(_U32)
         ids = self._bytes(16 * n)
         job_experiences = self._indexes(n)
@@ -241,12 +332,7 @@ class _Decoder:
             units = self._indexes(len(present))
             for job, value, unit in zip(present, values, units, strict=True):
                 scalars[job][name] = (value, texts[unit])
-        statuses: dict[str, int] = {}
-        for _ in range(self._take(_U32)):
-            status = texts[self._indexes(1)[0]]
-            statuses[status] = self._take(_U32)
-        if self._at != len(self._buf):
-            raise SummaryError("batch summary has bytes past its end")
+        statuses = self._statuses(texts)
         jobs = tuple(
             SummaryJob(
                 uuid.UUID(bytes=ids[16 * i : 16 * i + 16]),
@@ -271,19 +357,31 @@ def summary_text(summary: BatchSummary) -> str:
 
 
 def summary_from_text(text: str) -> BatchSummary:
+    return decode_summary(_payload(text))
+
+
+def _payload(text: str) -> bytes:
     try:
-        payload = base64.b64decode(text.encode("ascii"), validate=True)
+        return base64.b64decode(text.encode("ascii"), validate=True)
     except (ValueError, UnicodeEncodeError):
         raise SummaryError("batch summary is not base64 text") from None
-    return decode_summary(payload)
 
 
 def summary_from_data(view: MetricsDataView) -> BatchSummary:
     """The summary held by its metrics data (read with `read_metrics_data`)."""
+    return summary_from_text(_summary_string(view))
+
+
+def summary_columns_from_data(view: MetricsDataView) -> ColumnarSummary:
+    """The summary held by its metrics data, as columns (`decode_summary_columns`)."""
+    return decode_summary_columns(_payload(_summary_string(view)))
+
+
+def _summary_string(view: MetricsDataView) -> str:
     values = view.values() if view.kind is not None and not view.per_category else ()
     if len(values) != 1 or not isinstance(values[0], str):
         raise SummaryError(f"metrics data {view.name!r} does not hold one summary string")
-    return summary_from_text(values[0])
+    return values[0]
 
 
 # ---- written by batch mode ----

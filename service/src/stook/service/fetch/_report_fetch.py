@@ -11,6 +11,7 @@ of workers drains, so requests stay within the client's bound and memory within
 from __future__ import annotations
 
 import asyncio
+import dataclasses
 import time
 import uuid
 from collections import Counter
@@ -24,7 +25,8 @@ import structlog
 from stook.sdk.aggregations import (
     UNKNOWN_STATUS,
     BatchRecord,
-    BatchSummary,
+    ColumnarSummary,
+    JobColumns,
     JobSummary,
     Needs,
     Scalar,
@@ -101,9 +103,11 @@ class _PendingBatch:
     remaining: int
     listed: bool = False
     job_statuses: list[str] = field(default_factory=list)
-    # Per job: its scalars, (value, unit) by name, as a summary has them (pooled per
-    # batch when it is done).
+    # Per job: its scalars, (value, unit) by name, as a summary has them (made into the
+    # batch's columns when it is done).
     job_values: dict[uuid.UUID, Mapping[str, tuple[float, str]]] = field(default_factory=dict)
+    # A batch read from its summary comes with its columns.
+    columns: JobColumns | None = None
 
 
 class ReportFetcher:
@@ -245,34 +249,32 @@ class ReportFetcher:
         self,
         batch: Batch,
         metrics: list[ApiMetric],
-        summary: BatchSummary,
+        summary: ColumnarSummary,
         on_batch: Callable[[BatchRecord], None],
     ) -> None:
         """The batch as its summary has it: what the job listings would have given."""
-        count = len(summary.jobs)
+        columns = summary.columns
+        count = len(columns)
         self.outcome.jobs += count
         self.outcome.jobs_done += count
         self.outcome.batches_summarised += 1
         if self.outcome.jobs_total is not None:
             self.outcome.jobs_total += count - (batch.total_jobs or 0)
+        if self._needs.job_metrics:
+            self.outcome.jobs_with_metrics += summary.jobs_with_metrics
+            self.outcome.job_scalar_names.update(columns.scalars)
+        else:
+            # As the listings: no job's metrics read.
+            columns = dataclasses.replace(columns, scalars={}, metric_statuses={})
         pending = _PendingBatch(
             batch=batch,
             scalars=await self._batch_scalars(batch, metrics),
             metric_statuses=[str(m.status) for m in metrics],
-            jobs=[
-                JobSummary(j.job_id, j.experience_name, j.conflated_status, j.experience_id)
-                for j in summary.jobs
-            ],
+            jobs=[],
             remaining=0,
             listed=True,
+            columns=columns,
         )
-        if self._needs.job_metrics:
-            for job in summary.jobs:
-                self.outcome.jobs_with_metrics += job.has_metrics
-                self.outcome.job_scalar_names.update(job.scalars)
-                # Read-only from here on: no copy per job.
-                pending.job_values[job.job_id] = job.scalars
-            pending.job_statuses = list(Counter(summary.metric_statuses).elements())
         self._finish(pending, on_batch)
 
     async def _work(
@@ -327,39 +329,22 @@ class ReportFetcher:
         created = batch.creation_timestamp
         if created is None:
             raise ApiError(f"batch {batch.batch_id} has no creationTimestamp to place it in time")
-        # Sorted, so that the record does not depend on the order job listings returned in.
-        job_statuses = Counter(pending.job_statuses)
-        # Pooled in job-ID order: a metric's unit is its first job's, whatever the order
-        # the listings (or a summary) came in.
-        job_scalars: dict[str, list[float]] = {}
-        job_units: dict[str, str] = {}
-        values = pending.job_values
-        for job_id in sorted(values):
-            for name, (value, unit) in values[job_id].items():
-                job_scalars.setdefault(name, []).append(value)
-                job_units.setdefault(name, unit)
-        empty: dict[str, tuple[float, str]] = {}
+        # In job-ID order, so that the record does not depend on the order job listings
+        # returned in; a metric's unit is its first job's.
+        columns = pending.columns or JobColumns.build(
+            pending.jobs,
+            [pending.job_values.get(j.job_id, {}) for j in pending.jobs],
+            Counter(pending.job_statuses),
+        )
         on_batch(
-            BatchRecord(
-                batch_id=batch.batch_id,
-                name=batch.friendly_name or str(batch.batch_id)[:8],
-                created=created,
+            BatchRecord.with_columns(
+                batch.batch_id,
+                batch.friendly_name or str(batch.batch_id)[:8],
+                created,
+                columns,
                 conflated_status=str(batch.conflated_status or ""),
                 scalars=pending.scalars,
                 metric_statuses=sorted(pending.metric_statuses),
-                jobs=[
-                    JobSummary(
-                        j.job_id,
-                        j.experience_name,
-                        j.conflated_status,
-                        j.experience_id,
-                        {n: v for n, (v, _) in values.get(j.job_id, empty).items()},
-                    )
-                    for j in sorted(pending.jobs, key=lambda j: j.job_id)
-                ],
-                job_scalars={k: sorted(v) for k, v in sorted(job_scalars.items())},
-                job_scalar_units=dict(sorted(job_units.items())),
-                job_metric_statuses=sorted(job_statuses.elements()),
                 build_id=batch.build_id,
             )
         )

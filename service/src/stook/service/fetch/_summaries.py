@@ -16,10 +16,10 @@ import structlog
 from stook.sdk import ReadError, read_metrics_data
 from stook.sdk.aggregations import (
     SUMMARY_DATA_NAME,
-    BatchSummary,
+    ColumnarSummary,
     SummaryError,
     SummaryVersionError,
-    summary_from_data,
+    summary_columns_from_data,
 )
 from stook.service.api import ApiClient, ApiMetricsData
 from stook.service.fetch._presigned import fetch_listed
@@ -31,8 +31,8 @@ log = structlog.get_logger("stook.report")
 
 async def read_summary(
     api: ApiClient, project_id: uuid.UUID, batch_id: uuid.UUID
-) -> BatchSummary | None:
-    """The batch's summary, or None when it has none that this code can read."""
+) -> ColumnarSummary | None:
+    """The batch's summary, as columns, or None when it has none that this code can read."""
     listed = await _list(api, project_id, batch_id)
     found = [d for d in listed if d.name == SUMMARY_DATA_NAME and d.is_standard]
     if not found:
@@ -51,7 +51,7 @@ async def read_summary(
         log.warning("batch summary has no URL; listing the batch's jobs", batch_id=str(batch_id))
         return None
     try:
-        return summary_from_data(read_metrics_data(payload, source=source))
+        return summary_columns_from_data(read_metrics_data(payload, source=source))
     except SummaryVersionError as exc:
         log.warning(
             "batch summary written by a newer stook; listing the batch's jobs",

@@ -23,6 +23,7 @@ from stook.sdk.aggregations.report._change_points import (
     rate_shifts,
 )
 from stook.sdk.aggregations.report._experiences import FAILED, PASSED
+from stook.sdk.aggregations.report._job_groups import counts, first_seen, status_in
 from stook.sdk.aggregations.report._timeline import BatchPoint, axis, axis_name
 
 _T = TypeVar("_T")
@@ -106,15 +107,18 @@ class ChangePoints(Aggregation[BatchRecord]):
             self.units.setdefault(metric, Counter())[scalar.unit] += 1
         if not self.experiences:
             return
-        counts: dict[str, tuple[int, int]] = {}
-        for job in record.jobs:
-            failed = job.conflated_status in FAILED
-            if not failed and job.conflated_status not in PASSED:
-                continue  # cancelled, unknown: neither passed nor failed
-            f, c = counts.get(job.experience_name, (0, 0))
-            counts[job.experience_name] = (f + failed, c + 1)
-        for experience, fc in counts.items():
-            self.outcomes.setdefault(experience, {})[record.batch_id] = fc
+        columns = record.job_columns()
+        names, codes = columns.experience_names()
+        failed = status_in(columns, FAILED)
+        # Cancelled, unknown: neither passed nor failed, not counted.
+        counted = codes[failed | status_in(columns, PASSED)]
+        failures = counts(codes[failed], len(names))
+        jobs = counts(counted, len(names))
+        for code in first_seen(counted):
+            self.outcomes.setdefault(names[code], {})[record.batch_id] = (
+                failures[code],
+                jobs[code],
+            )
 
     def merge(self, other: Self) -> None:
         self.batches.update(other.batches)

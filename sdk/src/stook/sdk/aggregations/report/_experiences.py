@@ -12,6 +12,7 @@ from stook.sdk._enums import MetricStatus
 from stook.sdk._writer import MetricsWriter
 from stook.sdk.aggregations._base import Aggregation
 from stook.sdk.aggregations._record import BatchRecord
+from stook.sdk.aggregations.report._job_groups import counts, first_seen, status_in
 from stook.sdk.aggregations.report._timeline import BatchPoint
 
 # Any other status (CANCELLED, one this release does not know, UNKNOWN) is neither.
@@ -37,9 +38,12 @@ class MostFailedExperiences(Aggregation[BatchRecord]):
 
     def update(self, record: BatchRecord) -> None:
         self.seen.add(record.batch_id)
-        for job in record.jobs:
-            if job.conflated_status in FAILED:
-                self.failures[job.experience_name] += 1
+        columns = record.job_columns()
+        names, codes = columns.experience_names()
+        failed = codes[status_in(columns, FAILED)]
+        found = counts(failed, len(names))
+        for code in first_seen(failed):
+            self.failures[names[code]] += found[code]
 
     def merge(self, other: Self) -> None:
         self.failures.update(other.failures)
@@ -81,17 +85,19 @@ class FlakyExperiences(Aggregation[BatchRecord]):
 
     def update(self, record: BatchRecord) -> None:
         point = BatchPoint(record.created, record.batch_id, record.name)
-        per_experience: dict[str, list[str]] = {}
-        for job in record.jobs:
-            per_experience.setdefault(job.experience_name, []).append(job.conflated_status)
-        for experience, statuses in per_experience.items():
-            if any(s in FAILED for s in statuses):
+        columns = record.job_columns()
+        names, codes = columns.experience_names()
+        jobs = counts(codes, len(names))
+        failures = counts(codes[status_in(columns, FAILED)], len(names))
+        passes = counts(codes[status_in(columns, PASSED)], len(names))
+        for code in first_seen(codes):
+            if failures[code]:
                 failed = True
-            elif all(s in PASSED for s in statuses):
+            elif passes[code] == jobs[code]:
                 failed = False
             else:
                 continue
-            self.outcomes.setdefault(experience, {})[point] = failed
+            self.outcomes.setdefault(names[code], {})[point] = failed
 
     def merge(self, other: Self) -> None:
         for experience, by_batch in other.outcomes.items():

@@ -55,11 +55,16 @@ class JobScalarDistributions(Aggregation[BatchRecord]):
     def update(self, record: BatchRecord) -> None:
         point = BatchPoint(record.created, record.batch_id, record.name)
         self.batches.add(point)
+        import numpy as np
+
         wanted = set(self.metrics) if self.metrics is not None else None
-        for metric, values in record.job_scalars.items():
+        columns = record.job_columns()
+        for metric in columns.metrics():
             if wanted is not None and metric not in wanted:
                 continue
-            finite = sorted(v + 0.0 for v in values if v == v and abs(v) != float("inf"))
+            values = columns.values(metric)
+            # + 0.0: -0.0 and 0.0 are one value
+            finite: list[float] = np.sort(values[np.isfinite(values)] + 0.0).tolist()
             if not finite:
                 continue
             self.summaries.setdefault(metric, {})[point] = _Summary(

@@ -17,6 +17,7 @@ from stook.sdk._writer import MetricsWriter
 from stook.sdk.aggregations._base import Aggregation, Needs
 from stook.sdk.aggregations._record import BatchRecord
 from stook.sdk.aggregations._status_counts import JOB_STATUSES, METRIC_STATUSES, ordered_counts
+from stook.sdk.aggregations.report._job_groups import counts, first_seen
 from stook.sdk.aggregations.report._timeline import BatchPoint
 
 STATUS_COLORS = {
@@ -44,7 +45,11 @@ class TestStatusOverTime(Aggregation[BatchRecord]):
 
     def update(self, record: BatchRecord) -> None:
         point = BatchPoint(record.created, record.batch_id, record.name)
-        self.counts[point] = Counter(job.conflated_status for job in record.jobs)
+        columns = record.job_columns()
+        found = counts(columns.status, len(columns.statuses))
+        self.counts[point] = Counter(
+            {columns.statuses[code]: found[code] for code in first_seen(columns.status)}
+        )
 
     def merge(self, other: Self) -> None:
         self.counts.update(other.counts)
@@ -97,7 +102,7 @@ class JobMetricStatusCounts(Aggregation[BatchRecord]):
         return Needs(job_metrics=True)
 
     def update(self, record: BatchRecord) -> None:
-        self.counts.update(record.job_metric_statuses)
+        self.counts.update({s: n for s, n in record.job_columns().metric_statuses.items() if n > 0})
 
     def merge(self, other: Self) -> None:
         self.counts.update(other.counts)

@@ -3,12 +3,11 @@ trust a single run of, whether or not their pass/fail outcome flips."""
 
 from __future__ import annotations
 
-import math
 import statistics
 import uuid
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Self
+from typing import TYPE_CHECKING, Self
 
 from stook.sdk._enums import MetricStatus
 from stook.sdk._writer import MetricsWriter
@@ -17,8 +16,32 @@ from stook.sdk.aggregations._record import BatchRecord
 from stook.sdk.aggregations.report._change_points import noise_scale
 from stook.sdk.aggregations.report._timeline import BatchPoint
 
+if TYPE_CHECKING:
+    import numpy as np
+
 #: batches an experience must have a metric in before its spread is judged
 MIN_BATCHES = 4
+
+
+def _medians(groups: np.ndarray, values: np.ndarray) -> list[tuple[int, float]]:
+    """The median of each group's finite values (-0.0 as 0.0), as `statistics.median`
+    takes it: the middle value, or the mean of the middle two, (a + b) / 2."""
+    import numpy as np
+
+    finite = np.isfinite(values)
+    values, groups = values[finite] + 0.0, groups[finite]
+    if not len(values):
+        return []
+    order = np.lexsort((values, groups))
+    values, groups = values[order], groups[order]
+    starts = np.flatnonzero(np.concatenate(([True], groups[1:] != groups[:-1])))
+    sizes = np.diff(np.concatenate((starts, [len(values)])))
+    middle = starts + sizes // 2
+    with np.errstate(over="ignore"):
+        # For odd sizes the pair's mean is unused (its first index may even wrap).
+        pairs = (values[middle - 1] + values[middle]) / 2
+    medians = np.where(sizes % 2 == 1, values[middle], pairs)
+    return list(zip(groups[starts].tolist(), medians.tolist(), strict=True))
 
 
 @dataclass(frozen=True, slots=True)
@@ -69,16 +92,14 @@ class UnstableExperiences(Aggregation[BatchRecord]):
     def update(self, record: BatchRecord) -> None:
         self.points[record.batch_id] = BatchPoint(record.created, record.batch_id, record.name)
         wanted = set(self.metrics) if self.metrics is not None else None
-        per_experience: dict[str, dict[str, list[float]]] = {}
-        for job in record.jobs:
-            for metric, value in job.scalars.items():
-                if (wanted is None or metric in wanted) and math.isfinite(value):
-                    by_metric = per_experience.setdefault(job.experience_name, {})
-                    by_metric.setdefault(metric, []).append(value + 0.0)
-        for experience, by_metric in per_experience.items():
-            for metric, found in by_metric.items():
-                self.values.setdefault(experience, {}).setdefault(metric, {})[record.batch_id] = (
-                    statistics.median(sorted(found))
+        columns = record.job_columns()
+        names, codes = columns.experience_names()
+        for metric, column in columns.scalars.items():
+            if wanted is not None and metric not in wanted:
+                continue
+            for code, median in _medians(codes[column.jobs], column.values):
+                self.values.setdefault(names[code], {}).setdefault(metric, {})[record.batch_id] = (
+                    median
                 )
 
     def merge(self, other: Self) -> None:

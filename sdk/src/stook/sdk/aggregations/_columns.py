@@ -1,0 +1,337 @@
+"""A batch's jobs as columns: what report aggregations reduce with numpy, one batch at a time.
+
+Report mode builds one `JobColumns` per batch, from the batch's summary or from its
+per-job listings alike, so that both give the aggregations the same arrays. A report of
+a million jobs then folds a thousand batches of arrays, not a million job objects. The
+per-job views of `BatchRecord` (`jobs`, `job_scalars`, `job_metric_statuses`) are made
+from the columns only when read (`JobSummaries`, `PooledScalars`, `StatusList`).
+"""
+
+from __future__ import annotations
+
+import uuid
+from collections.abc import Iterator, Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, overload
+
+from stook.sdk.aggregations._record import JobSummary
+
+if TYPE_CHECKING:
+    import numpy as np
+
+_NO_ID = bytes(16)
+
+
+def experience_key(name: str, experience_id: uuid.UUID | None) -> tuple[str, bytes]:
+    """How a batch's experiences are ordered: by name, then ID bytes (none first)."""
+    return name, experience_id.bytes if experience_id is not None else _NO_ID
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class ScalarColumn:
+    """One SCALAR job metric across a batch's jobs: the positions (in `JobColumns` order)
+    of the jobs that have it, ascending, their values, and the first such job's unit."""
+
+    jobs: np.ndarray
+    values: np.ndarray
+    unit: str = ""
+
+    def __eq__(self, other: object) -> bool:
+        import numpy as np
+
+        return (
+            isinstance(other, ScalarColumn)
+            and self.unit == other.unit
+            and np.array_equal(self.jobs, other.jobs)
+            and np.array_equal(self.values, other.values, equal_nan=True)
+        )
+
+    __hash__ = None  # type: ignore[assignment]
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class JobColumns:
+    """A batch's jobs, sorted by job ID, as columns.
+
+    `job_ids` holds 16 bytes per job; `experience` and `status` index, per job, into
+    `experiences` (distinct (name, ID) pairs, sorted by `experience_key`) and `statuses`
+    (distinct conflated statuses, sorted). `scalars` holds each SCALAR job metric's
+    column by name (sorted) and `metric_statuses` the count of each job metric status
+    (sorted); both are empty when the report reads no job metrics. `pooled`, when not
+    None, overrides a metric's values across jobs (`BatchRecord.job_scalars` given
+    apart from its jobs); otherwise they are the column's.
+    """
+
+    job_ids: bytes
+    experiences: tuple[tuple[str, uuid.UUID | None], ...]
+    experience: np.ndarray
+    statuses: tuple[str, ...]
+    status: np.ndarray
+    scalars: Mapping[str, ScalarColumn] = field(default_factory=dict)
+    metric_statuses: Mapping[str, int] = field(default_factory=dict)
+    pooled: Mapping[str, np.ndarray] | None = None
+
+    def __len__(self) -> int:
+        return len(self.job_ids) // 16
+
+    def __eq__(self, other: object) -> bool:
+        import numpy as np
+
+        if not isinstance(other, JobColumns):
+            return NotImplemented
+        mine, theirs = self.pooled or {}, other.pooled or {}
+        return (
+            self.job_ids == other.job_ids
+            and self.experiences == other.experiences
+            and np.array_equal(self.experience, other.experience)
+            and self.statuses == other.statuses
+            and np.array_equal(self.status, other.status)
+            and dict(self.scalars) == dict(other.scalars)
+            and list(self.metric_statuses.items()) == list(other.metric_statuses.items())
+            and mine.keys() == theirs.keys()
+            and all(np.array_equal(mine[k], theirs[k], equal_nan=True) for k in mine)
+        )
+
+    __hash__ = None  # type: ignore[assignment]
+
+    def experience_names(self) -> tuple[tuple[str, ...], np.ndarray]:
+        """The distinct experience names (sorted) and, per job, the index of its name:
+        report aggregations group jobs by experience name."""
+        import numpy as np
+
+        names = tuple(sorted({name for name, _ in self.experiences}))
+        at = {name: i for i, name in enumerate(names)}
+        codes = np.asarray([at[name] for name, _ in self.experiences], dtype=np.int64)
+        return names, codes[self.experience] if len(codes) else np.zeros(0, dtype=np.int64)
+
+    def values(self, metric: str) -> np.ndarray:
+        """The metric's values across the batch's jobs (job-ID order, or as `pooled`)."""
+        if self.pooled is not None:
+            return self.pooled[metric]
+        return self.scalars[metric].values
+
+    def metrics(self) -> list[str]:
+        """The names of the SCALAR job metrics with values (sorted)."""
+        return sorted(self.pooled if self.pooled is not None else self.scalars)
+
+    def units(self) -> dict[str, str]:
+        return {name: column.unit for name, column in self.scalars.items()}
+
+    # ---- built ----
+
+    @classmethod
+    def build(
+        cls,
+        jobs: Sequence[JobSummary],
+        scalars: Sequence[Mapping[str, tuple[float, str]]],
+        metric_statuses: Mapping[str, int],
+    ) -> JobColumns:
+        """A batch's columns from its jobs, each job's SCALARs ((value, unit) by name,
+        one mapping per job, in the order of `jobs`) and its job metric statuses'
+        counts. Jobs are put in job-ID order (equal IDs keep their order)."""
+        import numpy as np
+
+        order = sorted(range(len(jobs)), key=lambda i: jobs[i].job_id.bytes)
+        ordered = [jobs[i] for i in order]
+        experiences = sorted(
+            {(j.experience_name, j.experience_id) for j in ordered},
+            key=lambda e: experience_key(*e),
+        )
+        experience_at = {e: i for i, e in enumerate(experiences)}
+        statuses = sorted({j.conflated_status for j in ordered})
+        status_at = {s: i for i, s in enumerate(statuses)}
+        found: dict[str, tuple[list[int], list[float], str]] = {}
+        for position, i in enumerate(order):
+            for name, (value, unit) in scalars[i].items():
+                column = found.setdefault(name, ([], [], unit))
+                column[0].append(position)
+                column[1].append(value)
+        return cls(
+            job_ids=b"".join(j.job_id.bytes for j in ordered),
+            experiences=tuple(experiences),
+            experience=np.asarray(
+                [experience_at[(j.experience_name, j.experience_id)] for j in ordered],
+                dtype=np.int64,
+            ),
+            statuses=tuple(statuses),
+            status=np.asarray([status_at[j.conflated_status] for j in ordered], dtype=np.int64),
+            scalars={
+                name: ScalarColumn(
+                    np.asarray(positions, dtype=np.int64), np.asarray(vals, dtype=np.float64), unit
+                )
+                for name, (positions, vals, unit) in sorted(found.items())
+            },
+            metric_statuses=dict(sorted(metric_statuses.items())),
+        )
+
+    # ---- per-job views, made when read ----
+
+    def job_id(self, position: int) -> uuid.UUID:
+        return uuid.UUID(bytes=self.job_ids[16 * position : 16 * position + 16])
+
+    def job_summaries(self) -> list[JobSummary]:
+        """One `JobSummary` per job, with its scalar values, in job-ID order."""
+        scalars: list[dict[str, float]] = [{} for _ in range(len(self))]
+        for name, column in self.scalars.items():
+            for position, value in zip(column.jobs.tolist(), column.values.tolist(), strict=True):
+                scalars[position][name] = value
+        experiences = self.experiences
+        statuses = self.statuses
+        return [
+            JobSummary(
+                self.job_id(i),
+                experiences[e][0],
+                statuses[s],
+                experiences[e][1],
+                scalars[i],
+            )
+            for i, (e, s) in enumerate(
+                zip(self.experience.tolist(), self.status.tolist(), strict=True)
+            )
+        ]
+
+
+class JobSummaries(Sequence[JobSummary]):
+    """`BatchRecord.jobs` of a record built from columns: the `JobSummary` objects are
+    made on first read, so a report whose aggregations read only columns never makes
+    them."""
+
+    __slots__ = ("_columns", "_jobs")
+
+    def __init__(self, columns: JobColumns) -> None:
+        self._columns = columns
+        self._jobs: list[JobSummary] | None = None
+
+    def _made(self) -> list[JobSummary]:
+        if self._jobs is None:
+            self._jobs = self._columns.job_summaries()
+        return self._jobs
+
+    def __len__(self) -> int:
+        return len(self._columns)
+
+    @overload
+    def __getitem__(self, index: int) -> JobSummary: ...
+    @overload
+    def __getitem__(self, index: slice) -> Sequence[JobSummary]: ...
+    def __getitem__(self, index: int | slice) -> JobSummary | Sequence[JobSummary]:
+        return self._made()[index]
+
+    def __iter__(self) -> Iterator[JobSummary]:
+        return iter(self._made())
+
+    def __eq__(self, other: object) -> bool:
+        if isinstance(other, Sequence) and not isinstance(other, str):
+            return list(self) == list(other)
+        return NotImplemented
+
+    __hash__ = None  # type: ignore[assignment]
+
+    def __repr__(self) -> str:
+        return f"JobSummaries({len(self)} jobs)"
+
+
+class PooledScalars(Mapping[str, Sequence[float]]):
+    """`BatchRecord.job_scalars` of a record built from columns: each metric's values
+    across the jobs, sorted, made into a list on first read."""
+
+    __slots__ = ("_columns", "_made")
+
+    def __init__(self, columns: JobColumns) -> None:
+        self._columns = columns
+        self._made: dict[str, list[float]] = {}
+
+    def __getitem__(self, name: str) -> list[float]:
+        if name not in self._made:
+            if name not in self._columns.scalars:
+                raise KeyError(name)
+            values: list[float] = self._columns.scalars[name].values.tolist()
+            self._made[name] = sorted(values)
+        return self._made[name]
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._columns.scalars)
+
+    def __len__(self) -> int:
+        return len(self._columns.scalars)
+
+    def __eq__(self, other: object) -> bool:
+        if isinstance(other, Mapping):
+            return dict(self) == dict(other)
+        return NotImplemented
+
+    __hash__ = None  # type: ignore[assignment]
+
+    def __repr__(self) -> str:
+        return f"PooledScalars({list(self)})"
+
+
+class StatusList(Sequence[str]):
+    """`BatchRecord.job_metric_statuses` of a record built from columns: every job
+    metric's status, sorted, expanded from the counts on first read."""
+
+    __slots__ = ("_counts", "_made")
+
+    def __init__(self, counts: Mapping[str, int]) -> None:
+        self._counts = counts
+        self._made: list[str] | None = None
+
+    def _list(self) -> list[str]:
+        if self._made is None:
+            self._made = [s for s, n in sorted(self._counts.items()) for _ in range(n)]
+        return self._made
+
+    def __len__(self) -> int:
+        return sum(self._counts.values())
+
+    @overload
+    def __getitem__(self, index: int) -> str: ...
+    @overload
+    def __getitem__(self, index: slice) -> Sequence[str]: ...
+    def __getitem__(self, index: int | slice) -> str | Sequence[str]:
+        return self._list()[index]
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._list())
+
+    def __eq__(self, other: object) -> bool:
+        if isinstance(other, Sequence) and not isinstance(other, str):
+            return list(self) == list(other)
+        return NotImplemented
+
+    __hash__ = None  # type: ignore[assignment]
+
+    def __repr__(self) -> str:
+        return f"StatusList({dict(self._counts)})"
+
+
+def columns_of(
+    jobs: Sequence[JobSummary],
+    job_scalars: Mapping[str, Sequence[float]],
+    job_metric_statuses: Sequence[str],
+) -> JobColumns:
+    """The columns of a record built from per-job fields (`BatchRecord.job_columns`):
+    the scalars per job from each `JobSummary`, the values across jobs as given."""
+    from collections import Counter
+
+    import numpy as np
+
+    built = JobColumns.build(
+        jobs,
+        [{n: (v, "") for n, v in j.scalars.items()} for j in jobs],
+        Counter(job_metric_statuses),
+    )
+    pooled = {
+        name: np.asarray(list(values), dtype=np.float64)
+        for name, values in sorted(job_scalars.items())
+    }
+    return JobColumns(
+        built.job_ids,
+        built.experiences,
+        built.experience,
+        built.statuses,
+        built.status,
+        built.scalars,
+        built.metric_statuses,
+        pooled,
+    )
