@@ -77,6 +77,13 @@ def test_noise_scale_ignores_one_step() -> None:
     assert noise_scale([1.0, 2.0]) == 0.0
 
 
+def test_noise_scale_survives_values_near_the_float_maximum() -> None:
+    # fsum's partials overflow on these (found by hypothesis): a report must not crash.
+    huge = 1.7976931348623157e308
+    assert noise_scale([0.0, huge, 0.0, huge]) > 1e307
+    assert noise_scale([huge, 0.0, huge]) > 1e307
+
+
 def test_a_failure_rate_shift() -> None:
     failed = [0, 0, 1, 0, 0, 0, 0, 3, 3, 3, 2, 3]
     (shift,) = rate_shifts(failed, [3] * 12)

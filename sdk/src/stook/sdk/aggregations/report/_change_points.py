@@ -127,7 +127,13 @@ def noise_scale(values: Sequence[float]) -> float:
     if m < 2:
         return 0.0
     kept = diffs[: m - _trimmed_count(m)]
-    return statistics.fmean(kept) / _expected_trimmed_mean(m)
+    try:
+        mean = statistics.fmean(kept)
+    except OverflowError:
+        # Differences near the float maximum overflow fsum's partials; scaled first, the
+        # mean is still right to the last bits that matter here (or inf, past the maximum).
+        mean = sum(d / len(kept) for d in kept)
+    return mean / _expected_trimmed_mean(m)
 
 
 def _pelt(cost: Any, signal: np.ndarray, pen: float) -> list[int]:
