@@ -113,6 +113,12 @@ def build_parser() -> argparse.ArgumentParser:
         help="also write OUTPUTS/metrics.html, a preview of the output ([output] preview)",
     )
     run_p.add_argument(
+        "--engine",
+        choices=("local", "processes", "ray"),
+        help="where the fetch and fold runs: this process, local worker processes or Ray "
+        "(replaces [engine] kind)",
+    )
+    run_p.add_argument(
         "--project-id",
         metavar="UUID",
         help="project for batch configs that lack projectID (env STOOK_PROJECT_ID)",
@@ -458,6 +464,7 @@ def _dispatch(args: argparse.Namespace, voice: Voice) -> int:
                 allow_missing_jobs=args.allow_missing_jobs,
                 project_id=args.project_id,
                 preview=args.preview,
+                engine=args.engine,
             )
             voice.progress = Tally(for_stream(label="jobs"))
             _fast_exit.arm()
