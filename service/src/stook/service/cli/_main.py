@@ -189,6 +189,12 @@ def build_parser() -> argparse.ArgumentParser:
     bench_p.add_argument(
         "--out", metavar="DIR", default="docs/benchmarks", help="where results are written"
     )
+    bench_p.add_argument(
+        "--engines",
+        action="store_true",
+        help="only compare [engine] local, processes and ray on one batch (20,000 jobs; "
+        "--quick: 2,000)",
+    )
 
     file_help = "a metrics.binproto (a JobMetrics message, from stook or ReSim's own writer)"
     validate_p = sub.add_parser(
@@ -482,6 +488,9 @@ def _dispatch(args: argparse.Namespace, voice: Voice) -> int:
             from pathlib import Path
 
             bench = _testing_tool("bench", "stook.bench")
+            if args.engines:
+                bench.run_engine_bench(Path(args.out), quick=args.quick)
+                return 0
             bench.run_bench(Path(args.out), quick=args.quick)
             return 0
         case "preview":
