@@ -12,8 +12,10 @@ import dataclasses
 import json
 import os
 import pickle
+import signal
 import subprocess
 import sys
+import time
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -29,6 +31,7 @@ from stook.service.modes import ApiAccess, FetchSettings, open_api
 from stook.service.modes._pipeline import needs_of
 from stook.service.modes._shards import BatchShard, ShardDone, ShardFailed, run_shard
 from tests.e2e.engines import ENGINE_BATCH_TOML, run_engine
+from tests.e2e.processes import StookProcess
 from tests.e2e.support import (
     OUTPUT_NAME,
     EmulatorThread,
@@ -240,3 +243,81 @@ def test_a_shard_runs_the_fetch_core_on_its_own_jobs(emu: Emulator) -> None:
     assert isinstance(failed, ShardFailed)
     assert type(failed.error.rebuild()) is AuthError
     assert "not-the-token" not in failed.error.message
+
+
+# A custom aggregation in a module beside stook.toml, which only the config's folder holds.
+TALLY_MODULE = """\
+from dataclasses import dataclass, field
+
+from stook.sdk.aggregations import BatchAggregation
+
+
+@dataclass
+class JobTally(BatchAggregation):
+    name: str = "Jobs tallied"
+    count: int = field(default=0, init=False)
+
+    def update(self, record):
+        self.count += 1
+
+    def merge(self, other):
+        self.count += other.count
+
+    def finish(self, writer):
+        writer.scalar(self.name, float(self.count))
+"""
+
+
+def test_user_aggregations_are_imported_in_the_workers(emu: Emulator, tmp_path: Path) -> None:
+    folder = tmp_path / "config"
+    folder.mkdir()
+    (folder / "tally_metrics_for_engines.py").write_text(TALLY_MODULE)
+    emu.write_batch_config(tmp_path / "inputs")
+    toml = '[[batch.custom]]\nclass = "tally_metrics_for_engines:JobTally"\n' + PROCESSES
+    run = StookProcess(tmp_path, "--config", str(folder / "stook.toml"))
+    (folder / "stook.toml").write_text(toml)
+    assert run.finish(60) == 0, run.err
+    view = read_job_metrics((run.outputs / OUTPUT_NAME).read_bytes())
+    assert by_name(view)["Jobs tallied"].value == JOBS
+
+
+def child_pids(pid: int) -> set[int]:
+    children: set[int] = set()
+    for task in Path(f"/proc/{pid}/task").iterdir():
+        text = (task / "children").read_text().split()
+        children.update(int(child) for child in text)
+    return children
+
+
+def gone(pid: int) -> bool:
+    try:
+        status = Path(f"/proc/{pid}/status").read_text()
+    except OSError:
+        return True
+    return "\nState:\tZ" in status
+
+
+def test_a_signal_stops_the_workers_too(tmp_path: Path) -> None:
+    slow = config(jobs_per_batch=1500, latency_ms=100.0, seed=61)  # shards of ~4 s
+    with EmulatorThread(slow) as emu:
+        emu.write_batch_config(tmp_path / "inputs")
+        run = StookProcess(tmp_path, "--log-format", "json", toml=PROCESSES)
+        run.wait_for_line("batch fetch starting")
+        run.wait_until(lambda: len(child_pids(run.proc.pid)) >= 2, "two workers started")
+        workers = child_pids(run.proc.pid)
+        time.sleep(0.5)  # the workers are fetching
+        sent = time.monotonic()
+        run.proc.send_signal(signal.SIGINT)
+        code = run.finish(30)
+        seconds = time.monotonic() - sent
+    assert code == 130, run.err
+    lines = failure_lines(run.err)
+    assert len(lines) == 1, run.err
+    assert lines[0].startswith("stook: interrupted by SIGINT")
+    assert "Traceback" not in run.err
+    assert seconds < 2.0
+    assert not (run.outputs / OUTPUT_NAME).exists()
+    deadline = time.monotonic() + 1.0  # not left to finish their shards
+    while not all(gone(pid) for pid in workers) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert all(gone(pid) for pid in workers), workers
