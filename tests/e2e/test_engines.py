@@ -298,7 +298,10 @@ def gone(pid: int) -> bool:
 
 
 def test_a_signal_stops_the_workers_too(tmp_path: Path) -> None:
-    slow = config(jobs_per_batch=1500, latency_ms=100.0, seed=61)  # shards of ~4 s
+    # Shards of ~4 s each; the listing, 100 jobs a page, takes 1.5 s.
+    slow = config(
+        jobs_per_batch=1500, latency_ms=100.0, seed=61, default_page_size=100, max_page_size=100
+    )
     with EmulatorThread(slow) as emu:
         emu.write_batch_config(tmp_path / "inputs")
         run = StookProcess(tmp_path, "--log-format", "json", toml=PROCESSES)
