@@ -10,6 +10,9 @@ adaptive = false       # find the server's pace below `concurrency` (AIMD on 429
 max_body_mb = 256      # largest metrics data or metric download, decompressed
 max_api_body_mb = 16   # largest API answer (a JSON page), decompressed
 
+[engine]
+kind = "local"         # or "processes", "ray": shards folded elsewhere (_engine_config.py)
+
 [output]
 preview = false        # also write metrics.html (stook preview) beside metrics.binproto
 summary = true         # batch mode: also write the batch's summary (docs/batch-summaries.md)
