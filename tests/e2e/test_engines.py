@@ -324,3 +324,35 @@ def test_a_signal_stops_the_workers_too(tmp_path: Path) -> None:
     while not all(gone(pid) for pid in workers) and time.monotonic() < deadline:
         time.sleep(0.05)
     assert all(gone(pid) for pid in workers), workers
+
+
+DIES_MODULE = """\
+import os
+from dataclasses import dataclass
+
+from stook.sdk.aggregations import BatchAggregation
+
+
+@dataclass
+class DiesInWorker(BatchAggregation):
+    name: str = "Dies"
+
+    def update(self, record):
+        os._exit(9)  # as the kernel's OOM killer would end it: no exception, no result
+
+    def merge(self, other):
+        pass
+
+    def finish(self, writer):
+        pass
+"""
+
+
+def test_a_worker_that_dies_ends_the_run_with_a_shard_error(emu: Emulator, tmp_path: Path) -> None:
+    (tmp_path / "dies_for_engines.py").write_text(DIES_MODULE)
+    toml = '[[batch.custom]]\nclass = "dies_for_engines:DiesInWorker"\n' + PROCESSES
+    run = run_engine(emu, tmp_path, toml=toml)
+    assert run.code == 1, run.err
+    (line,) = failure_lines(run.err)
+    assert "its worker ended without a result" in line
+    assert not (run.outputs / OUTPUT_NAME).exists()

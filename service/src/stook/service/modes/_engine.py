@@ -30,11 +30,13 @@ from typing import Any, Protocol, cast
 import structlog
 
 from stook.sdk.aggregations import Aggregation
+from stook.service.api import redact_text
 from stook.service.fetch import fetch_deadline
 from stook.service.modes._config import ConfigError, StookConfig
 from stook.service.modes._engine_config import EngineConfigError, EngineSettings, require_engine
 from stook.service.modes._open_api import Traffic, open_api
 from stook.service.modes._pipeline import FetchRun, FetchStep, fetch_here, show_progress, tick
+from stook.service.modes._shard_errors import ShardError
 from stook.service.modes._shard_plans import BatchPlan, ReportPlan, plan_for
 from stook.service.modes._shards import LogSettings, ShardDone, ShardFailed, split
 from stook.service.modes._user_code import import_folders
@@ -169,17 +171,18 @@ class Shards:
     async def _run_shards(self, pieces: list[list[Any]]) -> None:
         run, plan = self._run, self._plan
         aggregations = run.mode.aggregations
-        pending: set[asyncio.Future[bytes]] = set()
+        shard_of: dict[asyncio.Future[bytes], int] = {}
         for index, piece in enumerate(pieces):
             states = [a.fresh() for a in aggregations]
             task = pickle.dumps(plan.shard(run, index, piece, states), pickle.HIGHEST_PROTOCOL)
-            pending.add(self._runner.submit(task))
+            shard_of[self._runner.submit(task)] = index
+        pending = set(shard_of)
         ready: dict[int, ShardDone] = {}
         next_index = 0
         while pending:
             done, pending = await asyncio.wait(pending, return_when=asyncio.FIRST_COMPLETED)
             for future in done:
-                result: ShardDone | ShardFailed = pickle.loads(future.result())
+                result = _result(future, shard_of[future])
                 if isinstance(result, ShardFailed):
                     raise result.error.rebuild()
                 self._arrived(result)
@@ -212,6 +215,19 @@ class Shards:
         for aggregation, state in zip(self._run.mode.aggregations, result.states, strict=True):
             aggregation.merge(pickle.loads(state))
         self.folded += result.size
+
+
+def _result(future: asyncio.Future[bytes], index: int) -> ShardDone | ShardFailed:
+    """A finished shard's result; a worker that died (killed, out of memory) is a ShardError."""
+    try:
+        blob = future.result()
+    except Exception as exc:  # BrokenProcessPool, Ray's WorkerCrashedError, ...
+        raise ShardError(
+            f"shard {index}: its worker ended without a result ({type(exc).__name__}: "
+            f"{redact_text(str(exc))})"
+        ) from None
+    result: ShardDone | ShardFailed = pickle.loads(blob)
+    return result
 
 
 def _default_shards(engine: EngineSettings, runner: ShardRunner) -> int:
