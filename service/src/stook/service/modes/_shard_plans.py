@@ -8,6 +8,7 @@ add what they fetched: jobs done, names seen, jobs missing.
 
 from __future__ import annotations
 
+import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
@@ -90,6 +91,7 @@ class BatchPlan:
 
     def complete(self) -> None:
         """Every shard is in (the listing already fixed the job count)."""
+        self.outcome.seconds = time.monotonic() - self.outcome.started
 
 
 @dataclass(slots=True)
@@ -157,3 +159,4 @@ class ReportPlan:
     def complete(self) -> None:
         """Every shard is in: the job count is what the batches' listings proved."""
         self.outcome.jobs_total = self.outcome.jobs
+        self.outcome.seconds = time.monotonic() - self.outcome.started
