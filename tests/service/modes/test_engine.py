@@ -6,19 +6,24 @@ from __future__ import annotations
 
 import pickle
 import sys
+import threading
 import uuid
+from dataclasses import dataclass, field
 
 import pytest
 
 from stook.sdk import MetricsWriter, read_job_metrics
 from stook.sdk.aggregations import (
+    BatchAggregation,
     BatchSummaryWriter,
+    JobRecord,
     default_batch_aggregations,
     default_report_aggregations,
 )
 from stook.service.api import AuthError, NotFoundError
 from stook.service.fetch import MissingJob
 from stook.service.modes import ConfigError, EngineSettings, StookConfig, engine_for, parse
+from stook.service.modes._engine import check_states_pickle
 from stook.service.modes._engine_config import EngineConfigError, parse_engine, require_engine
 from stook.service.modes._pipeline import write_missing_jobs
 from stook.service.modes._shard_errors import RemoteError, ShardError
@@ -130,3 +135,24 @@ def test_every_built_in_state_pickles() -> None:
 def test_not_found_keeps_its_type() -> None:
     missing = NotFoundError(status=404, method="GET", url="https://api.example/v1/x")
     assert type(RemoteError.of(missing).rebuild()) is NotFoundError
+
+
+@dataclass
+class HoldsALock(BatchAggregation):
+    name: str = "Holds a lock"
+    lock: threading.Lock = field(default_factory=threading.Lock, init=False)
+
+    def update(self, record: JobRecord) -> None:
+        pass
+
+    def merge(self, other: HoldsALock) -> None:
+        pass
+
+    def finish(self, writer: MetricsWriter) -> None:
+        pass
+
+
+def test_a_state_that_cannot_travel_is_a_config_error() -> None:
+    with pytest.raises(ConfigError, match=r"aggregation 'Holds a lock' \(HoldsALock\) cannot be"):
+        check_states_pickle([*default_batch_aggregations(), HoldsALock()])
+    check_states_pickle(default_batch_aggregations())

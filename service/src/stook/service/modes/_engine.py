@@ -92,7 +92,7 @@ class ShardedFetch:
     async def __call__(self, run: FetchRun[Any, Any], /) -> tuple[Any, Traffic]:
         mode = run.mode
         plan = plan_for(mode, self.engine.kind)
-        _check_states_pickle(mode.aggregations)  # before the first request
+        check_states_pickle(mode.aggregations)  # before the first request
         runner = self._runner()
         log.info(
             f"{mode.kind} fetch starting",
@@ -143,7 +143,6 @@ class Shards:
         self._run, self._plan, self._runner = run, plan, runner
         self.folded = 0  # records (jobs, or batches) whose shard is merged
         self.traffic = Traffic()
-        self._listing = Traffic()
 
     def _show(self) -> None:
         show_progress(self._run.progress, self._run.mode.progress(self._plan.outcome), self.traffic)
@@ -159,7 +158,7 @@ class Shards:
                     self._show()
 
                 items = await plan.listing(api, listed)
-                self.traffic = self._listing = Traffic.of(api)
+                self.traffic = Traffic.of(api)
             await self._run_shards(split(items, shard_count))
         finally:
             ticker.cancel()
@@ -236,7 +235,7 @@ def _default_shards(engine: EngineSettings, runner: ShardRunner) -> int:
     return runner.workers if engine.kind == "processes" else 2 * runner.workers
 
 
-def _check_states_pickle(aggregations: Sequence[Aggregation[Any]]) -> None:
+def check_states_pickle(aggregations: Sequence[Aggregation[Any]]) -> None:
     """Partial states travel between processes: one that cannot is a config error, said
     before the first request."""
     for aggregation in aggregations:
