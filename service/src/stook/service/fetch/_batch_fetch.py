@@ -123,12 +123,12 @@ class BatchFetcher:
         def total_is(total: int) -> None:
             outcome.jobs_total = total
 
-        listed = (
+        # Not held in a variable: a cancelled run must drop the listing with the frame.
+        async for job in (
             self._api.list_jobs(self._project_id, self._batch_id, on_total=total_is)
             if self._jobs is None
             else _given(self._jobs)
-        )
-        async for job in listed:
+        ):
             outcome.jobs_listed += 1
             if self._on_progress is not None:
                 self._on_progress(outcome)
