@@ -17,7 +17,7 @@ $(STAMP): $(BIN)/python pyproject.toml proto/pyproject.toml sdk/pyproject.toml s
 		service/testing/pyproject.toml
 	$(BIN)/python -m pip install --quiet --disable-pip-version-check --upgrade "pip>=25.1"
 	$(BIN)/python -m pip install --quiet --disable-pip-version-check --group dev \
-		-e ./proto -e ./sdk -e ./service -e './service/testing[pytest,bench]'
+		-e ./proto -e ./sdk -e './service[ray]' -e './service/testing[pytest,bench]'
 	touch $(STAMP)
 
 setup: $(STAMP)

@@ -113,6 +113,12 @@ def build_parser() -> argparse.ArgumentParser:
         help="also write OUTPUTS/metrics.html, a preview of the output ([output] preview)",
     )
     run_p.add_argument(
+        "--engine",
+        choices=("local", "processes", "ray"),
+        help="where the fetch and fold runs: this process, local worker processes or Ray "
+        "(replaces [engine] kind)",
+    )
+    run_p.add_argument(
         "--project-id",
         metavar="UUID",
         help="project for batch configs that lack projectID (env STOOK_PROJECT_ID)",
@@ -182,6 +188,12 @@ def build_parser() -> argparse.ArgumentParser:
     bench_p.add_argument("--quick", action="store_true", help="small sizes; a smoke test")
     bench_p.add_argument(
         "--out", metavar="DIR", default="docs/benchmarks", help="where results are written"
+    )
+    bench_p.add_argument(
+        "--engines",
+        action="store_true",
+        help="only compare [engine] local, processes and ray on one batch (20,000 jobs; "
+        "--quick: 2,000)",
     )
 
     file_help = "a metrics.binproto (a JobMetrics message, from stook or ReSim's own writer)"
@@ -458,6 +470,7 @@ def _dispatch(args: argparse.Namespace, voice: Voice) -> int:
                 allow_missing_jobs=args.allow_missing_jobs,
                 project_id=args.project_id,
                 preview=args.preview,
+                engine=args.engine,
             )
             voice.progress = Tally(for_stream(label="jobs"))
             _fast_exit.arm()
@@ -475,6 +488,9 @@ def _dispatch(args: argparse.Namespace, voice: Voice) -> int:
             from pathlib import Path
 
             bench = _testing_tool("bench", "stook.bench")
+            if args.engines:
+                bench.run_engine_bench(Path(args.out), quick=args.quick)
+                return 0
             bench.run_bench(Path(args.out), quick=args.quick)
             return 0
         case "preview":

@@ -52,6 +52,8 @@ from stook.service.modes import (
     UserFunctionError,
     check_outputs_folder,
     detect,
+    engine_for,
+    fetch_step_for,
     for_stream,
     human_bytes,
     load,
@@ -87,6 +89,7 @@ class RunOptions:
     allow_missing_jobs: float = 0.0
     project_id: uuid.UUID | None = None
     preview: bool = False
+    engine: str | None = None  # --engine: replaces [engine] kind
 
 
 def resolve_options(
@@ -98,6 +101,7 @@ def resolve_options(
     project_id: str | None,
     preview: bool = False,
     cwd: Path | None = None,
+    engine: str | None = None,
 ) -> RunOptions:
     """Flags first, then STOOK_* environment variables, then the platform's defaults."""
     env = os.environ
@@ -128,6 +132,7 @@ def resolve_options(
         allow_missing_jobs=share,
         project_id=project,
         preview=preview,
+        engine=engine,
     )
 
 
@@ -138,6 +143,7 @@ async def run(options: RunOptions, *, progress: Progress | None = None) -> Path:
     event every 10 s off one).
     """
     config: StookConfig = load(options.config)
+    engine = engine_for(config, options.engine)
     mode = detect(options.inputs, project_id=options.project_id)
     check_outputs_folder(options.outputs)  # before the first request, not after the fetch
     output = options.outputs / OUTPUT_NAME
@@ -160,6 +166,7 @@ async def run(options: RunOptions, *, progress: Progress | None = None) -> Path:
         options.outputs,
         allow_missing_jobs=options.allow_missing_jobs,
         progress=progress or for_stream(label="jobs"),
+        fetch=fetch_step_for(engine, config.file),
     )
     _log_written(result)
     _preview(result.output, options, config)

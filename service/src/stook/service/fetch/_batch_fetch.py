@@ -14,7 +14,7 @@ import asyncio
 import inspect
 import time
 import uuid
-from collections.abc import Awaitable, Callable
+from collections.abc import AsyncIterator, Awaitable, Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -82,7 +82,9 @@ class BatchFetcher:
         *,
         workers: int = 64,
         on_progress: ProgressCallback | None = None,
+        jobs: Sequence[Job] | None = None,
     ) -> None:
+        """`jobs`: fetch these (a shard of the batch, listed elsewhere) instead of listing."""
         if workers < 1:
             raise ValueError(f"workers must be at least 1, got {workers}")
         self._api = api
@@ -92,6 +94,7 @@ class BatchFetcher:
         self._workers = workers
         self._on_progress = on_progress
         self._tags = ExperienceTags(api, project_id)
+        self._jobs = jobs
         self.outcome = FetchOutcome()
 
     async def run(self, on_job: OnJob) -> FetchOutcome:
@@ -120,7 +123,12 @@ class BatchFetcher:
         def total_is(total: int) -> None:
             outcome.jobs_total = total
 
-        async for job in self._api.list_jobs(self._project_id, self._batch_id, on_total=total_is):
+        # Not held in a variable: a cancelled run must drop the listing with the frame.
+        async for job in (
+            self._api.list_jobs(self._project_id, self._batch_id, on_total=total_is)
+            if self._jobs is None
+            else _given(self._jobs)
+        ):
             outcome.jobs_listed += 1
             if self._on_progress is not None:
                 self._on_progress(outcome)
@@ -228,3 +236,8 @@ class BatchFetcher:
             job_event(e)
             async for e in self._api.list_job_events(self._project_id, self._batch_id, job.job_id)
         ]
+
+
+async def _given(jobs: Sequence[Job]) -> AsyncIterator[Job]:
+    for job in jobs:
+        yield job

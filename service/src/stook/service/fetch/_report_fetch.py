@@ -121,8 +121,10 @@ class ReportFetcher:
         workers: int = 64,
         on_progress: Callable[[ReportOutcome], None] | None = None,
         use_summaries: bool = True,
+        batches: tuple[Report, list[Batch]] | None = None,
     ) -> None:
         self._api = api
+        self._given = batches
         self._use_summaries = use_summaries
         self._project_id = project_id
         self._report_id = report_id
@@ -131,18 +133,24 @@ class ReportFetcher:
         self._on_progress = on_progress
         self.outcome = ReportOutcome()
 
-    async def run(self, on_batch: Callable[[BatchRecord], None]) -> ReportOutcome:
+    async def find_batches(self) -> tuple[Report, list[Batch]]:
+        """The report and its batches, oldest first."""
         try:
             report = await self._api.get_report(self._project_id, self._report_id)
         except NotFoundError:
             raise ReportNotFoundError(
                 f"report {self._report_id} does not exist in project {self._project_id} (HTTP 404)"
             ) from None
-        self.outcome.report = report
         batches = [
             b async for b in self._api.list_batches(self._project_id, search=search_for(report))
         ]
         batches.sort(key=lambda b: (b.creation_timestamp or report.start_timestamp, b.batch_id))
+        return report, batches
+
+    async def run(self, on_batch: Callable[[BatchRecord], None]) -> ReportOutcome:
+        # A shard of the report (batches found elsewhere) is given them; a whole run finds them.
+        report, batches = self._given or await self.find_batches()
+        self.outcome.report = report
         self.outcome.batches = len(batches)
         totals = [b.total_jobs for b in batches]
         self.outcome.jobs_total = None if None in totals else sum(t or 0 for t in totals)

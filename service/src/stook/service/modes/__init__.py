@@ -7,6 +7,8 @@ mode's run, the configured client of a run (`open_api`) and what its traffic was
 
 from stook.service.modes._batch import BatchMode, BatchResult, run_batch
 from stook.service.modes._config import ConfigError, FetchSettings, StookConfig, load, parse
+from stook.service.modes._engine import engine_for, fetch_step_for
+from stook.service.modes._engine_config import EngineSettings
 from stook.service.modes._inputs import (
     ApiAccess,
     BatchInputs,
@@ -45,6 +47,7 @@ __all__ = [
     "BatchMode",
     "BatchResult",
     "ConfigError",
+    "EngineSettings",
     "FetchSettings",
     "InputsError",
     "LogProgress",
@@ -66,9 +69,11 @@ __all__ = [
     "UserFunctionError",
     "check_outputs_folder",
     "detect",
+    "engine_for",
     "fetch_batch",
     "fetch_batch_frame",
     "fetch_report",
+    "fetch_step_for",
     "for_stream",
     "human_bytes",
     "load",

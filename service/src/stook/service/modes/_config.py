@@ -10,6 +10,9 @@ adaptive = false       # find the server's pace below `concurrency` (AIMD on 429
 max_body_mb = 256      # largest metrics data or metric download, decompressed
 max_api_body_mb = 16   # largest API answer (a JSON page), decompressed
 
+[engine]
+kind = "local"         # or "processes", "ray": shards folded elsewhere (_engine_config.py)
+
 [output]
 preview = false        # also write metrics.html (stook preview) beside metrics.binproto
 summary = true         # batch mode: also write the batch's summary (docs/batch-summaries.md)
@@ -48,6 +51,7 @@ from stook.service.modes._baseline_config import (
     BaselineSettings,
     parse_baseline,
 )
+from stook.service.modes._engine_config import EngineConfigError, EngineSettings, parse_engine
 from stook.service.modes._user_code import add_import_folders
 
 log = structlog.get_logger("stook.config")
@@ -112,6 +116,8 @@ class StookConfig:
     preview: bool = False
     # [output] summary: batch mode also writes the batch's summary (BatchSummaryWriter).
     summary: bool = True
+    # [engine]: where the fetch and fold runs (modes/_engine_config.py).
+    engine: EngineSettings = field(default_factory=EngineSettings)
 
     def batch_aggregations(self) -> list[BatchAggregation]:
         try:
@@ -126,7 +132,7 @@ class StookConfig:
             raise ConfigError(f"{self.source}: {exc}") from None
 
 
-_SECTIONS = {"fetch", "test", "batch", "report", "output"}
+_SECTIONS = {"fetch", "test", "batch", "report", "output", "engine"}
 
 
 def load(path: Path | None) -> StookConfig:
@@ -188,6 +194,7 @@ def parse(doc: Mapping[str, Any], *, source: str = "stook.toml") -> StookConfig:
         baseline=baseline,
         preview=preview,
         summary=summary,
+        engine=_engine(_table(doc, "engine", source), source),
     )
     # Fail now, before any fetching, on a bad table.
     config.batch_aggregations()
@@ -201,6 +208,13 @@ def _baseline(table: Any, source: str) -> BaselineSettings | None:
     try:
         return parse_baseline(table)
     except BaselineConfigError as exc:
+        raise ConfigError(f"{source}: {exc}") from None
+
+
+def _engine(table: Mapping[str, Any], source: str) -> EngineSettings:
+    try:
+        return parse_engine(table)
+    except EngineConfigError as exc:
         raise ConfigError(f"{source}: {exc}") from None
 
 

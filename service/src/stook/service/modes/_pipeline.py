@@ -122,6 +122,28 @@ def needs_of(aggregations: Sequence[Aggregation[Any]]) -> Needs:
     return needs
 
 
+@dataclass(frozen=True, slots=True)
+class FetchRun(Generic[_R, _O]):
+    """What a fetch-and-fold step is given: the mode, what to fetch and how, and when the run
+    started (the event loop's clock, for the deadline)."""
+
+    mode: Mode[_R, _O]
+    needs: Needs
+    access: ApiAccess
+    settings: FetchSettings
+    retry: RetryPolicy | None
+    progress: Progress
+    started: float
+
+
+class FetchStep(Protocol):
+    """The fetch-and-fold step of the pipeline: every record folded into the mode's
+    aggregations, and what the fetch saw. `fetch_here` does it in this process; the
+    engines of modes/_engine.py split it into shards folded elsewhere and merged here."""
+
+    async def __call__(self, run: FetchRun[_R, _O], /) -> tuple[_O, Traffic]: ...
+
+
 async def run_pipeline(
     mode: Mode[_R, _O],
     access: ApiAccess,
@@ -131,55 +153,18 @@ async def run_pipeline(
     allow_missing_jobs: float = 0.0,
     retry: RetryPolicy | None = None,
     progress: Progress | None = None,
+    fetch: FetchStep | None = None,
 ) -> RunResult[_O]:
-    """Fetch, fold, check and write one run of `mode`; raises the typed errors of each step."""
+    """Fetch, fold, check and write one run of `mode`; raises the typed errors of each step.
+
+    `fetch` is the fetch-and-fold step (default: `fetch_here`, in this process).
+    """
     started = asyncio.get_running_loop().time()
     needs = needs_of(mode.aggregations)
-    folded = 0
-
-    def fold(record: _R) -> None:
-        nonlocal folded
-        folded += 1
-        for aggregation in mode.aggregations:
-            aggregation.update(record)
-
-    log.info(
-        f"{mode.kind} fetch starting",
-        **{f"{mode.kind}_id": str(mode.output_id)},
-        concurrency=settings.concurrency,
-        data=sorted(needs.data),
+    step: FetchStep = fetch or fetch_here
+    outcome, traffic = await step(
+        FetchRun(mode, needs, access, settings, retry, progress or NoProgress(), started)
     )
-    async with open_api(access, settings, retry) as api:
-        shown = progress or NoProgress()
-
-        def report(outcome: _O) -> None:
-            traffic = Traffic.of(api)
-            shown.update(
-                dataclasses.replace(
-                    mode.progress(outcome),
-                    requests=traffic.requests,
-                    retries=traffic.retries,
-                    bytes_received=traffic.bytes_received,
-                )
-            )
-
-        fetcher = mode.fetcher(api, needs, report)
-        # Shown each second too, so that the counters (and the progress events off a
-        # terminal) go on while no job completes: retries in an outage, a slow page.
-        ticker = asyncio.create_task(_tick(lambda: report(fetcher.outcome)))
-        try:
-            async with fetch_deadline(
-                settings.deadline,
-                started=started,
-                progress=lambda: mode.how_far(fetcher.outcome, folded),
-            ):
-                outcome = await fetcher.run(fold)
-        finally:
-            ticker.cancel()
-            with contextlib.suppress(asyncio.CancelledError):
-                await ticker
-            shown.close()
-        traffic = Traffic.of(api)
 
     mode.check(needs, outcome)
     writer = MetricsWriter(mode.output_id, deterministic=True)
@@ -201,7 +186,61 @@ async def run_pipeline(
     )
 
 
-async def _tick(show: Callable[[], None], every: float = 1.0) -> None:
+async def fetch_here(run: FetchRun[_R, _O]) -> tuple[_O, Traffic]:
+    """The fetch and fold in this process: every record folded as it arrives."""
+    mode, settings = run.mode, run.settings
+    folded = 0
+
+    def fold(record: _R) -> None:
+        nonlocal folded
+        folded += 1
+        for aggregation in mode.aggregations:
+            aggregation.update(record)
+
+    log.info(
+        f"{mode.kind} fetch starting",
+        **{f"{mode.kind}_id": str(mode.output_id)},
+        concurrency=settings.concurrency,
+        data=sorted(run.needs.data),
+    )
+    async with open_api(run.access, settings, run.retry) as api:
+        shown = run.progress
+
+        def report(outcome: _O) -> None:
+            show_progress(shown, mode.progress(outcome), Traffic.of(api))
+
+        fetcher = mode.fetcher(api, run.needs, report)
+        # Shown each second too, so that the counters (and the progress events off a
+        # terminal) go on while no job completes: retries in an outage, a slow page.
+        ticker = asyncio.create_task(tick(lambda: report(fetcher.outcome)))
+        try:
+            async with fetch_deadline(
+                settings.deadline,
+                started=run.started,
+                progress=lambda: mode.how_far(fetcher.outcome, folded),
+            ):
+                outcome = await fetcher.run(fold)
+        finally:
+            ticker.cancel()
+            with contextlib.suppress(asyncio.CancelledError):
+                await ticker
+            shown.close()
+        return outcome, Traffic.of(api)
+
+
+def show_progress(shown: Progress, snapshot: Snapshot, traffic: Traffic) -> None:
+    """One progress update: how far the fetch got, with the traffic's counters."""
+    shown.update(
+        dataclasses.replace(
+            snapshot,
+            requests=traffic.requests,
+            retries=traffic.retries,
+            bytes_received=traffic.bytes_received,
+        )
+    )
+
+
+async def tick(show: Callable[[], None], every: float = 1.0) -> None:
     while True:
         await asyncio.sleep(every)
         show()
@@ -213,6 +252,9 @@ def write_missing_jobs(
     """Fail naming the first missing job, or, within the allowed share, say which are missing."""
     if not missing:
         return
+    # In job-ID order, whatever order the jobs failed in: the output does not depend on
+    # timing, nor on how the jobs were split among processes (modes/_engine.py).
+    missing = sorted(missing, key=lambda m: m.job_id)
     share = len(missing) / max(jobs, 1)
     first = missing[0]
     if share > allowed:

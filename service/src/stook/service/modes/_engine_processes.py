@@ -1,0 +1,64 @@
+"""`[engine] kind = "processes"`: shards in local worker processes.
+
+A `ProcessPoolExecutor` of `workers` processes started with *spawn*: forking a process
+that runs an event loop and threads (aiohttp's resolver, the signal watchdog) copies
+locks in whatever state they were in. Each process puts the user's folders on its import
+path and logs as the driver does (`_shards.init_worker`), then runs shards one at a time,
+each with its own event loop and client.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import multiprocessing
+import os
+from collections.abc import Sequence
+from concurrent.futures import ProcessPoolExecutor
+
+from stook.service.modes._engine_config import EngineSettings
+from stook.service.modes._shards import LogSettings, init_worker, run_shard
+
+__all__ = ["ProcessRunner"]
+
+
+class ProcessRunner:
+    def __init__(
+        self, engine: EngineSettings, folders: Sequence[str], logs: LogSettings | None
+    ) -> None:
+        self._workers = engine.workers or os.cpu_count() or 1
+        self._folders = list(folders)
+        self._logs = logs
+        self._futures: list[asyncio.Future[bytes]] = []
+        self._pool = ProcessPoolExecutor(
+            max_workers=self._workers,
+            mp_context=multiprocessing.get_context("spawn"),
+            initializer=init_worker,
+            initargs=(self._folders, logs),
+        )
+
+    @property
+    def workers(self) -> int:
+        return self._workers
+
+    def submit(self, task: bytes) -> asyncio.Future[bytes]:
+        future = asyncio.wrap_future(self._pool.submit(run_shard, self._folders, self._logs, task))
+        self._futures.append(future)
+        return future
+
+    def close(self, *, abort: bool) -> None:
+        if not abort:
+            self._pool.shutdown(wait=True)
+            return
+        # Shards still running would go on to their end: stop their processes. (Python
+        # 3.14's executor has terminate_workers(); before it, its process table.)
+        for future in self._futures:
+            future.cancel()  # a result (or a broken pool) arriving later is then dropped
+        processes = list((getattr(self._pool, "_processes", None) or {}).values())
+        self._pool.shutdown(wait=False, cancel_futures=True)
+        for process in processes:
+            with contextlib.suppress(Exception):
+                process.terminate()
+        for process in processes:
+            with contextlib.suppress(Exception):
+                process.join(timeout=1.0)

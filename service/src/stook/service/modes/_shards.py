@@ -1,0 +1,195 @@
+"""One shard of a run, and running it in a worker (a process of the pool, or a Ray task).
+
+A shard is a contiguous piece of the batch's jobs (or of the report's batches), fetched by
+the same asyncio core as a local run (`BatchFetcher`, `ReportFetcher`, given the piece
+instead of listing) with `[fetch] concurrency` requests in flight, and folded into fresh
+partial states of the run's aggregations. It goes to the worker as pickled bytes, so that
+the user's modules (`[[batch.custom]]`) are on the worker's import path before its
+aggregations are unpickled, and comes back as pickled bytes: the aggregations' states, one
+blob each (their sizes are what the driver logs), and what the fetch saw.
+
+The token travels inside the shard's `ApiAccess`, whose repr hides it; it is in no log line.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import pickle
+import signal
+import sys
+import time
+import uuid
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any, TypeVar
+
+from stook.sdk.aggregations import Aggregation, Needs
+from stook.service.api import Batch, Job, Report, RetryPolicy
+from stook.service.fetch import BatchFetcher, FetchOutcome, ReportFetcher, ReportOutcome
+from stook.service.modes._config import FetchSettings
+from stook.service.modes._inputs import ApiAccess
+from stook.service.modes._open_api import Traffic, open_api
+from stook.service.modes._shard_errors import RemoteError
+
+__all__ = [
+    "BatchShard",
+    "LogSettings",
+    "ReportShard",
+    "ShardDone",
+    "ShardFailed",
+    "init_worker",
+    "run_shard",
+    "split",
+]
+
+_T = TypeVar("_T")
+
+#: How a worker logs: (JSON lines or not, None: as its stderr decides; the level).
+LogSettings = tuple[bool | None, str]
+
+
+def split(items: Sequence[_T], shards: int) -> list[list[_T]]:
+    """`items` in at most `shards` contiguous pieces, in order, none empty, sizes within one."""
+    count = min(shards, len(items))
+    if count == 0:
+        return []
+    size, extra = divmod(len(items), count)
+    pieces, start = [], 0
+    for index in range(count):
+        end = start + size + (index < extra)
+        pieces.append(list(items[start:end]))
+        start = end
+    return pieces
+
+
+@dataclass(slots=True)
+class _Shard:
+    index: int
+    access: ApiAccess
+    settings: FetchSettings
+    retry: RetryPolicy | None
+    needs: Needs
+    aggregations: list[Aggregation[Any]]
+
+    def fold(self, record: Any) -> None:
+        for aggregation in self.aggregations:
+            aggregation.update(record)
+
+
+@dataclass(slots=True)
+class BatchShard(_Shard):
+    batch_id: uuid.UUID
+    jobs: list[Job]
+
+    @property
+    def size(self) -> int:
+        return len(self.jobs)
+
+    async def fetch(self) -> tuple[FetchOutcome, Traffic]:
+        async with open_api(self.access, self.settings, self.retry) as api:
+            fetcher = BatchFetcher(
+                api,
+                self.access.project_id,
+                self.batch_id,
+                self.needs,
+                workers=self.settings.concurrency,
+                jobs=self.jobs,
+            )
+            return await fetcher.run(self.fold), Traffic.of(api)
+
+
+@dataclass(slots=True)
+class ReportShard(_Shard):
+    report_id: uuid.UUID
+    use_summaries: bool
+    report: Report
+    batches: list[Batch]
+
+    @property
+    def size(self) -> int:
+        return len(self.batches)
+
+    async def fetch(self) -> tuple[ReportOutcome, Traffic]:
+        async with open_api(self.access, self.settings, self.retry) as api:
+            fetcher = ReportFetcher(
+                api,
+                self.access.project_id,
+                self.report_id,
+                self.needs,
+                workers=self.settings.concurrency,
+                use_summaries=self.use_summaries,
+                batches=(self.report, self.batches),
+            )
+            return await fetcher.run(self.fold), Traffic.of(api)
+
+
+@dataclass(frozen=True, slots=True)
+class ShardDone:
+    index: int
+    size: int  # jobs (batch mode) or batches (report mode) in the shard
+    states: list[bytes]  # each aggregation's pickled partial state, in the run's order
+    outcome: FetchOutcome | ReportOutcome
+    requests: int
+    retries: int
+    bytes_received: int
+    seconds: float
+
+
+@dataclass(frozen=True, slots=True)
+class ShardFailed:
+    index: int
+    error: RemoteError
+
+
+def init_worker(folders: Sequence[str], logs: LogSettings | None) -> None:
+    """A pool process's start: the user's folders on the path, logging as the driver's.
+
+    SIGINT is the driver's to handle (Ctrl-C reaches the whole process group): it stops the
+    workers itself, so they say nothing of their own.
+    """
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    _prepare(folders, logs)
+
+
+def run_shard(folders: Sequence[str], logs: LogSettings | None, task: bytes) -> bytes:
+    """The worker's entry point: fetch and fold one pickled shard; a pickled result back.
+
+    Never raises for the shard's own failures: they come back as `ShardFailed`.
+    """
+    _prepare(folders, logs)
+    started = time.monotonic()
+    index = -1
+    try:
+        shard: BatchShard | ReportShard = pickle.loads(task)
+        index = shard.index
+        outcome, traffic = asyncio.run(_fetch(shard))
+        done = ShardDone(
+            index=index,
+            size=shard.size,
+            states=[pickle.dumps(a, protocol=pickle.HIGHEST_PROTOCOL) for a in shard.aggregations],
+            outcome=outcome,
+            requests=traffic.requests,
+            retries=traffic.retries,
+            bytes_received=traffic.bytes_received,
+            seconds=time.monotonic() - started,
+        )
+        return pickle.dumps(done, protocol=pickle.HIGHEST_PROTOCOL)
+    except Exception as error:
+        return pickle.dumps(ShardFailed(index, RemoteError.of(error)))
+
+
+async def _fetch(shard: BatchShard | ReportShard) -> tuple[FetchOutcome | ReportOutcome, Traffic]:
+    if isinstance(shard, BatchShard):
+        return await shard.fetch()
+    return await shard.fetch()
+
+
+def _prepare(folders: Sequence[str], logs: LogSettings | None) -> None:
+    for folder in reversed(folders):
+        if folder not in sys.path:
+            sys.path.insert(0, folder)
+    if logs is not None:
+        from stook.service.api import configure_logging
+
+        json, level = logs
+        configure_logging(json=json, level=level)

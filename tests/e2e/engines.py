@@ -1,0 +1,65 @@
+"""Running `stook run` with an `[engine]` on the emulator, for tests/e2e/test_engines*.py."""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import os
+from collections.abc import Iterator
+from dataclasses import dataclass
+from pathlib import Path
+
+import pytest
+
+from stook.emulator import Emulator
+from stook.service.cli import run_cli
+from tests.e2e.support import BATCH_TOML, OUTPUT_NAME, write_batch_inputs
+
+# The batch metrics under comparison: a histogram over a series ("speeds"), scalar stats,
+# a weighted mean, the default aggregations and the batch summary (on by default).
+ENGINE_BATCH_TOML = BATCH_TOML
+
+
+@dataclass(frozen=True)
+class EngineRun:
+    code: int
+    err: str
+    outputs: Path
+
+    @property
+    def output(self) -> bytes:
+        assert self.code == 0, self.err
+        return (self.outputs / OUTPUT_NAME).read_bytes()
+
+
+@contextlib.contextmanager
+def no_stook_environment() -> Iterator[None]:
+    with pytest.MonkeyPatch.context() as mp:
+        for name in list(os.environ):
+            if name.startswith("STOOK_"):
+                mp.delenv(name)
+        yield
+
+
+def run_engine(
+    emu: Emulator,
+    tmp: Path,
+    *args: str,
+    toml: str = ENGINE_BATCH_TOML,
+    report: bool = False,
+) -> EngineRun:
+    """`stook run` in this process (its shards in workers) on the emulator's batch, or its
+    report; `args` are extra flags, e.g. ``--engine processes``."""
+    inputs, outputs = tmp / "inputs", tmp / "outputs"
+    if report:
+        emu.write_report_config(inputs)
+    else:
+        write_batch_inputs(inputs, emu)
+    config = tmp / "stook.toml"
+    config.write_text(toml)
+    argv = ["run", "--inputs", str(inputs), "--outputs", str(outputs), "--config", str(config)]
+    argv += ["--log-format", "json", "--log-level", "warning", *args]
+    err = io.StringIO()
+    with no_stook_environment(), contextlib.redirect_stderr(err):
+        code = run_cli(argv)
+    return EngineRun(code, err.getvalue(), outputs)
