@@ -50,6 +50,12 @@ def body_excerpt(body: bytes, limit: int = _EXCERPT_CHARS) -> str:
 class ApiError(StookError):
     """Base of every error raised while talking to the ReSim API or its object storage."""
 
+    @property
+    def summary(self) -> str:
+        """The message without what timing decides (attempt counts, signing times): what
+        an output may say, so that the same failures write the same bytes."""
+        return str(self)
+
 
 class ApiStatusError(ApiError):
     """The API answered with an HTTP error status."""
@@ -197,6 +203,10 @@ class RetriesExhaustedError(ApiError):
         super().__init__(
             f"{method} {self.url} failed after {attempts} attempts; last error: {self.last_reason}"
         )
+
+    @property
+    def summary(self) -> str:
+        return f"{self.method} {self.url} failed on every attempt; last error: {self.last_reason}"
 
 
 class OriginUnavailableError(ApiError):

@@ -148,7 +148,7 @@ class BatchFetcher:
                 raise
             except ApiError as exc:
                 self.outcome.missing.append(
-                    MissingJob(job.job_id, job.experience_name or "", str(exc))
+                    MissingJob(job.job_id, job.experience_name or "", exc.summary)
                 )
                 log.warning("job unavailable", job_id=str(job.job_id), reason=str(exc))
             else:
