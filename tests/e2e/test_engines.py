@@ -91,6 +91,37 @@ def test_the_engine_flag_replaces_the_configured_kind(emu: Emulator, tmp_path: P
     assert run.output  # and written
 
 
+BASELINE_TOML = """\
+[batch]
+defaults = false
+
+[batch.baseline]
+previous = true
+better = { "Max speed" = "higher" }
+"""
+
+
+def test_a_baseline_comparison_on_processes_writes_the_bytes_of_a_local_run(
+    tmp_path: Path,
+) -> None:
+    # The candidate's jobs in shards, the baseline's on the driver beside them, the
+    # directions of the other metrics from their failure definitions once both are in.
+    pair = config(
+        seed=7,
+        jobs_per_batch=30,
+        baseline_pair=True,
+        baseline_regressed_experiences=(3, 11),
+        baseline_shift_metric="Localization error",
+        baseline_shift=0.25,
+    )
+    with EmulatorThread(pair) as emulator:
+        local = run_engine(emulator, tmp_path / "local", toml=BASELINE_TOML)
+        sharded = run_engine(emulator, tmp_path / "processes", toml=BASELINE_TOML + PROCESSES)
+    assert sharded.output == local.output
+    text = text_of(by_name(read_job_metrics(local.output))["Compared with baseline"])
+    assert "REGRESSED" in text
+
+
 @pytest.mark.parametrize(
     ("table", "named"),
     [

@@ -59,46 +59,65 @@ class ComparedFetcher:
                 group.create_task(self._fetch_baseline())
         except ExceptionGroup as group_error:
             raise group_error.exceptions[0] from None
-        probes = self._comparison.direction_probes()
-        if probes and self._comparison.found is not None:
-            directions = await failure_directions(
-                self._api, self._project_id, self._batch_id, probes
-            )
-            self._comparison.set_directions(directions)
+        await set_directions(self._api, self._project_id, self._batch_id, self._comparison)
         return candidate.result()
 
     async def _fetch_baseline(self) -> None:
-        s = self._settings
-        found = await find_baseline(
+        await fetch_baseline(
             self._api,
             self._project_id,
             self._batch_id,
-            batch=s.batch,
-            branch=s.branch,
-            previous=s.previous,
-        )
-        baseline = found.baseline
-        if baseline is None:
-            log.info("no baseline to compare with", reason=found.reason)
-            self._comparison.no_baseline(found.reason)
-            return
-        log.info("baseline found", baseline_id=str(baseline.batch_id), chosen_as=found.chosen_as)
-        fetcher = BatchFetcher(
-            self._api,
-            self._project_id,
-            baseline.batch_id,
-            self._comparison.needs(),
+            self._comparison,
+            self._settings,
             workers=self._workers,
         )
-        outcome = await fetcher.run(self._comparison.update_baseline)
-        self._comparison.set_baseline(
-            BaselineInfo(
-                batch_id=baseline.batch_id,
-                friendly_name=baseline.friendly_name or "",
-                build=found.build,
-                created=baseline.creation_timestamp,
-                chosen_as=found.chosen_as,
-                missing_jobs=len(outcome.missing),
-            ),
-            self._batch_id,
-        )
+
+
+async def fetch_baseline(
+    api: ApiClient,
+    project_id: uuid.UUID,
+    batch_id: uuid.UUID,
+    comparison: BaselineComparison,
+    settings: BaselineSettings,
+    *,
+    workers: int,
+) -> None:
+    """Find the baseline of `batch_id` and fold its jobs into the comparison's baseline side
+    (or say there is none). A sharded run does this on its driver, beside the shards."""
+    found = await find_baseline(
+        api,
+        project_id,
+        batch_id,
+        batch=settings.batch,
+        branch=settings.branch,
+        previous=settings.previous,
+    )
+    baseline = found.baseline
+    if baseline is None:
+        log.info("no baseline to compare with", reason=found.reason)
+        comparison.no_baseline(found.reason)
+        return
+    log.info("baseline found", baseline_id=str(baseline.batch_id), chosen_as=found.chosen_as)
+    fetcher = BatchFetcher(api, project_id, baseline.batch_id, comparison.needs(), workers=workers)
+    outcome = await fetcher.run(comparison.update_baseline)
+    comparison.set_baseline(
+        BaselineInfo(
+            batch_id=baseline.batch_id,
+            friendly_name=baseline.friendly_name or "",
+            build=found.build,
+            created=baseline.creation_timestamp,
+            chosen_as=found.chosen_as,
+            missing_jobs=len(outcome.missing),
+        ),
+        batch_id,
+    )
+
+
+async def set_directions(
+    api: ApiClient, project_id: uuid.UUID, batch_id: uuid.UUID, comparison: BaselineComparison
+) -> None:
+    """Once both sides are in: which way is better for the compared metrics that have no
+    configured direction, from their failure definitions."""
+    probes = comparison.direction_probes()
+    if probes and comparison.found is not None:
+        comparison.set_directions(await failure_directions(api, project_id, batch_id, probes))

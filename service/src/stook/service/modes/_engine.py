@@ -22,7 +22,7 @@ import contextlib
 import dataclasses
 import logging
 import pickle
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Protocol, cast
@@ -142,7 +142,9 @@ class Shards:
     def __init__(self, run: FetchRun[Any, Any], plan: BatchPlan | ReportPlan, runner: ShardRunner):
         self._run, self._plan, self._runner = run, plan, runner
         self.folded = 0  # records (jobs, or batches) whose shard is merged
-        self.traffic = Traffic()
+        self.traffic = Traffic()  # the whole run's: the shards' and the driver's
+        self._shards_traffic = Traffic()
+        self._driver_traffic: Callable[[], Traffic] = Traffic
 
     def _show(self) -> None:
         show_progress(self._run.progress, self._run.mode.progress(self._plan.outcome), self.traffic)
@@ -151,15 +153,22 @@ class Shards:
         run, plan = self._run, self._plan
         ticker = asyncio.create_task(tick(self._show))
         try:
+            # Open for the whole run: the driver may fetch beside the shards (a baseline).
             async with open_api(run.access, run.settings, run.retry) as api:
 
                 def listed() -> None:
-                    self.traffic = Traffic.of(api)
+                    self.traffic = self._shards_traffic + Traffic.of(api)
                     self._show()
 
+                self._driver_traffic = lambda: Traffic.of(api)
                 items = await plan.listing(api, listed)
-                self.traffic = Traffic.of(api)
-            await self._run_shards(split(items, shard_count))
+                self.traffic = self._shards_traffic + Traffic.of(api)
+                try:
+                    await self._run_shards(split(items, shard_count))
+                    await plan.finish(api)
+                finally:
+                    plan.abort()  # a no-op once finished
+                self.traffic = self._shards_traffic + Traffic.of(api)
         finally:
             ticker.cancel()
             with contextlib.suppress(asyncio.CancelledError):
@@ -194,11 +203,10 @@ class Shards:
     def _arrived(self, result: ShardDone) -> None:
         self._plan.add(result.outcome)
         sizes = [len(state) for state in result.states]
-        self.traffic = Traffic(
-            requests=self.traffic.requests + result.requests,
-            retries=self.traffic.retries + result.retries,
-            bytes_received=self.traffic.bytes_received + result.bytes_received,
+        self._shards_traffic = self._shards_traffic + Traffic(
+            requests=result.requests, retries=result.retries, bytes_received=result.bytes_received
         )
+        self.traffic = self._shards_traffic + self._driver_traffic()
         log.info(
             "shard finished",
             shard=result.index,

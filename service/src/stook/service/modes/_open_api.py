@@ -53,6 +53,16 @@ class Traffic:
             limiters=api.limiters,
         )
 
+    def __add__(self, other: Traffic) -> Traffic:
+        """Two clients' traffic together (a sharded run's shards and its driver); the
+        limiters are the right-hand one's, the client still open."""
+        return Traffic(
+            requests=self.requests + other.requests,
+            retries=self.retries + other.retries,
+            bytes_received=self.bytes_received + other.bytes_received,
+            limiters=other.limiters or self.limiters,
+        )
+
     @property
     def limit_stats(self) -> dict[str, LimitStats]:
         """What each limiter did, by name ("shared", and "api" and "storage" when adaptive)."""

@@ -8,6 +8,7 @@ add what they fetched: jobs done, names seen, jobs missing.
 
 from __future__ import annotations
 
+import asyncio
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -16,8 +17,8 @@ from typing import Any
 from stook.sdk.aggregations import Aggregation, Needs
 from stook.service.api import ApiClient, Batch, Job, Report
 from stook.service.fetch import FetchOutcome, ReportFetcher, ReportOutcome
+from stook.service.modes._baseline import fetch_baseline, set_directions
 from stook.service.modes._batch import BatchMode
-from stook.service.modes._config import ConfigError
 from stook.service.modes._pipeline import FetchRun
 from stook.service.modes._report import ReportMode
 from stook.service.modes._shards import BatchShard, ReportShard
@@ -26,13 +27,8 @@ __all__ = ["BatchPlan", "ReportPlan", "plan_for"]
 
 
 def plan_for(mode: object, kind: str) -> BatchPlan | ReportPlan:
-    """The plan of `mode`'s run; refuses what a sharded run cannot do yet (exit 2)."""
+    """The plan of `mode`'s run."""
     if isinstance(mode, BatchMode):
-        if mode.comparison is not None:
-            raise ConfigError(
-                f'{mode.config.source}: [batch.baseline] runs with [engine] kind = "local" '
-                f"only, not {kind!r}"
-            )
         return BatchPlan(mode)
     if isinstance(mode, ReportMode):
         return ReportPlan(mode)
@@ -41,14 +37,32 @@ def plan_for(mode: object, kind: str) -> BatchPlan | ReportPlan:
 
 @dataclass(slots=True)
 class BatchPlan:
+    """The batch's jobs are sharded; with `[batch.baseline]` the baseline's jobs are
+    fetched here, on the driver, beside the shards: the comparison needs only their
+    listed scalars (one request a job), and its candidate side comes from the shards'
+    states like every other aggregation's."""
+
     mode: BatchMode
     outcome: FetchOutcome = None  # type: ignore[assignment]  # set in __post_init__
+    _baseline: asyncio.Task[None] | None = None
 
     def __post_init__(self) -> None:
         self.outcome = FetchOutcome()
 
     async def listing(self, api: ApiClient, on_progress: Callable[[], None]) -> list[Job]:
         inputs, outcome = self.mode.inputs, self.outcome
+        comparison, settings = self.mode.comparison, self.mode.config.baseline
+        if comparison is not None and settings is not None:
+            self._baseline = asyncio.create_task(
+                fetch_baseline(
+                    api,
+                    inputs.access.project_id,
+                    inputs.batch_id,
+                    comparison,
+                    settings,
+                    workers=self.mode.config.fetch.concurrency,
+                )
+            )
 
         def total_is(total: int) -> None:
             outcome.jobs_total = total
@@ -88,6 +102,18 @@ class BatchPlan:
         outcome.metric_names |= part.metric_names
         outcome.data_names |= part.data_names
         outcome.unnamed_data += part.unnamed_data
+
+    async def finish(self, api: ApiClient) -> None:
+        """Every shard is merged: the baseline's side too, then the comparison's directions."""
+        comparison, inputs = self.mode.comparison, self.mode.inputs
+        if self._baseline is None or comparison is None:
+            return
+        await self._baseline
+        await set_directions(api, inputs.access.project_id, inputs.batch_id, comparison)
+
+    def abort(self) -> None:
+        if self._baseline is not None:
+            self._baseline.cancel()
 
     def complete(self) -> None:
         """Every shard is in (the listing already fixed the job count)."""
@@ -155,6 +181,12 @@ class ReportPlan:
         outcome.batches_summarised += part.batches_summarised
         outcome.missing.extend(part.missing)
         outcome.job_scalar_names |= part.job_scalar_names
+
+    async def finish(self, api: ApiClient) -> None:
+        """Nothing is fetched on the driver after the shards."""
+
+    def abort(self) -> None:
+        """Nothing runs on the driver beside the shards."""
 
     def complete(self) -> None:
         """Every shard is in: the job count is what the batches' listings proved."""
