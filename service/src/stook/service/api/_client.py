@@ -7,7 +7,6 @@ token cannot follow a presigned URL (or a redirect from one) to another host.
 
 from __future__ import annotations
 
-import functools
 import json
 import uuid
 from collections.abc import AsyncIterator, Callable, Mapping
@@ -26,6 +25,7 @@ from stook.service.api._errors import (
     RedirectedRefusalError,
 )
 from stook.service.api._limits import AimdLimiter, ConcurrencyLimit, FixedLimit, NestedLimit
+from stook.service.api._listing_items import metric_parser, metrics_data_parser
 from stook.service.api._models import (
     ApiMetric,
     ApiMetricsData,
@@ -59,10 +59,10 @@ IdLike = uuid.UUID | str
 _Model = TypeVar("_Model")
 
 # Each listing's parser, made once: a listing parses thousands of items.
-_JOB_METRIC = functools.partial(ApiMetric.from_json, owner=MetricOwner.JOB)
-_BATCH_METRIC = functools.partial(ApiMetric.from_json, owner=MetricOwner.BATCH)
-_JOB_DATA = functools.partial(ApiMetricsData.from_json, owner=MetricOwner.JOB)
-_BATCH_DATA = functools.partial(ApiMetricsData.from_json, owner=MetricOwner.BATCH)
+_JOB_METRIC = metric_parser(MetricOwner.JOB)
+_BATCH_METRIC = metric_parser(MetricOwner.BATCH)
+_JOB_DATA = metrics_data_parser(MetricOwner.JOB)
+_BATCH_DATA = metrics_data_parser(MetricOwner.BATCH)
 
 # The API caps pages; 100 is the largest size ReSim's own tools ask for.
 DEFAULT_PAGE_SIZE: Final = 100
