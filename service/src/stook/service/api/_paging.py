@@ -44,14 +44,16 @@ class ListingGuard:
 
     def check(self, items: list[dict[str, Any]], token: str | None, total: object) -> None:
         self._pages += 1
+        if token is None:
+            # The last page: nothing more will be asked for, so what it holds proves
+            # nothing (and most listings, a job's, are one page).
+            return
         new = 0
         for item in items:
             identity = self._identity(item)
             if identity not in self._seen:
                 self._seen.add(identity)
                 new += 1
-        if token is None:
-            return  # the last page: nothing more will be asked for
         if token in self._tokens:
             self._stop("the API repeated a page token")
         self._tokens.add(token)

@@ -33,6 +33,8 @@ from stook.service.modes._progress import NoProgress, Progress, Snapshot
 log = structlog.get_logger("stook.pipeline")
 
 OUTPUT_NAME = "metrics.binproto"
+# The shortest time between two progress snapshots (the last one is always shown).
+_SHOW_EVERY_S = 0.05
 
 _R = TypeVar("_R")  # what the fetcher hands over: a job's record, or a batch's
 _O = TypeVar("_O")  # what the fetcher saw: counts, names, missing jobs
@@ -151,8 +153,18 @@ async def run_pipeline(
     )
     async with open_api(access, settings, retry) as api:
         shown = progress or NoProgress()
+        clock = asyncio.get_running_loop().time
+        last_shown = -_SHOW_EVERY_S
 
-        def report(outcome: _O) -> None:
+        def report(outcome: _O, *, final: bool = False) -> None:
+            # Called as each job is listed and done; a display needs a few a second (the
+            # bar redraws 4 times a second, events come every 10 s), and a snapshot per
+            # call cost ~1 % of the client's CPU at 0 ms latency.
+            nonlocal last_shown
+            now = clock()
+            if now - last_shown < _SHOW_EVERY_S and not final:
+                return
+            last_shown = now
             traffic = Traffic.of(api)
             shown.update(
                 dataclasses.replace(
@@ -174,6 +186,7 @@ async def run_pipeline(
                 progress=lambda: mode.how_far(fetcher.outcome, folded),
             ):
                 outcome = await fetcher.run(fold)
+            report(outcome, final=True)  # the display ends on the complete counts
         finally:
             ticker.cancel()
             with contextlib.suppress(asyncio.CancelledError):
