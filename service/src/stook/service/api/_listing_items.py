@@ -43,14 +43,24 @@ def _slot_setters(cls: type) -> tuple[Callable[[object, object], None], ...]:
     return tuple(cls.__dict__[f.name].__set__ for f in dataclasses.fields(cls))
 
 
-_METRIC_SLOTS: Final = _slot_setters(ApiMetric)
-_DATA_SLOTS: Final = _slot_setters(ApiMetricsData)
+# Written out, not looped over: a loop over the setters cost a third of the gain.
+(_m0, _m1, _m2, _m3, _m4, _m5, _m6, _m7, _m8, _m9, _m10, _m11, _m12) = _slot_setters(ApiMetric)
+(_d0, _d1, _d2, _d3, _d4, _d5, _d6, _d7, _d8) = _slot_setters(ApiMetricsData)
+_new = object.__new__
 
 
-def _build(cls: type, setters: tuple[Callable[[object, object], None], ...], *values: Any) -> Any:
-    item: Any = object.__new__(cls)
-    for set_slot, value in zip(setters, values, strict=True):
-        set_slot(item, value)
+def _new_metric(*v: Any) -> ApiMetric:
+    item: ApiMetric = _new(ApiMetric)
+    _m0(item, v[0]), _m1(item, v[1]), _m2(item, v[2]), _m3(item, v[3]), _m4(item, v[4])
+    _m5(item, v[5]), _m6(item, v[6]), _m7(item, v[7]), _m8(item, v[8]), _m9(item, v[9])
+    _m10(item, v[10]), _m11(item, v[11]), _m12(item, v[12])
+    return item
+
+
+def _new_metrics_data(*v: Any) -> ApiMetricsData:
+    item: ApiMetricsData = _new(ApiMetricsData)
+    _d0(item, v[0]), _d1(item, v[1]), _d2(item, v[2]), _d3(item, v[3]), _d4(item, v[4])
+    _d5(item, v[5]), _d6(item, v[6]), _d7(item, v[7]), _d8(item, v[8])
     return item
 
 
@@ -120,10 +130,8 @@ def _metric(data: Mapping[str, Any], owner: MetricOwner) -> ApiMetric | None:
         elif type(event_metric) is not bool:
             return None
         # In field order; the same checks as ApiMetric.from_json.
-        return _build(  # type: ignore[no-any-return]
-            ApiMetric,
-            _METRIC_SLOTS,
-            parse_uuid(metric_id),
+        return _new_metric(
+            uuid.UUID(metric_id),  # unique per item: not worth a place in the ID cache
             _text(get("name")) or "",
             kind,
             status,
@@ -155,10 +163,8 @@ def _metrics_data(data: Mapping[str, Any], owner: MetricOwner) -> ApiMetricsData
         else:
             return None
         job = owner is MetricOwner.JOB
-        return _build(  # type: ignore[no-any-return]
-            ApiMetricsData,
-            _DATA_SLOTS,
-            parse_uuid(data_id),
+        return _new_metrics_data(
+            uuid.UUID(data_id),  # unique per item: not worth a place in the ID cache
             _text(get("name")) or "",
             storage_type,
             _text(get("metricsDataURL")),
