@@ -241,7 +241,11 @@ class ApiClient:
         """
         query: dict[str, str | int] = dict(params or {})
         query["pageSize"] = page_size or self._page_size
-        listing = f"GET {redact_url(self._url(path))}"
+
+        def listing() -> str:
+            # Made only for an error: a batch run starts two listings per job.
+            return f"GET {redact_url(self._url(path))}"
+
         guard = ListingGuard(listing, items_key, int(query["pageSize"]))
         while True:
             page = await self.get_json(path, query)
@@ -250,17 +254,17 @@ class ApiClient:
                 items = []  # the API omits empty lists
             if not isinstance(items, list):
                 raise ApiResponseError(
-                    f"{listing}: '{items_key}' should be a list, got {type(items).__name__}"
+                    f"{listing()}: '{items_key}' should be a list, got {type(items).__name__}"
                 )
             for item in items:
                 if not isinstance(item, dict):
                     raise ApiResponseError(
-                        f"{listing}: an item of '{items_key}' is {type(item).__name__}, "
+                        f"{listing()}: an item of '{items_key}' is {type(item).__name__}, "
                         "not an object"
                     )
             token = page.get("nextPageToken")
             if token and not isinstance(token, str):
-                raise ApiResponseError(f"{listing}: 'nextPageToken' should be a string")
+                raise ApiResponseError(f"{listing()}: 'nextPageToken' should be a string")
             # Checked before the items are handed on: a page that proves the listing
             # endless must not feed its repeats to the caller.
             total = page.get("total")
