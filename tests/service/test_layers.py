@@ -42,6 +42,7 @@ API_ORDER = [
     "_stats",
     "_limits",
     "_models",
+    "_listing_items",
     "_paging",
     "_transport",
     "_gate",

@@ -7,7 +7,6 @@ token cannot follow a presigned URL (or a redirect from one) to another host.
 
 from __future__ import annotations
 
-import functools
 import json
 import uuid
 from collections.abc import AsyncIterator, Callable, Mapping
@@ -26,6 +25,7 @@ from stook.service.api._errors import (
     RedirectedRefusalError,
 )
 from stook.service.api._limits import AimdLimiter, ConcurrencyLimit, FixedLimit, NestedLimit
+from stook.service.api._listing_items import metric_parser, metrics_data_parser
 from stook.service.api._models import (
     ApiMetric,
     ApiMetricsData,
@@ -59,10 +59,10 @@ IdLike = uuid.UUID | str
 _Model = TypeVar("_Model")
 
 # Each listing's parser, made once: a listing parses thousands of items.
-_JOB_METRIC = functools.partial(ApiMetric.from_json, owner=MetricOwner.JOB)
-_BATCH_METRIC = functools.partial(ApiMetric.from_json, owner=MetricOwner.BATCH)
-_JOB_DATA = functools.partial(ApiMetricsData.from_json, owner=MetricOwner.JOB)
-_BATCH_DATA = functools.partial(ApiMetricsData.from_json, owner=MetricOwner.BATCH)
+_JOB_METRIC = metric_parser(MetricOwner.JOB)
+_BATCH_METRIC = metric_parser(MetricOwner.BATCH)
+_JOB_DATA = metrics_data_parser(MetricOwner.JOB)
+_BATCH_DATA = metrics_data_parser(MetricOwner.BATCH)
 
 # The API caps pages; 100 is the largest size ReSim's own tools ask for.
 DEFAULT_PAGE_SIZE: Final = 100
@@ -241,7 +241,11 @@ class ApiClient:
         """
         query: dict[str, str | int] = dict(params or {})
         query["pageSize"] = page_size or self._page_size
-        listing = f"GET {redact_url(self._url(path))}"
+
+        def listing() -> str:
+            # Made only for an error: a batch run starts two listings per job.
+            return f"GET {redact_url(self._url(path))}"
+
         guard = ListingGuard(listing, items_key, int(query["pageSize"]))
         while True:
             page = await self.get_json(path, query)
@@ -250,17 +254,17 @@ class ApiClient:
                 items = []  # the API omits empty lists
             if not isinstance(items, list):
                 raise ApiResponseError(
-                    f"{listing}: '{items_key}' should be a list, got {type(items).__name__}"
+                    f"{listing()}: '{items_key}' should be a list, got {type(items).__name__}"
                 )
             for item in items:
                 if not isinstance(item, dict):
                     raise ApiResponseError(
-                        f"{listing}: an item of '{items_key}' is {type(item).__name__}, "
+                        f"{listing()}: an item of '{items_key}' is {type(item).__name__}, "
                         "not an object"
                     )
             token = page.get("nextPageToken")
             if token and not isinstance(token, str):
-                raise ApiResponseError(f"{listing}: 'nextPageToken' should be a string")
+                raise ApiResponseError(f"{listing()}: 'nextPageToken' should be a string")
             # Checked before the items are handed on: a page that proves the listing
             # endless must not feed its repeats to the caller.
             total = page.get("total")

@@ -17,14 +17,14 @@ from typing import Any, TypeVar
 
 from stook.service.api._errors import ApiResponseError
 
-__all__ = ["Fields", "parse_rfc3339"]
+__all__ = ["Fields", "parse_rfc3339", "parse_uuid"]
 
 _E = TypeVar("_E", bound=enum.Enum)
 
 
 # A listing repeats its job and batch IDs in every item; parsing each once saves a third of
 # the client's CPU per job-metrics page (measured in report mode).
-_parse_uuid = functools.lru_cache(maxsize=16_384)(uuid.UUID)
+_parse_uuid = parse_uuid = functools.lru_cache(maxsize=16_384)(uuid.UUID)
 
 # RFC 3339 as the platform's Go encoder writes it (RFC3339Nano: up to nine fractional
 # digits) and as the RFC allows it (lower-case t and z, any number of fractional digits).

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from collections.abc import Callable
 from typing import Any, Final, NoReturn
 
 from stook.service.api._errors import ApiResponseError
@@ -33,7 +34,8 @@ class ListingGuard:
     that total by a whole page; and a long run of empty pages that each carry a new token.
     """
 
-    def __init__(self, listing: str, items_key: str, page_size: int) -> None:
+    def __init__(self, listing: str | Callable[[], str], items_key: str, page_size: int) -> None:
+        # `listing` names the listing in the error; a function makes that name only then.
         self._listing = listing
         self._id_key = _ITEM_ID_KEYS.get(items_key)
         self._page_size = page_size
@@ -44,14 +46,16 @@ class ListingGuard:
 
     def check(self, items: list[dict[str, Any]], token: str | None, total: object) -> None:
         self._pages += 1
+        if token is None:
+            # The last page: nothing more will be asked for, so what it holds proves
+            # nothing (and most listings, a job's, are one page).
+            return
         new = 0
         for item in items:
             identity = self._identity(item)
             if identity not in self._seen:
                 self._seen.add(identity)
                 new += 1
-        if token is None:
-            return  # the last page: nothing more will be asked for
         if token in self._tokens:
             self._stop("the API repeated a page token")
         self._tokens.add(token)
@@ -79,4 +83,5 @@ class ListingGuard:
         return json.dumps(item, sort_keys=True, default=str)
 
     def _stop(self, why: str) -> NoReturn:
-        raise ApiResponseError(f"{self._listing}: the listing does not end ({why})")
+        listing = self._listing if isinstance(self._listing, str) else self._listing()
+        raise ApiResponseError(f"{listing}: the listing does not end ({why})")

@@ -30,6 +30,7 @@ from stook.service.api import (
     Job,
     OriginUnavailableError,
 )
+from stook.service.fetch._decoders import start_importing
 from stook.service.fetch._job_blobs import InvalidDataError, JobBlobs
 from stook.service.fetch._job_extras import ExperienceTags, job_event
 from stook.service.fetch._scalars import is_scalar, read_scalars
@@ -104,6 +105,8 @@ class BatchFetcher:
         job: a slow consumer slows the fetch instead of piling records up.
         """
         queue: asyncio.Queue[Job | None] = asyncio.Queue(maxsize=2 * self._workers)
+        if self._needs.data:
+            start_importing()  # the series' decoders, while the first requests are out
         try:
             async with asyncio.TaskGroup() as group:
                 group.create_task(self._list_jobs(queue))
@@ -169,7 +172,7 @@ class BatchFetcher:
             listings.append(self._list_events(job))
         if needs.experience_tags:
             listings.append(self._tags.of(job.experience_id))
-        listed = iter(await asyncio.gather(*listings) if len(listings) > 1 else [await listings[0]])
+        listed = iter(await _together(listings))
         metrics: list[ApiMetric] = next(listed)
         data_items: list[ApiMetricsData] = next(listed) if wants_blobs else []
         events: tuple[JobEvent, ...] = tuple(next(listed)) if needs.events else ()
@@ -241,3 +244,21 @@ class BatchFetcher:
 async def _given(jobs: Sequence[Job]) -> AsyncIterator[Job]:
     for job in jobs:
         yield job
+
+
+async def _together(awaitables: list[Awaitable[Any]]) -> list[Any]:
+    """Every result, in order: the first awaited in this task, the others in tasks of their
+    own (one task per job fewer than a gather; tasks were ~5 % of the client's CPU). A
+    failure cancels the rest, as the task group around the workers would."""
+    if len(awaitables) == 1:
+        return [await awaitables[0]]
+    others = [asyncio.ensure_future(a) for a in awaitables[1:]]
+    try:
+        first = await awaitables[0]
+        return [first, *[await task for task in others]]
+    except BaseException:
+        for task in others:
+            task.cancel()
+        # Their own failures or cancellations are echoes of this one.
+        await asyncio.gather(*others, return_exceptions=True)
+        raise

@@ -31,6 +31,7 @@ from stook.sdk import (
 )
 from stook.sdk.aggregations import Needs
 from stook.service.api import ApiMetric, ApiMetricsData, StorageClient
+from stook.service.fetch._decoders import decoders_ready
 from stook.service.fetch._presigned import fetch_listed
 
 if TYPE_CHECKING:
@@ -127,6 +128,8 @@ class JobBlobs:
                 pending = list(missing)
         data: dict[str, MetricsDataView] = {}
         series: dict[str, pl.Series] = {}
+        if any(self._views[item.data_id].kind is SeriesKind.DOUBLE for item in named):
+            await decoders_ready()  # polars, imported off the loop's thread
         for item in named:
             view = self._views[item.data_id]
             if item.data_id in indexed and view.index_id is not None:

@@ -1,0 +1,214 @@
+"""The listing items' fast path gives what from_json gives, and leaves every error to it."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import uuid
+from typing import Any
+
+import pytest
+from resim.sdk.client.models import JobMetric as ResimJobMetric
+from resim.sdk.client.models import JobMetricsData as ResimJobMetricsData
+from resim.sdk.client.models.metric_status import MetricStatus as ResimMetricStatus
+from resim.sdk.client.models.metric_type import MetricType as ResimMetricType
+from resim.sdk.client.models.metrics_data_type import MetricsDataType as ResimMetricsDataType
+
+from stook.service.api._errors import ApiResponseError
+from stook.service.api._listing_items import (
+    _metric,
+    _metrics_data,
+    metric_parser,
+    metrics_data_parser,
+)
+from stook.service.api._models import ApiMetric, ApiMetricsData, MetricOwner
+
+IDS = [str(uuid.UUID(int=i + 1)) for i in range(6)]
+METRIC: dict[str, Any] = {
+    "metricID": IDS[0],
+    "name": "Localization error",
+    "type": "SCALAR",
+    "status": "PASSED",
+    "value": 0.25,
+    "unit": "m",
+    "dataIDs": [IDS[1], IDS[2]],
+    "eventMetric": False,
+    "metricURL": "http://storage.test/m?X-Amz-Signature=abc",
+    "creationTimestamp": "2025-01-18T14:03:00.123456789+02:00",
+    "jobID": IDS[3],
+    "batchID": IDS[4],
+    "projectID": IDS[5],
+    "orgID": "org",
+}
+DATA: dict[str, Any] = {
+    "dataID": IDS[1],
+    "name": "speeds",
+    "metricsDataType": "STANDARD",
+    "filename": None,
+    "metricsDataURL": "http://storage.test/d?X-Amz-Signature=abc",
+    "creationTimestamp": "2025-01-18T14:03:00Z",
+    "jobID": IDS[3],
+    "batchID": IDS[4],
+}
+
+# Each a change to a well-formed item: the fast path takes some, gives the rest to from_json.
+METRIC_VARIANTS: list[dict[str, Any]] = [
+    {},
+    {"name": ""},
+    {"name": None},
+    {"type": "COMPOSITE", "value": None},
+    {"type": "NEW_KIND"},
+    {"type": ""},
+    {"status": ""},
+    {"status": None},
+    {"status": "SOMETHING_NEW"},
+    {"value": 3},
+    {"value": ""},
+    {"unit": ""},
+    {"metricURL": None},
+    {"dataIDs": []},
+    {"dataIDs": None},
+    {"dataIDs": ""},
+    {"eventMetric": None},
+    {"eventMetric": True},
+    {"creationTimestamp": ""},
+    {"creationTimestamp": "2025-01-18t14:03:00z"},
+    {"jobID": ""},
+    {"batchID": None},
+]
+DATA_VARIANTS: list[dict[str, Any]] = [
+    {},
+    {"name": ""},
+    {"metricsDataType": "VIDEO", "filename": "run.mp4"},
+    {"metricsDataType": ""},
+    {"metricsDataType": None},
+    {"metricsDataType": "HOLOGRAM"},
+    {"metricsDataURL": ""},
+    {"creationTimestamp": None},
+    {"jobID": ""},
+    {"batchID": ""},
+]
+
+
+def changed(item: dict[str, Any], change: dict[str, Any]) -> dict[str, Any]:
+    return item | change
+
+
+def same(a: object, b: object) -> None:
+    assert a == b
+    assert repr(a) == repr(b)
+    # Fields kept out of eq or repr (URLs) too, and the exact types (an enum, not its text).
+    assert dataclasses.is_dataclass(a)
+    for f in dataclasses.fields(a):
+        ours, theirs = getattr(a, f.name), getattr(b, f.name)
+        assert ours == theirs
+        assert type(ours) is type(theirs), f.name
+
+
+@pytest.mark.parametrize("owner", list(MetricOwner))
+@pytest.mark.parametrize("change", METRIC_VARIANTS)
+def test_metric_items_read_as_from_json_reads_them(
+    owner: MetricOwner, change: dict[str, Any]
+) -> None:
+    data = changed(METRIC, change)
+    same(metric_parser(owner)(data), ApiMetric.from_json(data, owner=owner))
+
+
+@pytest.mark.parametrize("owner", list(MetricOwner))
+@pytest.mark.parametrize("change", DATA_VARIANTS)
+def test_data_items_read_as_from_json_reads_them(
+    owner: MetricOwner, change: dict[str, Any]
+) -> None:
+    data = changed(DATA, change)
+    same(metrics_data_parser(owner)(data), ApiMetricsData.from_json(data, owner=owner))
+
+
+def test_well_formed_items_take_the_fast_path() -> None:
+    # Not the general path in disguise: a well-formed item is built here.
+    assert _metric(METRIC, MetricOwner.JOB) is not None
+    assert _metrics_data(DATA, MetricOwner.JOB) is not None
+    assert _metric(METRIC | {"value": 3}, MetricOwner.JOB) is None  # converted by from_json
+
+
+def test_items_as_resim_writes_them() -> None:
+    metric = ResimJobMetric(
+        metric_id=uuid.UUID(IDS[0]),
+        name="m",
+        type_=ResimMetricType.SCALAR,
+        status=ResimMetricStatus.FAIL_WARN,
+        value=1.5,
+        data_i_ds=[uuid.UUID(IDS[1])],
+        job_id=uuid.UUID(IDS[3]),
+    )
+    data = ResimJobMetricsData(
+        data_id=uuid.UUID(IDS[1]),
+        name="d",
+        metrics_data_type=ResimMetricsDataType.EXTERNAL_FILE,
+        filename="a.png",
+    )
+    for owner in MetricOwner:
+        wire_metric = json.loads(json.dumps(metric.to_dict(), default=str))
+        wire_data = json.loads(json.dumps(data.to_dict(), default=str))
+        assert _metric(wire_metric, owner) is not None
+        same(metric_parser(owner)(wire_metric), ApiMetric.from_json(wire_metric, owner=owner))
+        same(
+            metrics_data_parser(owner)(wire_data),
+            ApiMetricsData.from_json(wire_data, owner=owner),
+        )
+
+
+@pytest.mark.parametrize(
+    "change",
+    [
+        {"metricID": "1234"},
+        {"metricID": ""},
+        {"metricID": None},
+        {"value": True},
+        {"value": "1.5"},
+        {"dataIDs": ["nope"]},
+        {"dataIDs": [3]},
+        {"dataIDs": "nope"},
+        {"eventMetric": "yes"},
+        {"status": 3},
+        {"type": 3},
+        {"name": 3},
+        {"jobID": "x"},
+        {"creationTimestamp": "yesterday"},
+        {"creationTimestamp": "2025-01-01T00:00:00"},
+        {"creationTimestamp": 3},
+    ],
+)
+def test_malformed_metric_items_fail_as_from_json_says(change: dict[str, Any]) -> None:
+    data = changed(METRIC, change)
+    assert _metric(data, MetricOwner.JOB) is None
+    with pytest.raises(ApiResponseError) as expected:
+        ApiMetric.from_json(data, owner=MetricOwner.JOB)
+    with pytest.raises(ApiResponseError) as caught:
+        metric_parser(MetricOwner.JOB)(data)
+    assert str(caught.value) == str(expected.value)
+
+
+@pytest.mark.parametrize(
+    "change",
+    [
+        {"dataID": "1234"},
+        {"dataID": None},
+        {"metricsDataType": 3},
+        {"filename": 3},
+        {"jobID": 3},
+        {"creationTimestamp": "soon"},
+    ],
+)
+def test_malformed_data_items_fail_as_from_json_says(change: dict[str, Any]) -> None:
+    data = changed(DATA, change)
+    assert _metrics_data(data, MetricOwner.JOB) is None
+    with pytest.raises(ApiResponseError) as expected:
+        ApiMetricsData.from_json(data, owner=MetricOwner.JOB)
+    with pytest.raises(ApiResponseError) as caught:
+        metrics_data_parser(MetricOwner.JOB)(data)
+    assert str(caught.value) == str(expected.value)
+
+
+def test_an_item_that_is_not_an_object_is_refused() -> None:
+    with pytest.raises(ApiResponseError, match="expected a JSON object"):
+        metric_parser(MetricOwner.JOB)(["not", "an", "object"])  # type: ignore[arg-type]
