@@ -5,7 +5,7 @@ from __future__ import annotations
 import contextlib
 import io
 import os
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -47,9 +47,10 @@ def run_engine(
     *args: str,
     toml: str = ENGINE_BATCH_TOML,
     report: bool = False,
+    env: Mapping[str, str] | None = None,
 ) -> EngineRun:
     """`stook run` in this process (its shards in workers) on the emulator's batch, or its
-    report; `args` are extra flags, e.g. ``--engine processes``."""
+    report; `args` are extra flags, e.g. ``--engine processes``; `env`: STOOK_* settings."""
     inputs, outputs = tmp / "inputs", tmp / "outputs"
     if report:
         emu.write_report_config(inputs)
@@ -60,6 +61,9 @@ def run_engine(
     argv = ["run", "--inputs", str(inputs), "--outputs", str(outputs), "--config", str(config)]
     argv += ["--log-format", "json", "--log-level", "warning", *args]
     err = io.StringIO()
-    with no_stook_environment(), contextlib.redirect_stderr(err):
-        code = run_cli(argv)
+    with no_stook_environment(), pytest.MonkeyPatch.context() as mp:
+        for name, value in (env or {}).items():
+            mp.setenv(name, value)
+        with contextlib.redirect_stderr(err):
+            code = run_cli(argv)
     return EngineRun(code, err.getvalue(), outputs)

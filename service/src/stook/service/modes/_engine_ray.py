@@ -17,10 +17,11 @@ import asyncio
 import contextlib
 import logging
 import os
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import Any
 
 from stook.service.modes._engine_config import RAY_INSTALL_HINT, EngineConfigError, EngineSettings
+from stook.service.modes._shard_progress import ShardProgress
 from stook.service.modes._shards import LogSettings, run_shard
 
 __all__ = ["RayRunner"]
@@ -70,6 +71,9 @@ class RayRunner:
     @property
     def workers(self) -> int:
         return self._workers
+
+    def listen(self, on_progress: Callable[[ShardProgress], None]) -> None:
+        """Ray tasks send no progress while they run: a run's progress moves per shard."""
 
     def submit(self, task: bytes) -> asyncio.Future[bytes]:
         ref = self._remote.remote(self._folders, self._logs, task)

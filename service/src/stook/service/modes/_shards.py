@@ -30,6 +30,7 @@ from stook.service.modes._config import FetchSettings
 from stook.service.modes._inputs import ApiAccess
 from stook.service.modes._open_api import Traffic, open_api
 from stook.service.modes._shard_errors import RemoteError
+from stook.service.modes._shard_progress import Send, ShardProgress, reporting
 
 __all__ = [
     "BatchShard",
@@ -43,6 +44,9 @@ __all__ = [
 ]
 
 _T = TypeVar("_T")
+
+#: Where this worker sends its shards' progress (`init_worker`); None: nowhere.
+_send_progress: Send | None = None
 
 #: How a worker logs: (JSON lines or not, None: as its stderr decides; the level).
 LogSettings = tuple[bool | None, str]
@@ -95,7 +99,20 @@ class BatchShard(_Shard):
                 workers=self.settings.concurrency,
                 jobs=self.jobs,
             )
-            return await fetcher.run(self.fold), Traffic.of(api)
+
+            def progress() -> ShardProgress:
+                outcome, traffic = fetcher.outcome, Traffic.of(api)
+                return ShardProgress(
+                    self.index,
+                    jobs_done=outcome.jobs_done + len(outcome.missing),  # as BatchMode shows
+                    requests=traffic.requests,
+                    retries=traffic.retries,
+                    bytes_received=traffic.bytes_received,
+                )
+
+            async with reporting(progress, _send_progress):
+                outcome = await fetcher.run(self.fold)
+            return outcome, Traffic.of(api)
 
 
 @dataclass(slots=True)
@@ -120,7 +137,22 @@ class ReportShard(_Shard):
                 use_summaries=self.use_summaries,
                 batches=(self.report, self.batches),
             )
-            return await fetcher.run(self.fold), Traffic.of(api)
+
+            def progress() -> ShardProgress:
+                outcome, traffic = fetcher.outcome, Traffic.of(api)
+                return ShardProgress(
+                    self.index,
+                    jobs_done=outcome.jobs_done,  # as ReportMode shows
+                    jobs_listed=outcome.jobs,
+                    batches_done=outcome.batches_done,
+                    requests=traffic.requests,
+                    retries=traffic.retries,
+                    bytes_received=traffic.bytes_received,
+                )
+
+            async with reporting(progress, _send_progress):
+                outcome = await fetcher.run(self.fold)
+            return outcome, Traffic.of(api)
 
 
 @dataclass(frozen=True, slots=True)
@@ -141,13 +173,18 @@ class ShardFailed:
     error: RemoteError
 
 
-def init_worker(folders: Sequence[str], logs: LogSettings | None) -> None:
-    """A pool process's start: the user's folders on the path, logging as the driver's.
+def init_worker(
+    folders: Sequence[str], logs: LogSettings | None, progress: Send | None = None
+) -> None:
+    """A pool process's start: the user's folders on the path, logging as the driver's,
+    and where its shards' progress goes (`_shard_progress`).
 
     SIGINT is the driver's to handle (Ctrl-C reaches the whole process group): it stops the
     workers itself, so they say nothing of their own.
     """
+    global _send_progress
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    _send_progress = progress
     _prepare(folders, logs)
 
 
