@@ -15,6 +15,7 @@ import pickle
 import signal
 import subprocess
 import sys
+import threading
 import time
 from collections.abc import Iterator
 from pathlib import Path
@@ -30,7 +31,12 @@ from stook.service.fetch import FetchOutcome
 from stook.service.modes import ApiAccess, FetchSettings, open_api
 from stook.service.modes._pipeline import needs_of
 from stook.service.modes._shards import BatchShard, ShardDone, ShardFailed, run_shard
-from tests.e2e.engines import ENGINE_BATCH_TOML, run_engine
+from tests.e2e.engines import (
+    ENGINE_BATCH_TOML,
+    assert_progress_moved_inside_the_shards,
+    run_engine,
+    run_with_live_progress,
+)
 from tests.e2e.processes import StookProcess
 from tests.e2e.support import (
     OUTPUT_NAME,
@@ -242,26 +248,9 @@ def test_missing_jobs_are_listed_in_job_order_by_every_engine(tmp_path: Path) ->
 
 
 def test_progress_moves_while_the_shards_run(tmp_path: Path) -> None:
-    # Two shards of 12 jobs, two jobs at a time, 50 ms a request: each shard runs for about
-    # a second, and the progress events (every 0.1 s) see jobs done inside the shards, not
-    # only 0, 12 and 24 (what whole shards give), and requests before any shard is done.
-    with EmulatorThread(config(jobs_per_batch=24, seed=13, latency_ms=50)) as emu:
-        toml = (
-            ENGINE_BATCH_TOML
-            + '[engine]\nkind = "processes"\nworkers = 2\nshards = 2\n'
-            + "[fetch]\nconcurrency = 2\n"
-        )
-        env = {"STOOK_PROGRESS": "log", "STOOK_PROGRESS_INTERVAL": "0.1"}
-        run = run_engine(emu, tmp_path, "--log-level", "info", toml=toml, env=env)
-    assert run.code == 0, run.err
-    events = _events(run.err)
-    progress = [e for e in events if e.get("event") == "fetch progress"]
-    done = [e["jobs_done"] for e in progress]
-    assert [d for d in done if d not in (0, 12, 24)], done
-    assert done == sorted(done)  # never back: a shard's result supersedes its reports
-    first_shard = next(i for i, e in enumerate(events) if e.get("event") == "shard finished")
-    before = [e for e in events[:first_shard] if e.get("event") == "fetch progress"]
-    assert any(e["requests_per_s"] > 0 and e["received"] != "0 B" for e in before), before
+    run = run_with_live_progress(tmp_path, '[engine]\nkind = "processes"\nworkers = 2\n')
+    assert_progress_moved_inside_the_shards(run)
+    assert not [t for t in threading.enumerate() if t.name == "stook-shard-progress"]
 
 
 def _events(err: str) -> list[dict[str, Any]]:

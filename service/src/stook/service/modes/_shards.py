@@ -89,7 +89,7 @@ class BatchShard(_Shard):
     def size(self) -> int:
         return len(self.jobs)
 
-    async def fetch(self) -> tuple[FetchOutcome, Traffic]:
+    async def fetch(self, send: Send | None = None) -> tuple[FetchOutcome, Traffic]:
         async with open_api(self.access, self.settings, self.retry) as api:
             fetcher = BatchFetcher(
                 api,
@@ -110,7 +110,7 @@ class BatchShard(_Shard):
                     bytes_received=traffic.bytes_received,
                 )
 
-            async with reporting(progress, _send_progress):
+            async with reporting(progress, send):
                 outcome = await fetcher.run(self.fold)
             return outcome, Traffic.of(api)
 
@@ -126,7 +126,7 @@ class ReportShard(_Shard):
     def size(self) -> int:
         return len(self.batches)
 
-    async def fetch(self) -> tuple[ReportOutcome, Traffic]:
+    async def fetch(self, send: Send | None = None) -> tuple[ReportOutcome, Traffic]:
         async with open_api(self.access, self.settings, self.retry) as api:
             fetcher = ReportFetcher(
                 api,
@@ -150,7 +150,7 @@ class ReportShard(_Shard):
                     bytes_received=traffic.bytes_received,
                 )
 
-            async with reporting(progress, _send_progress):
+            async with reporting(progress, send):
                 outcome = await fetcher.run(self.fold)
             return outcome, Traffic.of(api)
 
@@ -188,8 +188,11 @@ def init_worker(
     _prepare(folders, logs)
 
 
-def run_shard(folders: Sequence[str], logs: LogSettings | None, task: bytes) -> bytes:
+def run_shard(
+    folders: Sequence[str], logs: LogSettings | None, task: bytes, progress: Send | None = None
+) -> bytes:
     """The worker's entry point: fetch and fold one pickled shard; a pickled result back.
+    Its progress goes to `progress`, or to where `init_worker` said.
 
     Never raises for the shard's own failures: they come back as `ShardFailed`.
     """
@@ -199,7 +202,7 @@ def run_shard(folders: Sequence[str], logs: LogSettings | None, task: bytes) -> 
     try:
         shard: BatchShard | ReportShard = pickle.loads(task)
         index = shard.index
-        outcome, traffic = asyncio.run(_fetch(shard))
+        outcome, traffic = asyncio.run(_fetch(shard, progress or _send_progress))
         done = ShardDone(
             index=index,
             size=shard.size,
@@ -215,10 +218,12 @@ def run_shard(folders: Sequence[str], logs: LogSettings | None, task: bytes) -> 
         return pickle.dumps(ShardFailed(index, RemoteError.of(error)))
 
 
-async def _fetch(shard: BatchShard | ReportShard) -> tuple[FetchOutcome | ReportOutcome, Traffic]:
+async def _fetch(
+    shard: BatchShard | ReportShard, send: Send | None
+) -> tuple[FetchOutcome | ReportOutcome, Traffic]:
     if isinstance(shard, BatchShard):
-        return await shard.fetch()
-    return await shard.fetch()
+        return await shard.fetch(send)
+    return await shard.fetch(send)
 
 
 def _prepare(folders: Sequence[str], logs: LogSettings | None) -> None:
