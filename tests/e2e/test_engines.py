@@ -15,6 +15,7 @@ import pickle
 import signal
 import subprocess
 import sys
+import threading
 import time
 from collections.abc import Iterator
 from pathlib import Path
@@ -30,7 +31,12 @@ from stook.service.fetch import FetchOutcome
 from stook.service.modes import ApiAccess, FetchSettings, open_api
 from stook.service.modes._pipeline import needs_of
 from stook.service.modes._shards import BatchShard, ShardDone, ShardFailed, run_shard
-from tests.e2e.engines import ENGINE_BATCH_TOML, run_engine
+from tests.e2e.engines import (
+    ENGINE_BATCH_TOML,
+    assert_progress_moved_inside_the_shards,
+    run_engine,
+    run_with_live_progress,
+)
 from tests.e2e.processes import StookProcess
 from tests.e2e.support import (
     OUTPUT_NAME,
@@ -239,6 +245,12 @@ def test_missing_jobs_are_listed_in_job_order_by_every_engine(tmp_path: Path) ->
         assert "failed on every attempt" in text
         assert "attempts;" not in text
     assert local.output == sharded.output
+
+
+def test_progress_moves_while_the_shards_run(tmp_path: Path) -> None:
+    run = run_with_live_progress(tmp_path, '[engine]\nkind = "processes"\nworkers = 2\n')
+    assert_progress_moved_inside_the_shards(run)
+    assert not [t for t in threading.enumerate() if t.name == "stook-shard-progress"]
 
 
 def _events(err: str) -> list[dict[str, Any]]:

@@ -16,7 +16,12 @@ from typing import Any
 import pytest
 
 from stook.emulator import Emulator
-from tests.e2e.engines import ENGINE_BATCH_TOML, run_engine
+from tests.e2e.engines import (
+    ENGINE_BATCH_TOML,
+    assert_progress_moved_inside_the_shards,
+    run_engine,
+    run_with_live_progress,
+)
 from tests.e2e.support import EmulatorThread, config
 
 pytestmark = pytest.mark.slow
@@ -90,3 +95,8 @@ def test_a_failed_ray_shard_exits_3(ray_instance: Any, tmp_path: Path) -> None:
     assert "401" in run.err
     assert token not in run.err
     assert not (run.outputs / "metrics.binproto").exists()
+
+
+def test_progress_moves_while_the_ray_shards_run(ray_instance: Any, tmp_path: Path) -> None:
+    run = run_with_live_progress(tmp_path, '[engine]\nkind = "ray"\n')
+    assert_progress_moved_inside_the_shards(run)

@@ -38,6 +38,7 @@ from stook.service.modes._open_api import Traffic, open_api
 from stook.service.modes._pipeline import FetchRun, FetchStep, fetch_here, show_progress, tick
 from stook.service.modes._shard_errors import ShardError
 from stook.service.modes._shard_plans import BatchPlan, ReportPlan, plan_for
+from stook.service.modes._shard_progress import LiveShards, ShardProgress
 from stook.service.modes._shards import LogSettings, ShardDone, ShardFailed, split
 from stook.service.modes._user_code import import_folders
 
@@ -52,6 +53,11 @@ class ShardRunner(Protocol):
     @property
     def workers(self) -> int:
         """How many shards run at once: the default number of shards derives from it."""
+        ...
+
+    def listen(self, on_progress: Callable[[ShardProgress], None]) -> None:
+        """Call `on_progress`, on the running event loop, with the running shards' reports
+        (`_shard_progress`); a runner that cannot send them never calls it."""
         ...
 
     def submit(self, task: bytes) -> asyncio.Future[bytes]: ...
@@ -113,6 +119,7 @@ class ShardedFetch:
                 await shards.run(self.engine.shards or _default_shards(self.engine, runner))
             aborted = False
         finally:
+            shards.stop_listening()  # reports still on their way would draw a closed display
             runner.close(abort=aborted)
             run.progress.close()
         return plan.outcome, shards.traffic
@@ -145,9 +152,21 @@ class Shards:
         self.traffic = Traffic()  # the whole run's: the shards' and the driver's
         self._shards_traffic = Traffic()
         self._driver_traffic: Callable[[], Traffic] = Traffic
+        self._live = LiveShards()  # the running shards' last reports
+        self._listening = True
+        runner.listen(self._reported)
+
+    def _reported(self, progress: ShardProgress) -> None:
+        if self._listening:
+            self._live.reported(progress)
+            self._show()
+
+    def stop_listening(self) -> None:
+        self._listening = False
 
     def _show(self) -> None:
-        show_progress(self._run.progress, self._run.mode.progress(self._plan.outcome), self.traffic)
+        snapshot = self._run.mode.progress(self._plan.outcome)
+        show_progress(self._run.progress, *self._live.add_to(snapshot, self.traffic))
 
     async def run(self, shard_count: int) -> None:
         run, plan = self._run, self._plan
@@ -202,6 +221,7 @@ class Shards:
 
     def _arrived(self, result: ShardDone) -> None:
         self._plan.add(result.outcome)
+        self._live.finished(result.index)  # its result counts now, not its reports
         sizes = [len(state) for state in result.states]
         self._shards_traffic = self._shards_traffic + Traffic(
             requests=result.requests, retries=result.retries, bytes_received=result.bytes_received

@@ -30,6 +30,7 @@ from stook.service.modes._config import FetchSettings
 from stook.service.modes._inputs import ApiAccess
 from stook.service.modes._open_api import Traffic, open_api
 from stook.service.modes._shard_errors import RemoteError
+from stook.service.modes._shard_progress import Send, ShardProgress, reporting
 
 __all__ = [
     "BatchShard",
@@ -43,6 +44,9 @@ __all__ = [
 ]
 
 _T = TypeVar("_T")
+
+#: Where this worker sends its shards' progress (`init_worker`); None: nowhere.
+_send_progress: Send | None = None
 
 #: How a worker logs: (JSON lines or not, None: as its stderr decides; the level).
 LogSettings = tuple[bool | None, str]
@@ -85,7 +89,7 @@ class BatchShard(_Shard):
     def size(self) -> int:
         return len(self.jobs)
 
-    async def fetch(self) -> tuple[FetchOutcome, Traffic]:
+    async def fetch(self, send: Send | None = None) -> tuple[FetchOutcome, Traffic]:
         async with open_api(self.access, self.settings, self.retry) as api:
             fetcher = BatchFetcher(
                 api,
@@ -95,7 +99,20 @@ class BatchShard(_Shard):
                 workers=self.settings.concurrency,
                 jobs=self.jobs,
             )
-            return await fetcher.run(self.fold), Traffic.of(api)
+
+            def progress() -> ShardProgress:
+                outcome, traffic = fetcher.outcome, Traffic.of(api)
+                return ShardProgress(
+                    self.index,
+                    jobs_done=outcome.jobs_done + len(outcome.missing),  # as BatchMode shows
+                    requests=traffic.requests,
+                    retries=traffic.retries,
+                    bytes_received=traffic.bytes_received,
+                )
+
+            async with reporting(progress, send):
+                outcome = await fetcher.run(self.fold)
+            return outcome, Traffic.of(api)
 
 
 @dataclass(slots=True)
@@ -109,7 +126,7 @@ class ReportShard(_Shard):
     def size(self) -> int:
         return len(self.batches)
 
-    async def fetch(self) -> tuple[ReportOutcome, Traffic]:
+    async def fetch(self, send: Send | None = None) -> tuple[ReportOutcome, Traffic]:
         async with open_api(self.access, self.settings, self.retry) as api:
             fetcher = ReportFetcher(
                 api,
@@ -120,7 +137,22 @@ class ReportShard(_Shard):
                 use_summaries=self.use_summaries,
                 batches=(self.report, self.batches),
             )
-            return await fetcher.run(self.fold), Traffic.of(api)
+
+            def progress() -> ShardProgress:
+                outcome, traffic = fetcher.outcome, Traffic.of(api)
+                return ShardProgress(
+                    self.index,
+                    jobs_done=outcome.jobs_done,  # as ReportMode shows
+                    jobs_listed=outcome.jobs,
+                    batches_done=outcome.batches_done,
+                    requests=traffic.requests,
+                    retries=traffic.retries,
+                    bytes_received=traffic.bytes_received,
+                )
+
+            async with reporting(progress, send):
+                outcome = await fetcher.run(self.fold)
+            return outcome, Traffic.of(api)
 
 
 @dataclass(frozen=True, slots=True)
@@ -141,18 +173,26 @@ class ShardFailed:
     error: RemoteError
 
 
-def init_worker(folders: Sequence[str], logs: LogSettings | None) -> None:
-    """A pool process's start: the user's folders on the path, logging as the driver's.
+def init_worker(
+    folders: Sequence[str], logs: LogSettings | None, progress: Send | None = None
+) -> None:
+    """A pool process's start: the user's folders on the path, logging as the driver's,
+    and where its shards' progress goes (`_shard_progress`).
 
     SIGINT is the driver's to handle (Ctrl-C reaches the whole process group): it stops the
     workers itself, so they say nothing of their own.
     """
+    global _send_progress
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    _send_progress = progress
     _prepare(folders, logs)
 
 
-def run_shard(folders: Sequence[str], logs: LogSettings | None, task: bytes) -> bytes:
+def run_shard(
+    folders: Sequence[str], logs: LogSettings | None, task: bytes, progress: Send | None = None
+) -> bytes:
     """The worker's entry point: fetch and fold one pickled shard; a pickled result back.
+    Its progress goes to `progress`, or to where `init_worker` said.
 
     Never raises for the shard's own failures: they come back as `ShardFailed`.
     """
@@ -162,7 +202,7 @@ def run_shard(folders: Sequence[str], logs: LogSettings | None, task: bytes) -> 
     try:
         shard: BatchShard | ReportShard = pickle.loads(task)
         index = shard.index
-        outcome, traffic = asyncio.run(_fetch(shard))
+        outcome, traffic = asyncio.run(_fetch(shard, progress or _send_progress))
         done = ShardDone(
             index=index,
             size=shard.size,
@@ -178,10 +218,12 @@ def run_shard(folders: Sequence[str], logs: LogSettings | None, task: bytes) -> 
         return pickle.dumps(ShardFailed(index, RemoteError.of(error)))
 
 
-async def _fetch(shard: BatchShard | ReportShard) -> tuple[FetchOutcome | ReportOutcome, Traffic]:
+async def _fetch(
+    shard: BatchShard | ReportShard, send: Send | None
+) -> tuple[FetchOutcome | ReportOutcome, Traffic]:
     if isinstance(shard, BatchShard):
-        return await shard.fetch()
-    return await shard.fetch()
+        return await shard.fetch(send)
+    return await shard.fetch(send)
 
 
 def _prepare(folders: Sequence[str], logs: LogSettings | None) -> None:
