@@ -19,13 +19,14 @@ import hashlib
 import importlib
 import io
 import json
+import resource
 import time
 import tomllib
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any, Final
 
-from stook.bench._measure import in_fresh_process, peak_rss_mb
+from stook.bench._measure import in_fresh_process, peak_rss_mb, process_cpu_seconds
 from stook.emulator import EmulatorConfig, EmulatorInfo, EmulatorProcess
 
 FULL_JOBS: Final = 20_000
@@ -83,6 +84,7 @@ def measure_engine(info: EmulatorInfo, engine: dict[str, Any]) -> dict[str, Any]
         batch = detect(inputs)
         assert isinstance(batch, BatchInputs)
         started = time.perf_counter()
+        cpu_before = _cpu_with_workers()
         result = asyncio.run(
             run_pipeline(
                 BatchMode(batch, config),
@@ -93,6 +95,7 @@ def measure_engine(info: EmulatorInfo, engine: dict[str, Any]) -> dict[str, Any]
             )
         )
         seconds = time.perf_counter() - started
+        client_cpu = _cpu_with_workers() - cpu_before
         digest = hashlib.sha256(result.output.read_bytes()).hexdigest()
     shards = [e for e in _events(events.getvalue()) if e.get("event") == "shard finished"]
     state_bytes = [int(e["state_bytes"]) for e in shards]
@@ -102,6 +105,7 @@ def measure_engine(info: EmulatorInfo, engine: dict[str, Any]) -> dict[str, Any]
         "shards": len(shards) or None,
         "jobs": result.outcome.jobs_listed,
         "seconds": round(seconds, 2),
+        "client_cpu_s": round(client_cpu, 2),
         "driver_peak_rss_mb": round(peak_rss_mb(), 1),
         "state_bytes_per_shard_max": max(state_bytes, default=None),
         "requests": result.requests,
@@ -122,15 +126,25 @@ def run_engine_bench(
     with EmulatorProcess(emulator_config) as emulator:
         say(f"engines: {jobs:,} jobs at 0 ms, one series per job into a histogram ...")
         in_fresh_process(measure_engine, emulator.info, {"kind": "local"})  # warm-up
+        # The emulator shares the machine's cores: its CPU beside the client's says how
+        # much of the machine was left for the engines to spread.
+        process = emulator._process
+        pid = process.pid if process is not None else None
         for label, engine in ENGINES:
+            before = process_cpu_seconds(pid) if pid is not None else None
             try:
                 row = in_fresh_process(measure_engine, emulator.info, engine)
             except Exception as exc:  # Ray not installed or not startable here: said, skipped
                 say(f"  {label}: not measured ({type(exc).__name__}: {exc})")
                 continue
+            after = process_cpu_seconds(pid) if pid is not None else None
+            row["emulator_cpu_s"] = (
+                round(after - before, 2) if before is not None and after is not None else None
+            )
             rows.append(row)
             say(
-                f"  {label}: {row['seconds']:.2f} s, driver peak RSS "
+                f"  {label}: {row['seconds']:.2f} s, client CPU {row['client_cpu_s']:.1f} s, "
+                f"emulator CPU {row['emulator_cpu_s']} s, driver peak RSS "
                 f"{row['driver_peak_rss_mb']:.0f} MB, state per shard "
                 f"{row['state_bytes_per_shard_max'] or 0:,} B"
             )
@@ -154,17 +168,26 @@ def engine_tables(results: dict[str, Any]) -> str:
     lines = [
         f"{results['jobs']:,} jobs at 0 ms, one series per job into a histogram.",
         "",
-        "| engine | workers | shards | seconds | driver peak RSS (MB) | state bytes per shard |",
-        "|---|---|---|---|---|---|",
+        "| engine | workers | shards | seconds | client CPU (s) | driver peak RSS (MB) "
+        "| state bytes per shard |",
+        "|---|---|---|---|---|---|---|",
     ]
     for row in results["engines"] + results["shards"]:
         lines.append(
             f"| {row['engine']} | {row['workers'] or '-'} | {row['shards'] or '-'} | "
-            f"{row['seconds']:.2f} | {row['driver_peak_rss_mb']:.0f} | "
+            f"{row['seconds']:.2f} | {row['client_cpu_s']:.1f} | {row['driver_peak_rss_mb']:.0f} | "
             f"{row['state_bytes_per_shard_max'] or '-'} |"
         )
     lines += ["", f"Outputs identical: {results['identical_outputs']}.", ""]
     return "\n".join(lines)
+
+
+def _cpu_with_workers() -> float:
+    """CPU seconds of this process and of its ended children (worker processes; a local
+    Ray instance's workers are not children of the driver and are not counted)."""
+    own = resource.getrusage(resource.RUSAGE_SELF)
+    children = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return own.ru_utime + own.ru_stime + children.ru_utime + children.ru_stime
 
 
 def _events(text: str) -> list[dict[str, Any]]:
