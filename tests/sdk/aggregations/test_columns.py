@@ -216,7 +216,7 @@ def test_report_aggregations_read_columns_and_make_no_job_objects() -> None:
         _written(factory, records)
     for record in records:
         assert isinstance(record.jobs, JobSummaries)
-        assert record.jobs._jobs is None  # never made
+        assert record.jobs._items is None  # never made
 
 
 def test_the_views_are_sequences_and_mappings() -> None:

@@ -12,13 +12,14 @@ from __future__ import annotations
 import uuid
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, overload
+from typing import TYPE_CHECKING, TypeVar, overload
 
 from stook.sdk.aggregations._record import JobSummary
 
 if TYPE_CHECKING:
     import numpy as np
 
+_T = TypeVar("_T")
 _NO_ID = bytes(16)
 
 
@@ -191,34 +192,35 @@ class JobColumns:
         ]
 
 
-class JobSummaries(Sequence[JobSummary]):
-    """`BatchRecord.jobs` of a record built from columns: the `JobSummary` objects are
-    made on first read, so a report whose aggregations read only columns never makes
-    them."""
+class _LazyList(Sequence[_T]):
+    """A sequence whose items are made on first read (`_make`), then kept; equal to any
+    sequence (but a string) with the same items, as the list it stands for would be."""
 
-    __slots__ = ("_columns", "_jobs")
+    __slots__ = ("_items",)
 
-    def __init__(self, columns: JobColumns) -> None:
-        self._columns = columns
-        self._jobs: list[JobSummary] | None = None
+    def __init__(self) -> None:
+        self._items: list[_T] | None = None
 
-    def _made(self) -> list[JobSummary]:
-        if self._jobs is None:
-            self._jobs = self._columns.job_summaries()
-        return self._jobs
+    def _make(self) -> list[_T]:
+        raise NotImplementedError
+
+    def _list(self) -> list[_T]:
+        if self._items is None:
+            self._items = self._make()
+        return self._items
 
     def __len__(self) -> int:
-        return len(self._columns)
+        return len(self._list())
 
     @overload
-    def __getitem__(self, index: int) -> JobSummary: ...
+    def __getitem__(self, index: int) -> _T: ...
     @overload
-    def __getitem__(self, index: slice) -> Sequence[JobSummary]: ...
-    def __getitem__(self, index: int | slice) -> JobSummary | Sequence[JobSummary]:
-        return self._made()[index]
+    def __getitem__(self, index: slice) -> Sequence[_T]: ...
+    def __getitem__(self, index: int | slice) -> _T | Sequence[_T]:
+        return self._list()[index]
 
-    def __iter__(self) -> Iterator[JobSummary]:
-        return iter(self._made())
+    def __iter__(self) -> Iterator[_T]:
+        return iter(self._list())
 
     def __eq__(self, other: object) -> bool:
         if isinstance(other, Sequence) and not isinstance(other, str):
@@ -226,6 +228,24 @@ class JobSummaries(Sequence[JobSummary]):
         return NotImplemented
 
     __hash__ = None  # type: ignore[assignment]
+
+
+class JobSummaries(_LazyList[JobSummary]):
+    """`BatchRecord.jobs` of a record built from columns: the `JobSummary` objects are
+    made on first read, so a report whose aggregations read only columns never makes
+    them."""
+
+    __slots__ = ("_columns",)
+
+    def __init__(self, columns: JobColumns) -> None:
+        super().__init__()
+        self._columns = columns
+
+    def _make(self) -> list[JobSummary]:
+        return self._columns.job_summaries()
+
+    def __len__(self) -> int:
+        return len(self._columns)
 
     def __repr__(self) -> str:
         return f"JobSummaries({len(self)} jobs)"
@@ -266,40 +286,21 @@ class PooledScalars(Mapping[str, Sequence[float]]):
         return f"PooledScalars({list(self)})"
 
 
-class StatusList(Sequence[str]):
+class StatusList(_LazyList[str]):
     """`BatchRecord.job_metric_statuses` of a record built from columns: every job
     metric's status, sorted, expanded from the counts on first read."""
 
-    __slots__ = ("_counts", "_made")
+    __slots__ = ("_counts",)
 
     def __init__(self, counts: Mapping[str, int]) -> None:
+        super().__init__()
         self._counts = counts
-        self._made: list[str] | None = None
 
-    def _list(self) -> list[str]:
-        if self._made is None:
-            self._made = [s for s, n in sorted(self._counts.items()) for _ in range(n)]
-        return self._made
+    def _make(self) -> list[str]:
+        return [s for s, n in sorted(self._counts.items()) for _ in range(n)]
 
     def __len__(self) -> int:
         return sum(self._counts.values())
-
-    @overload
-    def __getitem__(self, index: int) -> str: ...
-    @overload
-    def __getitem__(self, index: slice) -> Sequence[str]: ...
-    def __getitem__(self, index: int | slice) -> str | Sequence[str]:
-        return self._list()[index]
-
-    def __iter__(self) -> Iterator[str]:
-        return iter(self._list())
-
-    def __eq__(self, other: object) -> bool:
-        if isinstance(other, Sequence) and not isinstance(other, str):
-            return list(self) == list(other)
-        return NotImplemented
-
-    __hash__ = None  # type: ignore[assignment]
 
     def __repr__(self) -> str:
         return f"StatusList({dict(self._counts)})"
