@@ -237,6 +237,21 @@ async def test_a_token_on_the_last_full_page_and_an_empty_final_page_are_fine(
         assert await list_all(api) == [uuid.UUID(int=i) for i in range(1, 5)]
 
 
+async def test_a_job_repeated_on_a_later_page_is_handed_on_once(
+    server: ScriptedServer, fast_policy: RetryPolicy
+) -> None:
+    # Offset paging over a listing that changed meanwhile repeats job 2 on page 2 (and
+    # job 3 on the last page): each job is fetched and folded once, not twice.
+    server.script(
+        JOBS_PATH,
+        answer_json({"jobs": [job(1), job(2)], "nextPageToken": "a"}),
+        answer_json({"jobs": [job(2), job(3)], "nextPageToken": "b"}),
+        answer_json({"jobs": [job(3), job(4)]}),
+    )
+    async with ApiClient(server.base_url, TOKEN, retry=fast_policy, page_size=2) as api:
+        assert await list_all(api) == [uuid.UUID(int=i) for i in range(1, 5)]
+
+
 async def test_a_few_empty_pages_within_a_listing_are_fine(
     server: ScriptedServer, fast_policy: RetryPolicy
 ) -> None:

@@ -268,7 +268,7 @@ class ApiClient:
             # Checked before the items are handed on: a page that proves the listing
             # endless must not feed its repeats to the caller.
             total = page.get("total")
-            guard.check(items, token or None, total)
+            items = guard.check(items, token or None, total)
             if on_total is not None and isinstance(total, int) and not isinstance(total, bool):
                 on_total(total)
                 on_total = None  # once: later pages repeat it

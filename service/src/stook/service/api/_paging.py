@@ -44,18 +44,31 @@ class ListingGuard:
         self._pages = 0
         self._empty_run = 0
 
-    def check(self, items: list[dict[str, Any]], token: str | None, total: object) -> None:
+    def check(
+        self, items: list[dict[str, Any]], token: str | None, total: object
+    ) -> list[dict[str, Any]]:
+        """The page's items to hand on: those not listed before, by their ID.
+
+        Paging by offset while a listing changes can repeat an item on a later page; a
+        caller wants each job (metric, batch) once, so a repeat is dropped here, for every
+        listing, and a page that holds nothing else ends the listing as endless.
+        """
         self._pages += 1
-        if token is None:
-            # The last page: nothing more will be asked for, so what it holds proves
-            # nothing (and most listings, a job's, are one page).
-            return
-        new = 0
+        if token is None and self._pages == 1:
+            # A listing of one page, as most are (a job's): nothing to compare it with.
+            return items
+        fresh: list[dict[str, Any]] = []
+        new = 0  # items not seen before, by ID or (without one) by content
         for item in items:
             identity = self._identity(item)
             if identity not in self._seen:
                 self._seen.add(identity)
                 new += 1
+                fresh.append(item)
+            elif not self._has_id(item):
+                fresh.append(item)  # no ID to tell it by: not dropped as a repeat
+        if token is None:
+            return fresh  # the last page: nothing more will be asked for
         if token in self._tokens:
             self._stop("the API repeated a page token")
         self._tokens.add(token)
@@ -74,6 +87,11 @@ class ListingGuard:
                 )
         if self._empty_run >= _MAX_EMPTY_PAGES:
             self._stop(f"{self._empty_run} empty pages in a row, each with a new page token")
+        return fresh
+
+    def _has_id(self, item: dict[str, Any]) -> bool:
+        value = item.get(self._id_key) if self._id_key else None
+        return isinstance(value, str) and bool(value)
 
     def _identity(self, item: dict[str, Any]) -> str:
         value = item.get(self._id_key) if self._id_key else None
