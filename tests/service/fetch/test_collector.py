@@ -4,10 +4,15 @@ from __future__ import annotations
 
 import gc
 from collections.abc import Iterator
+from pathlib import Path
 
 import pytest
 
+from stook.sdk.aggregations import Needs
+from stook.service.api import ApiClient
+from stook.service.fetch import ReportFetcher
 from stook.service.fetch._collector import FETCH_GC_THRESHOLD, fewer_collections
+from stook.testing import emulated_report
 
 
 @pytest.fixture(autouse=True)
@@ -66,3 +71,15 @@ def test_objects_frozen_by_someone_else_stay_frozen() -> None:
         assert gc.get_freeze_count() == frozen
     finally:
         gc.unfreeze()
+
+
+async def test_a_report_is_fetched_with_fewer_garbage_collections(tmp_path: Path) -> None:
+    before = gc.get_threshold()
+    seen: list[int] = []
+    async with emulated_report(tmp_path, report_batches=2, report_jobs_per_batch=3) as emu:
+        info = emu.info
+        async with ApiClient(info.api_url, info.token) as api:
+            fetcher = ReportFetcher(api, info.project_id, info.report_id, Needs())
+            await fetcher.run(lambda batch: seen.append(gc.get_threshold()[0]))
+    assert seen == [FETCH_GC_THRESHOLD, FETCH_GC_THRESHOLD]
+    assert gc.get_threshold() == before
