@@ -62,6 +62,16 @@ def test_a_higher_threshold_someone_set_is_kept() -> None:
         gc.set_threshold(*before)
 
 
+def test_a_collector_turned_off_stays_off() -> None:
+    before = gc.get_threshold()
+    gc.set_threshold(0, *before[1:])
+    try:
+        with fewer_collections():
+            assert gc.get_threshold()[0] == 0
+    finally:
+        gc.set_threshold(*before)
+
+
 def test_objects_frozen_by_someone_else_stay_frozen() -> None:
     gc.freeze()
     try:

@@ -39,7 +39,8 @@ def fewer_collections() -> Iterator[None]:
         _froze = gc.get_freeze_count() == 0
         if _froze:
             gc.freeze()
-        gc.set_threshold(max(FETCH_GC_THRESHOLD, _saved[0]), *_saved[1:])
+        if _saved[0] > 0:  # 0 turns the collector off: it stays off
+            gc.set_threshold(max(FETCH_GC_THRESHOLD, _saved[0]), *_saved[1:])
     _running += 1
     try:
         yield
