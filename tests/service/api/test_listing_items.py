@@ -212,3 +212,39 @@ def test_malformed_data_items_fail_as_from_json_says(change: dict[str, Any]) -> 
 def test_an_item_that_is_not_an_object_is_refused() -> None:
     with pytest.raises(ApiResponseError, match="expected a JSON object"):
         metric_parser(MetricOwner.JOB)(["not", "an", "object"])  # type: ignore[arg-type]
+
+
+def test_a_repeated_timestamp_is_read_once_and_still_right() -> None:
+    # A listing's items mostly share their creation time: the last one read is reused,
+    # never a stale one for a different text, nor one that hides a malformed text.
+    times = [
+        "2025-01-18T14:03:00Z",
+        "2025-01-18T14:03:00Z",
+        "2025-01-18T14:03:01+02:00",
+        "2025-01-18T14:03:00Z",
+        "2025-01-18T14:03:00",  # no zone: worded by from_json
+        "2025-01-18T14:03:00Z",
+    ]
+    parse = metrics_data_parser(MetricOwner.JOB)
+    read = []
+    for moment in times:
+        data = DATA | {"creationTimestamp": moment}
+        if moment == "2025-01-18T14:03:00":
+            with pytest.raises(ApiResponseError) as fast:
+                parse(data)
+            with pytest.raises(ApiResponseError) as general:
+                ApiMetricsData.from_json(data, owner=MetricOwner.JOB)
+            assert str(fast.value) == str(general.value)
+            continue
+        item = parse(data)
+        same(item, ApiMetricsData.from_json(data, owner=MetricOwner.JOB))
+        read.append(item.creation_timestamp)
+    assert read[0] is read[1]  # the repeat was not parsed again
+
+
+def test_a_data_id_listed_by_a_metric_is_one_object() -> None:
+    # A metric's dataIDs and the data items they name share the ID cache.
+    metric = metric_parser(MetricOwner.JOB)(METRIC)
+    data = metrics_data_parser(MetricOwner.JOB)(DATA)
+    assert data.data_id == metric.data_ids[0]
+    assert data.data_id is metric.data_ids[0]

@@ -364,3 +364,21 @@ def test_decode_values_refuses_per_category_data() -> None:
     assert decode_values(found.SerializeToString(), source="job 1").to_list() == [1.0, 2.0]
     with pytest.raises(InvalidDataError):
         decode_values(b"\xff\xff", source="job 1")
+
+
+async def test_jobs_are_fetched_with_fewer_garbage_collections(
+    server: ScriptedServer, batch: ScriptedBatch, fast_policy: RetryPolicy
+) -> None:
+    import gc
+
+    from stook.service.fetch._collector import FETCH_GC_THRESHOLD
+
+    batch.add_job()
+    batch.add_job()
+    before = gc.get_threshold()
+    seen: list[int] = []
+    async with ApiClient(server.base_url, "secret-token", retry=fast_policy) as api:
+        fetcher = BatchFetcher(api, PROJECT, BATCH, Needs(), workers=2)
+        await fetcher.run(lambda record: seen.append(gc.get_threshold()[0]))
+    assert seen == [FETCH_GC_THRESHOLD, FETCH_GC_THRESHOLD]
+    assert gc.get_threshold() == before

@@ -123,6 +123,7 @@ class ApiClient:
         # Registered before any request so a token echoed in an error body or log is masked.
         register_secret(token)
         self._base = base.with_query(None).with_fragment(None)
+        self._base_text = str(self._base).rstrip("/")  # joined to every request's path
         self._policy = retry or RetryPolicy()
         self._page_size = page_size
         # Shared by every API request: when the API fails, they wait together.
@@ -375,7 +376,7 @@ class ApiClient:
 
     def _url(self, path: str) -> URL:
         # Joined as text: yarl's join() would drop the base path ("/v1") for "/projects/...".
-        return URL(str(self._base).rstrip("/") + "/" + path.lstrip("/"))
+        return URL(self._base_text + "/" + path.lstrip("/"))
 
     async def _get_once(self, url: URL, params: Mapping[str, str | int] | None) -> Response:
         response = await self._transport.get(url, params=params)

@@ -85,14 +85,24 @@ def _opt_id(value: object) -> uuid.UUID | None:
     raise _MalformedError
 
 
+# The last timestamp read, and what it read as: a listing's items were mostly created
+# together, so most repeat it. A datetime is immutable: sharing one is safe.
+_last_timestamp: tuple[str, Any] = ("", None)
+
+
 def _timestamp(value: object) -> Any:
+    global _last_timestamp
     if value is None or value == "":
         return None
     if type(value) is not str:
         raise _MalformedError
+    text, moment = _last_timestamp
+    if value == text:
+        return moment
     moment = parse_rfc3339(value)
     if moment is None or moment.tzinfo is None:
         raise _MalformedError
+    _last_timestamp = (value, moment)
     return moment
 
 
@@ -164,7 +174,8 @@ def _metrics_data(data: Mapping[str, Any], owner: MetricOwner) -> ApiMetricsData
             return None
         job = owner is MetricOwner.JOB
         return _new_metrics_data(
-            uuid.UUID(data_id),  # unique per item: not worth a place in the ID cache
+            # Through the ID cache: the job's metrics list it too (their dataIDs).
+            parse_uuid(data_id),
             _text(get("name")) or "",
             storage_type,
             _text(get("metricsDataURL")),

@@ -30,6 +30,7 @@ from stook.service.api import (
     Job,
     OriginUnavailableError,
 )
+from stook.service.fetch._collector import fewer_collections
 from stook.service.fetch._decoders import start_importing
 from stook.service.fetch._job_blobs import InvalidDataError, JobBlobs
 from stook.service.fetch._job_extras import ExperienceTags, job_event
@@ -108,10 +109,8 @@ class BatchFetcher:
         if self._needs.data:
             start_importing()  # the series' decoders, while the first requests are out
         try:
-            async with asyncio.TaskGroup() as group:
-                group.create_task(self._list_jobs(queue))
-                for _ in range(self._workers):
-                    group.create_task(self._work(queue, on_job))
+            with fewer_collections():
+                await self._run(queue, on_job)
         except ExceptionGroup as group_error:
             # The first failure is the cause; the rest are its echoes in sibling tasks.
             raise group_error.exceptions[0] from None
@@ -119,6 +118,12 @@ class BatchFetcher:
             await self._tags.aclose()
         self.outcome.seconds = time.monotonic() - self.outcome.started
         return self.outcome
+
+    async def _run(self, queue: asyncio.Queue[Job | None], on_job: OnJob) -> None:
+        async with asyncio.TaskGroup() as group:
+            group.create_task(self._list_jobs(queue))
+            for _ in range(self._workers):
+                group.create_task(self._work(queue, on_job))
 
     async def _list_jobs(self, queue: asyncio.Queue[Job | None]) -> None:
         outcome = self.outcome
