@@ -19,12 +19,12 @@ import signal
 import sys
 import time
 import uuid
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import Any, TypeVar
+from typing import Any, Protocol, TypeVar
 
 from stook.sdk.aggregations import Aggregation, Needs
-from stook.service.api import Batch, Job, Report, RetryPolicy
+from stook.service.api import ApiClient, Batch, Job, Report, RetryPolicy
 from stook.service.fetch import BatchFetcher, FetchOutcome, ReportFetcher, ReportOutcome
 from stook.service.modes._config import FetchSettings
 from stook.service.modes._inputs import ApiAccess
@@ -44,6 +44,8 @@ __all__ = [
 ]
 
 _T = TypeVar("_T")
+_O = TypeVar("_O")
+_O_co = TypeVar("_O_co", covariant=True)
 
 #: Where this worker sends its shards' progress (`init_worker`); None: nowhere.
 _send_progress: Send | None = None
@@ -66,6 +68,15 @@ def split(items: Sequence[_T], shards: int) -> list[list[_T]]:
     return pieces
 
 
+class _Fetcher(Protocol[_O_co]):
+    """BatchFetcher or ReportFetcher, as a shard drives them."""
+
+    @property
+    def outcome(self) -> _O_co: ...
+
+    async def run(self, on_record: Callable[[Any], None], /) -> _O_co: ...
+
+
 @dataclass(slots=True)
 class _Shard:
     index: int
@@ -79,6 +90,19 @@ class _Shard:
         for aggregation in self.aggregations:
             aggregation.update(record)
 
+    async def _fetch(
+        self,
+        fetcher_for: Callable[[ApiClient], _Fetcher[_O]],
+        progress_of: Callable[[_O, Traffic], ShardProgress],
+        send: Send | None,
+    ) -> tuple[_O, Traffic]:
+        """The shard's piece fetched and folded, its progress sent while it runs."""
+        async with open_api(self.access, self.settings, self.retry) as api:
+            fetcher = fetcher_for(api)
+            async with reporting(lambda: progress_of(fetcher.outcome, Traffic.of(api)), send):
+                outcome = await fetcher.run(self.fold)
+            return outcome, Traffic.of(api)
+
 
 @dataclass(slots=True)
 class BatchShard(_Shard):
@@ -90,8 +114,8 @@ class BatchShard(_Shard):
         return len(self.jobs)
 
     async def fetch(self, send: Send | None = None) -> tuple[FetchOutcome, Traffic]:
-        async with open_api(self.access, self.settings, self.retry) as api:
-            fetcher = BatchFetcher(
+        def fetcher_for(api: ApiClient) -> BatchFetcher:
+            return BatchFetcher(
                 api,
                 self.access.project_id,
                 self.batch_id,
@@ -100,19 +124,16 @@ class BatchShard(_Shard):
                 jobs=self.jobs,
             )
 
-            def progress() -> ShardProgress:
-                outcome, traffic = fetcher.outcome, Traffic.of(api)
-                return ShardProgress(
-                    self.index,
-                    jobs_done=outcome.jobs_done + len(outcome.missing),  # as BatchMode shows
-                    requests=traffic.requests,
-                    retries=traffic.retries,
-                    bytes_received=traffic.bytes_received,
-                )
+        def progress_of(outcome: FetchOutcome, traffic: Traffic) -> ShardProgress:
+            return ShardProgress(
+                self.index,
+                jobs_done=outcome.jobs_done + len(outcome.missing),  # as BatchMode shows
+                requests=traffic.requests,
+                retries=traffic.retries,
+                bytes_received=traffic.bytes_received,
+            )
 
-            async with reporting(progress, send):
-                outcome = await fetcher.run(self.fold)
-            return outcome, Traffic.of(api)
+        return await self._fetch(fetcher_for, progress_of, send)
 
 
 @dataclass(slots=True)
@@ -127,8 +148,8 @@ class ReportShard(_Shard):
         return len(self.batches)
 
     async def fetch(self, send: Send | None = None) -> tuple[ReportOutcome, Traffic]:
-        async with open_api(self.access, self.settings, self.retry) as api:
-            fetcher = ReportFetcher(
+        def fetcher_for(api: ApiClient) -> ReportFetcher:
+            return ReportFetcher(
                 api,
                 self.access.project_id,
                 self.report_id,
@@ -138,21 +159,18 @@ class ReportShard(_Shard):
                 batches=(self.report, self.batches),
             )
 
-            def progress() -> ShardProgress:
-                outcome, traffic = fetcher.outcome, Traffic.of(api)
-                return ShardProgress(
-                    self.index,
-                    jobs_done=outcome.jobs_done,  # as ReportMode shows
-                    jobs_listed=outcome.jobs,
-                    batches_done=outcome.batches_done,
-                    requests=traffic.requests,
-                    retries=traffic.retries,
-                    bytes_received=traffic.bytes_received,
-                )
+        def progress_of(outcome: ReportOutcome, traffic: Traffic) -> ShardProgress:
+            return ShardProgress(
+                self.index,
+                jobs_done=outcome.jobs_done,  # as ReportMode shows
+                jobs_listed=outcome.jobs,
+                batches_done=outcome.batches_done,
+                requests=traffic.requests,
+                retries=traffic.retries,
+                bytes_received=traffic.bytes_received,
+            )
 
-            async with reporting(progress, send):
-                outcome = await fetcher.run(self.fold)
-            return outcome, Traffic.of(api)
+        return await self._fetch(fetcher_for, progress_of, send)
 
 
 @dataclass(frozen=True, slots=True)
