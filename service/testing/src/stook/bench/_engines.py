@@ -20,6 +20,7 @@ import importlib
 import io
 import json
 import resource
+import tempfile
 import time
 import tomllib
 from collections.abc import Callable
@@ -76,8 +77,6 @@ def measure_engine(info: EmulatorInfo, engine: dict[str, Any]) -> dict[str, Any]
     doc = tomllib.loads(ENGINE_BENCH_CONFIG)
     doc["engine"] = engine
     config = parse(doc, source="bench")
-    import tempfile
-
     with tempfile.TemporaryDirectory() as tmp:
         inputs = Path(tmp) / "inputs"
         info.write_batch_config(inputs)
