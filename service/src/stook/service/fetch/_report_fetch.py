@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import asyncio
 import dataclasses
+import operator
 import time
 import uuid
 from collections import Counter
@@ -35,6 +36,7 @@ from stook.service.api import (
     ApiClient,
     ApiError,
     ApiMetric,
+    ApiMetricStatus,
     AuthError,
     Batch,
     Job,
@@ -44,7 +46,7 @@ from stook.service.api import (
 )
 from stook.service.fetch._batch_fetch import MissingJob
 from stook.service.fetch._collector import fewer_collections
-from stook.service.fetch._scalars import is_scalar, read_scalars
+from stook.service.fetch._scalars import read_scalar_values, read_scalars
 from stook.service.fetch._summaries import read_summary
 
 log = structlog.get_logger("stook.report")
@@ -103,7 +105,8 @@ class _PendingBatch:
     jobs: list[JobSummary]
     remaining: int
     listed: bool = False
-    job_statuses: list[str] = field(default_factory=list)
+    # Job metric statuses as listed (an enum member counts as its string, which it equals).
+    job_statuses: Counter[ApiMetricStatus | str] = field(default_factory=Counter)
     # Per job: its scalars, (value, unit) by name, as a summary has them (made into the
     # batch's columns when it is done).
     job_values: dict[uuid.UUID, Mapping[str, tuple[float, str]]] = field(default_factory=dict)
@@ -301,7 +304,9 @@ class ReportFetcher:
                 metrics = await _collect(
                     self._api.list_job_metrics(self._project_id, pending.batch.batch_id, job.job_id)
                 )
-                scalars = await self._job_scalars(pending.batch, job, metrics)
+                # Listed is enough for a name: a name a job has is no typo, even when its
+                # value is absent.
+                values = await self._job_values(pending.batch, job, metrics)
             except (AuthError, OriginUnavailableError):
                 raise
             except ApiError as exc:
@@ -312,10 +317,9 @@ class ReportFetcher:
             else:
                 if metrics:
                     self.outcome.jobs_with_metrics += 1
-                pending.job_statuses.extend(str(m.status) for m in metrics)
-                pending.job_values[job.job_id] = {n: (s.value, s.unit) for n, s in scalars.items()}
-                # Listed is enough: a name a job has is no typo, even when its value is absent.
-                self.outcome.job_scalar_names.update(m.name for m in metrics if is_scalar(m))
+                # Counted as listed (statuses as strings once per batch, in `_finish`).
+                pending.job_statuses.update(map(_status_of, metrics))
+                pending.job_values[job.job_id] = values
             pending.remaining -= 1
             self.outcome.jobs_done += 1
             if pending.remaining == 0 and pending.listed:
@@ -323,15 +327,17 @@ class ReportFetcher:
             else:
                 self._announce()
 
-    async def _job_scalars(
+    async def _job_values(
         self, batch: Batch, job: Job, metrics: list[ApiMetric]
-    ) -> dict[str, Scalar]:
-        """The job's scalars, values listed as null read from their messages when needed."""
-        return await read_scalars(
+    ) -> dict[str, tuple[float, str]]:
+        """The job's scalars, (value, unit) by name, values listed as null read from their
+        messages when needed; adds the names it lists to the outcome's."""
+        return await read_scalar_values(
             self._api.storage,
             metrics,
             self._needs.wants_scalar,
-            source=f"job {job.job_id}",
+            names=self.outcome.job_scalar_names,
+            source=lambda: f"job {job.job_id}",
             relist=lambda: _collect(
                 self._api.list_job_metrics(self._project_id, batch.batch_id, job.job_id)
             ),
@@ -347,7 +353,7 @@ class ReportFetcher:
         columns = pending.columns or JobColumns.build(
             pending.jobs,
             [pending.job_values.get(j.job_id, {}) for j in pending.jobs],
-            Counter(pending.job_statuses),
+            Counter({str(status): n for status, n in pending.job_statuses.items()}),
         )
         on_batch(
             BatchRecord.with_columns(
@@ -367,6 +373,9 @@ class ReportFetcher:
     def _announce(self) -> None:
         if self._on_progress is not None:
             self._on_progress(self.outcome)
+
+
+_status_of = operator.attrgetter("status")
 
 
 async def _collect(items: AsyncIterator[_T]) -> list[_T]:

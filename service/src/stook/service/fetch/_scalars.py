@@ -20,7 +20,7 @@ from stook.sdk.aggregations import Scalar
 from stook.service.api import ApiMetric, ApiMetricType, StorageClient
 from stook.service.fetch._presigned import fetch_listed
 
-__all__ = ["is_scalar", "read_scalars"]
+__all__ = ["is_scalar", "read_scalar_values", "read_scalars"]
 
 log = structlog.get_logger("stook.fetch")
 
@@ -69,6 +69,38 @@ async def read_scalars(
         if value is not None:
             scalars[name] = value
     return scalars
+
+
+async def read_scalar_values(
+    storage: StorageClient,
+    metrics: Sequence[ApiMetric],
+    wanted: Callable[[str], bool],
+    *,
+    names: set[str],
+    source: Callable[[], str],
+    relist: Relist,
+) -> dict[str, tuple[float, str]]:
+    """As `read_scalars`, each scalar as (value, unit); adds every named SCALAR listed,
+    with a value or not, to `names` once the values are read.
+
+    One pass over the listing when every scalar is listed with its value (what report
+    mode reads per job, thousands of times); `source` is made only when a message is read.
+    """
+    listed: list[str] = []
+    values: dict[str, tuple[float, str]] = {}
+    for metric in metrics:
+        if metric.type is not ApiMetricType.SCALAR or metric.event_metric or not metric.name:
+            continue
+        if metric.value is None:
+            break
+        listed.append(metric.name)
+        values[metric.name] = (metric.value, metric.unit or "")
+    else:
+        names.update(listed)
+        return values
+    scalars = await read_scalars(storage, metrics, wanted, source=source(), relist=relist)
+    names.update(m.name for m in metrics if is_scalar(m))
+    return {name: (scalar.value, scalar.unit) for name, scalar in scalars.items()}
 
 
 async def _from_message(
