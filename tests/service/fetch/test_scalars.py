@@ -16,7 +16,7 @@ from stook.sdk.aggregations import Needs, Scalar
 from stook.service.api._models import ApiMetric, MetricOwner
 from stook.service.api._retry import RetryPolicy
 from stook.service.api._storage import StorageClient
-from stook.service.fetch._scalars import read_scalars
+from stook.service.fetch._scalars import read_scalar_values, read_scalars
 from tests.service.scripted_server import ScriptedServer, answer
 
 EVERY = Needs(every_scalar=True)
@@ -139,3 +139,57 @@ async def test_unnamed_event_and_composite_metrics_are_not_scalars(
     ]
     assert await _read(fast_policy, metrics) == {"same name": Scalar(5.0, "", "NO_STATUS_REPORTED")}
     assert server.seen == []
+
+
+async def _values(
+    policy: RetryPolicy, metrics: Sequence[ApiMetric], names: set[str]
+) -> dict[str, tuple[float, str]]:
+    async def relist() -> Sequence[ApiMetric]:
+        return ()
+
+    async with StorageClient(retry=policy) as storage:
+        return await read_scalar_values(
+            storage,
+            metrics,
+            EVERY.wants_scalar,
+            names=names,
+            source=lambda: "job 1",
+            relist=relist,
+        )
+
+
+@pytest.mark.parametrize("null_first", [False, True])
+async def test_scalar_values_are_the_scalars_as_value_and_unit(
+    server: ScriptedServer, fast_policy: RetryPolicy, null_first: bool
+) -> None:
+    """With every value listed (one pass) and with one read from its message (as
+    read_scalars): the same values, units, and names."""
+    metrics = [
+        _listed("", server, value=1.0),
+        _listed("event", server, value=2.0, eventMetric=True),
+        _listed("plot", server, value=None, type="COMPOSITE"),
+        _listed("Speed", server, value=4.0, unit="m/s"),
+        _listed("Speed", server, value=5.0),  # the last of a name wins, unit and all
+        _listed("Count", server, value=3.0, unit="1"),
+    ]
+    if null_first:
+        null = _listed("Count", server, value=None)
+        server.script(f"/bucket/{null.metric_id}", answer(body=_message(9.0, unit="1")))
+        metrics.insert(0, null)
+    names = {"Before"}
+    values = await _values(fast_policy, metrics, names)
+    assert values == {"Speed": (5.0, ""), "Count": (3.0, "1")}
+    assert list(values) == (["Count", "Speed"] if null_first else ["Speed", "Count"])
+    assert names == {"Before", "Speed", "Count"}
+    assert len(server.seen) == (1 if null_first else 0)
+
+
+async def test_scalar_values_add_no_names_when_a_message_cannot_be_read(
+    server: ScriptedServer, fast_policy: RetryPolicy
+) -> None:
+    listed = _listed("Max speed", server, value=None)
+    server.script(f"/bucket/{listed.metric_id}", answer(body=b"\xff\xff not a Metric"))
+    names: set[str] = set()
+    with pytest.raises(ReadError, match=r"job 1 / metric 'Max speed'"):
+        await _values(fast_policy, [_listed("Count", server, value=3.0), listed], names)
+    assert names == set()
