@@ -19,6 +19,7 @@ from stook.service.modes._config import ConfigError, StookConfig
 from stook.service.modes._inputs import ReportInputs
 from stook.service.modes._pipeline import RunResult, run_pipeline
 from stook.service.modes._progress import Progress, Snapshot
+from stook.service.modes._report_imports import import_change_points_when_idle
 
 
 @dataclass(frozen=True, slots=True)
@@ -135,6 +136,8 @@ async def run_report(
 ) -> ReportResult:
     """Fetch the report's batches, fold them into the aggregations, write the output."""
     mode = ReportMode(inputs, config)
+    if config.report.defaults and config.report.change_points:
+        import_change_points_when_idle()
     result = await run_pipeline(
         mode,
         inputs.access,
