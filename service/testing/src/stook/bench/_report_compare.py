@@ -1,15 +1,25 @@
-"""Report mode against ReSim's default report metrics (resim-open-core), same emulator."""
+"""Report mode against ReSim's default report metrics (resim-open-core), same emulator.
+
+`compare_report_with_resim` times both in fresh processes from the call on (imports done);
+`compare_report_whole_process` times each as a user does, a whole process from start to
+exit: `stook run` on the report's inputs, and a Python process that imports ReSim's
+`default_report_metrics` and runs it. Runs alternate, stook then ReSim; medians decide.
+"""
 
 from __future__ import annotations
 
 import asyncio
 import dataclasses
+import statistics
+import subprocess
+import sys
 import tempfile
 import time
 from pathlib import Path
-from typing import Any
+from typing import Any, Final
 
-from stook.bench._measure import Measurement, in_fresh_process, peak_rss_mb
+from stook.bench._measure import Measurement, in_fresh_process, peak_rss_mb, resim_available
+from stook.bench._startup import stook_command
 from stook.emulator import EmulatorConfig, EmulatorInfo, EmulatorProcess
 
 
@@ -102,4 +112,117 @@ def compare_report_with_resim(batches: int, jobs: int, latency_ms: float) -> dic
         result["resim"] = dataclasses.asdict(resim)
         result["resim_server_requests"] = after - middle
         result["speedup"] = resim.seconds / stook.seconds
+    return result
+
+
+_TIMEOUT_S: Final = 900
+
+# ReSim's default report as `measure_resim_report` runs it, in a process of its own (its
+# imports included); argv: token, API URL, project, report, output path.
+_RESIM_REPORT_SCRIPT: Final = """\
+import asyncio, sys
+from resim.metrics import default_report_metrics
+from resim.sdk.client.models.batch_metric import BatchMetric
+from resim.sdk.client.models.job_metric import JobMetric
+for model in (JobMetric, BatchMetric):
+    if not hasattr(model, "type"):
+        model.type = property(lambda self: self.type_)
+token, api_url, project_id, report_id, output_path = sys.argv[1:6]
+asyncio.run(
+    default_report_metrics.fetch_and_compute_metrics(
+        token=token, api_url=api_url, project_id=project_id, report_id=report_id,
+        output_path=output_path,
+    )
+)
+"""
+
+
+def _time_stook_report_run(info: EmulatorInfo, folder: Path, concurrency: int) -> float:
+    inputs, outputs = folder / "inputs", folder / "outputs"
+    info.write_report_config(inputs)
+    config = folder / "stook.toml"
+    config.write_text(f"[fetch]\nconcurrency = {concurrency}\n", encoding="utf-8")
+    argv = [
+        *stook_command(),
+        "run",
+        "--inputs",
+        str(inputs),
+        "--outputs",
+        str(outputs),
+        "--config",
+        str(config),
+        "--log-level",
+        "error",
+    ]
+    started = time.perf_counter()
+    subprocess.run(
+        argv,
+        cwd=folder,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+        check=True,
+        timeout=_TIMEOUT_S,
+    )
+    seconds = time.perf_counter() - started
+    if not (outputs / "metrics.binproto").is_file():
+        raise RuntimeError("stook run exited 0 without writing metrics.binproto")
+    return seconds
+
+
+def _time_resim_report(info: EmulatorInfo, folder: Path) -> float:
+    output = folder / "resim-metrics.binproto"
+    argv = [
+        sys.executable,
+        "-c",
+        _RESIM_REPORT_SCRIPT,
+        info.token,
+        info.api_url,
+        str(info.project_id),
+        str(info.report_id),
+        str(output),
+    ]
+    started = time.perf_counter()
+    subprocess.run(
+        argv, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, check=True, timeout=_TIMEOUT_S
+    )
+    seconds = time.perf_counter() - started
+    if not output.is_file():
+        raise RuntimeError("ReSim's default report exited 0 without writing its metrics")
+    return seconds
+
+
+def compare_report_whole_process(
+    batches: int, jobs: int, latency_ms: float, pairs: int = 3, concurrency: int = 64
+) -> dict[str, Any]:
+    """Every run's seconds for both, their medians and the speedup (stook alone without
+    resim-open-core installed)."""
+    config = EmulatorConfig(
+        seed=5,
+        report_batches=batches,
+        report_jobs_per_batch=jobs,
+        cache_jobs=max(batches * jobs, 1),
+        latency_ms=latency_ms,
+    )
+    with_resim = resim_available()
+    runs: dict[str, list[float]] = {"stook": [], "resim": []}
+    with EmulatorProcess(config) as emulator, tempfile.TemporaryDirectory() as tmp:
+        # The emulator makes each job's data on first request: a first, untimed run.
+        _time_stook_report_run(emulator.info, Path(tmp) / "warm", concurrency)
+        for i in range(pairs):
+            folder = Path(tmp) / f"run-{i}"
+            runs["stook"].append(_time_stook_report_run(emulator.info, folder, concurrency))
+            if with_resim:
+                runs["resim"].append(_time_resim_report(emulator.info, folder))
+    result: dict[str, Any] = {
+        "batches": batches,
+        "jobs_per_batch": jobs,
+        "latency_ms": latency_ms,
+        "pairs": pairs,
+        "stook_runs_s": [round(s, 3) for s in runs["stook"]],
+        "stook_median_s": round(statistics.median(runs["stook"]), 3),
+    }
+    if with_resim:
+        result["resim_runs_s"] = [round(s, 3) for s in runs["resim"]]
+        result["resim_median_s"] = round(statistics.median(runs["resim"]), 3)
+        result["speedup"] = round(result["resim_median_s"] / result["stook_median_s"], 1)
     return result
