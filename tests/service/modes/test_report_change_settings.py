@@ -9,7 +9,7 @@ import pytest
 
 from stook.sdk.aggregations.report import ChangePoints, ScalarLines, UnstableExperiences
 from stook.service.modes._config import ConfigError, ReportSettings, parse
-from stook.service.modes._report import report_aggregations_for
+from stook.service.modes._report import report_aggregations_for, searches_change_points
 
 PROJECT = "5e5e5e5e-1111-4222-8333-444444444444"
 
@@ -23,6 +23,12 @@ def test_the_defaults_search_change_points_and_rank_unstable_experiences() -> No
     assert lines.change_points is True
     assert sum(isinstance(a, ChangePoints) for a in built) == 1
     assert sum(isinstance(a, UnstableExperiences) for a in built) == 1
+
+
+def test_ruptures_is_imported_early_only_when_the_defaults_search_change_points() -> None:
+    assert searches_change_points(parse({})) is True
+    assert searches_change_points(parse({"report": {"change_points": False}})) is False
+    assert searches_change_points(parse({"report": {"defaults": False}})) is False
 
 
 def test_the_settings_are_read() -> None:

@@ -46,6 +46,11 @@ def report_aggregations_for(config: StookConfig, project_id: str) -> list[Aggreg
     return defaults + config.report_aggregations()
 
 
+def searches_change_points(config: StookConfig) -> bool:
+    """Whether the default report aggregations search change points (with ruptures)."""
+    return config.report.defaults and config.report.change_points
+
+
 def check_job_metric_names(config: StookConfig, outcome: ReportOutcome) -> None:
     wanted = config.report.job_metrics
     if not wanted or outcome.jobs_with_metrics == 0:
@@ -136,7 +141,7 @@ async def run_report(
 ) -> ReportResult:
     """Fetch the report's batches, fold them into the aggregations, write the output."""
     mode = ReportMode(inputs, config)
-    if config.report.defaults and config.report.change_points:
+    if searches_change_points(config):
         import_change_points_when_idle()
     result = await run_pipeline(
         mode,
