@@ -23,8 +23,7 @@ from stook.sdk import (
     read_metrics_data,
 )
 from stook.sdk._buckets import histogram_buckets
-from stook.sdk.aggregations import JobRecord, MergedHistogram
-from stook.sdk.aggregations._series_map import SeriesByName
+from stook.sdk.aggregations import JobRecord, MergedHistogram, SeriesByName
 from tests.sdk.aggregations.support import Output, fold, job, reference_counts
 
 

@@ -9,7 +9,7 @@ import pytest
 
 from stook.proto import metrics_pb2 as pb
 from stook.sdk import MetricsDataView, read_metrics_data
-from stook.sdk.aggregations._series_map import SeriesByName
+from stook.sdk.aggregations import SeriesByName
 from tests.sdk.support import bare_data
 
 

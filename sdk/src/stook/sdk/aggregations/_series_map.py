@@ -3,7 +3,7 @@
 A fetch hands every job's plain double data to its aggregations as `JobRecord.series`.
 Building a polars Series per job cost more than some aggregations' whole update (the
 merged histogram bins the values with numpy), so the series are made on first access
-and kept; `values` gives the same values as a numpy array without polars.
+and kept; `values_of` gives the same values as a numpy array without polars.
 """
 
 from __future__ import annotations
@@ -23,8 +23,11 @@ if TYPE_CHECKING:
 class SeriesByName(Mapping[str, "pl.Series"]):
     """Data name -> `MetricsDataView.series` of plain double data, made on first access.
 
-    Reads like the dict of those series it stands for (iteration in the order given).
-    Every view must be of plain (not per-category) double data.
+    Reads like the dict of those series it stands for (iteration in the order given);
+    batch mode hands each job's `JobRecord.series` over as one. Every view must be of
+    plain (not per-category) double data (ValueError otherwise). An aggregation that
+    reduces the values with numpy can take them with `values_of` instead, and then no
+    polars Series is made for it.
     """
 
     __slots__ = ("_made", "_views")

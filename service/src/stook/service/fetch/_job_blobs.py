@@ -29,8 +29,7 @@ from stook.sdk import (
     read_metric,
     read_metrics_data,
 )
-from stook.sdk.aggregations import Needs
-from stook.sdk.aggregations._series_map import SeriesByName
+from stook.sdk.aggregations import Needs, SeriesByName
 from stook.service.api import ApiMetric, ApiMetricsData, StorageClient
 from stook.service.fetch._decoders import decoders_ready
 from stook.service.fetch._presigned import fetch_listed
@@ -149,6 +148,8 @@ class JobBlobs:
         return JobBlobsResult(data=data, series=SeriesByName(doubles), job_metrics=job_metrics)
 
     def _wanted_metrics(self) -> list[ApiMetric]:
+        if not self.wants_metrics:
+            return []  # the common plan: data by name only; no need to ask per metric
         wanted: list[ApiMetric] = []
         for metric in self._metrics:
             if not self._needs.wants_metric(metric.name):
