@@ -225,9 +225,16 @@ def test_histogram_of_fetched_series_is_the_same_as_of_polars_series(
     def histogram() -> MergedHistogram:
         return MergedHistogram("H", "v", lower=0.0, upper=4.0, buckets=4, max_values=max_values)
 
-    mine, theirs = histogram(), histogram()
+    mine, mixed, theirs = histogram(), histogram(), histogram()
     fold(mine, fetched)
+    fold(mixed, [pair[i % 2] for i, pair in enumerate(zip(fetched, jobs, strict=True))])
     fold(theirs, jobs)
+    assert mixed.counts == theirs.counts
+    assert (mixed.total, mixed.dropped_nan, mixed.outside) == (
+        theirs.total,
+        theirs.dropped_nan,
+        theirs.outside,
+    )
     assert mine.counts == theirs.counts
     assert (mine.total, mine.dropped_nan, mine.jobs, mine.outside) == (
         theirs.total,
