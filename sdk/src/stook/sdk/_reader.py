@@ -139,8 +139,8 @@ def _parse(cls: type[_Msg], data: bytes, source: str) -> _Msg:
         detail = str(exc).rpartition(": ")[2].lower() or "parse failed"
         raise read_error(cls, source, f"not a valid protobuf message ({detail})") from exc
     fields = UnknownFieldSet(msg)
-    unknown = sorted({fields[i].field_number for i in range(len(fields))})
-    if unknown:
+    if len(fields):  # almost never: checked first, as every downloaded blob passes here
+        unknown = sorted({fields[i].field_number for i in range(len(fields))})
         numbers = ", ".join(map(str, unknown))
         raise read_error(
             cls,
