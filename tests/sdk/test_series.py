@@ -19,6 +19,7 @@ from stook.sdk import (
     parse_metrics_data,
     read_metrics_data,
 )
+from stook.sdk._series import doubles_array
 from tests.sdk.support import bare_data
 
 # ---------------------------------------------------------------- a ReSim-written output
@@ -145,3 +146,24 @@ def test_timestamp_out_of_range_is_a_read_error_on_conversion() -> None:
     d.series.timestamps.series.add().seconds = 2**62
     with pytest.raises(ReadError, match="too far"):
         parse_metrics_data(d).frame()
+
+
+@pytest.mark.parametrize("length", [1, 63, 64, 65, 300, 70_000])
+def test_doubles_array_matches_the_series_bit_for_bit(length: int) -> None:
+    special = [0.0, -0.0, math.inf, -math.inf, 5e-324, math.nan]
+    values = [special[i % len(special)] if i % 7 == 0 else i * 0.1 - 7.0 for i in range(length)]
+    d = bare_data(pb.DOUBLE_SERIES_DATA_TYPE)
+    d.series.doubles.series.extend(values)
+    view = read_metrics_data(d.SerializeToString())
+    got = doubles_array(view.raw.series.doubles)
+    assert got.dtype == "float64"
+    assert got.tobytes() == struct.pack(f"<{length}d", *values)
+    assert got.tobytes() == view.series().to_numpy().tobytes()
+
+
+def test_doubles_array_with_unknown_fields_falls_back_to_copying() -> None:
+    d = bare_data(pb.DOUBLE_SERIES_DATA_TYPE)
+    d.series.doubles.series.extend(float(i) for i in range(1000))
+    d.series.doubles.MergeFromString(b"\x10\x07")
+    view = read_metrics_data(d.SerializeToString())
+    assert doubles_array(view.raw.series.doubles).tolist() == [float(i) for i in range(1000)]

@@ -23,7 +23,7 @@ from stook.sdk import (
     read_metrics_data,
 )
 from stook.sdk._buckets import histogram_buckets
-from stook.sdk.aggregations import JobRecord, MergedHistogram
+from stook.sdk.aggregations import JobRecord, MergedHistogram, SeriesByName
 from tests.sdk.aggregations.support import Output, fold, job, reference_counts
 
 
@@ -198,3 +198,53 @@ def test_histogram_of_per_category_data_pools_the_categories() -> None:
     assert isinstance(agg, MergedHistogram)
     assert (agg.total, agg.jobs) == (4, 2)
     assert agg.values().to_list() == [0.5, 1.0, 2.0, 3.0]
+
+
+def _fetched_job(values: list[float]) -> JobRecord:
+    """A job as a fetch hands it over: its series made only when asked for."""
+    d = data.doubles("v", values)
+    writer = MetricsWriter(uuid.uuid4(), deterministic=True)
+    writer.add_data(d)
+    view = read_metrics_data(writer.to_proto().metrics_data[0].SerializeToString())
+    return JobRecord(uuid.uuid4(), "PASSED", series=SeriesByName({"v": view}), data={"v": view})
+
+
+@pytest.mark.parametrize("max_values", [10**6, 150, 1])  # exact, switching, counts at once
+@pytest.mark.parametrize("length", [5, 90])  # below and above the packed-bytes path
+def test_histogram_of_fetched_series_is_the_same_as_of_polars_series(
+    max_values: int, length: int
+) -> None:
+    special = [math.nan, -0.0, 4.0, 0.0, -math.inf, math.inf, 1.0, 2.5, -7.0, 11.0]
+    per_job = [
+        [special[(i * 3 + j) % len(special)] + (j % 4) * 0.37 for j in range(length)]
+        for i in range(12)
+    ]
+    jobs = [job(series={"v": vs}) for vs in per_job]
+    fetched = [_fetched_job(vs) for vs in per_job]
+
+    def histogram() -> MergedHistogram:
+        return MergedHistogram("H", "v", lower=0.0, upper=4.0, buckets=4, max_values=max_values)
+
+    mine, mixed, theirs = histogram(), histogram(), histogram()
+    fold(mine, fetched)
+    fold(mixed, [pair[i % 2] for i, pair in enumerate(zip(fetched, jobs, strict=True))])
+    fold(theirs, jobs)
+    assert mixed.counts == theirs.counts
+    assert (mixed.total, mixed.dropped_nan, mixed.outside) == (
+        theirs.total,
+        theirs.dropped_nan,
+        theirs.outside,
+    )
+    assert mine.counts == theirs.counts
+    assert (mine.total, mine.dropped_nan, mine.jobs, mine.outside) == (
+        theirs.total,
+        theirs.dropped_nan,
+        theirs.jobs,
+        theirs.outside,
+    )
+    assert mine.dropped_nan > 0
+    if mine.counts is None:
+        assert mine.values().to_numpy().tobytes() == theirs.values().to_numpy().tobytes()
+    assert Output(mine).writer.serialize() == Output(theirs).writer.serialize()
+    # Their series are made only when asked for: the histogram did not ask.
+    assert not any(record.series._made for record in fetched)  # type: ignore[attr-defined]

@@ -139,8 +139,8 @@ def _parse(cls: type[_Msg], data: bytes, source: str) -> _Msg:
         detail = str(exc).rpartition(": ")[2].lower() or "parse failed"
         raise read_error(cls, source, f"not a valid protobuf message ({detail})") from exc
     fields = UnknownFieldSet(msg)
-    unknown = sorted({fields[i].field_number for i in range(len(fields))})
-    if unknown:
+    if len(fields):  # almost never: checked first, as every downloaded blob passes here
+        unknown = sorted({fields[i].field_number for i in range(len(fields))})
         numbers = ", ".join(map(str, unknown))
         raise read_error(
             cls,
@@ -211,15 +211,20 @@ def _data_view(msg: pb.MetricsData, source: str) -> MetricsDataView:
             raise MalformedError(
                 f"{label}: is_per_category is {msg.is_per_category} but it holds {holds}"
             )
-        for series in _all_series(msg):
-            _check_series(series, kind, label)
+        # `series` and `series_per_category` are one oneof: only the one set holds series.
+        if holds == "series":
+            _check_series(msg.series, kind, label)
+        elif holds == "series_per_category":
+            for series in msg.series_per_category.category_to_series.values():
+                _check_series(series, kind, label)
+    index_text = msg.index_data_id.id.data
     return MetricsDataView(
         id=_uuid(msg.metrics_data_id.id.data, f"{label}: id"),
         name=msg.name,
         unit=msg.unit,
         kind=kind,
         indexed=msg.is_indexed,
-        index_id=_optional_uuid(msg.index_data_id.id.data, f"{label}: index id"),
+        index_id=_uuid(index_text, f"{label}: index id") if index_text else None,
         index_kind=(
             _kind(msg.index_data_type, f"{label}: index data type")
             if msg.index_data_type != pb.NO_DATA_TYPE
@@ -231,12 +236,6 @@ def _data_view(msg: pb.MetricsData, source: str) -> MetricsDataView:
         raw=msg,
         source=source,
     )
-
-
-def _all_series(msg: pb.MetricsData) -> Iterable[pb.Series]:
-    if msg.HasField("series"):
-        yield msg.series
-    yield from msg.series_per_category.category_to_series.values()
 
 
 _ELEMENT_FIELDS: dict[SeriesKind, str] = {

@@ -9,7 +9,9 @@ into a `ReadError` that names the data.
 
 from __future__ import annotations
 
+import functools
 import uuid
+from typing import Any
 
 import numpy as np
 import polars as pl
@@ -70,38 +72,41 @@ _PACKED_PATH_MIN = 64
 
 def _doubles(doubles: pb.DoubleSeries, name: str) -> pl.Series:
     # Handing polars the repeated field element by element costs ~5 µs plus ~22 ns per
-    # double. The packed wire form already is the little-endian array polars wants:
-    # re-serialize it (a memcpy in upb) and view it through numpy, ~6 µs whatever the
-    # length. Below a few dozen values the element path is faster.
+    # double; below a few dozen values that is still the faster way.
+    if len(doubles.series) < _PACKED_PATH_MIN:
+        return pl.Series(name, doubles.series, dtype=pl.Float64)
+    return pl.Series(name, doubles_array(doubles))
+
+
+def doubles_array(doubles: pb.DoubleSeries) -> np.ndarray[Any, np.dtype[np.float64]]:
+    """The doubles as a read-only float64 array, bit for bit, without building polars
+    objects (for aggregations that reduce the values with numpy)."""
+    # The packed wire form already is the little-endian array numpy wants: re-serialize
+    # it (a memcpy in upb) and view it, ~1.5 µs whatever the length.
     n = len(doubles.series)
-    if n < _PACKED_PATH_MIN:
-        return pl.Series(name, doubles.series, dtype=pl.Float64)
-    wire = doubles.SerializeToString()
-    start = _packed_payload_start(wire, n * 8)
-    if start is None:
-        return pl.Series(name, doubles.series, dtype=pl.Float64)
-    return pl.Series(name, np.frombuffer(wire, dtype="<f8", count=n, offset=start))
+    if n >= _PACKED_PATH_MIN:
+        wire = doubles.SerializeToString()
+        header = _packed_header(n * 8)
+        if len(wire) == len(header) + n * 8 and wire.startswith(header):
+            # Positional: frombuffer's keywords cost more than the view itself (~1 µs).
+            return np.frombuffer(wire, _LITTLE_ENDIAN_F8, n, len(header))
+    return np.array(doubles.series, dtype=np.float64)
 
 
-def _packed_payload_start(wire: bytes, payload_len: int) -> int | None:
-    """Offset of the packed payload in a serialized DoubleSeries, if that is all it is.
+_LITTLE_ENDIAN_F8 = np.dtype("<f8")
 
-    Expects the key of field 1 / wire type 2, a varint length equal to
-    ``payload_len`` and nothing after the payload (no unknown fields).
-    """
-    if not wire or wire[0] != 0x0A:
-        return None
-    length, shift, pos = 0, 0, 1
-    while pos < len(wire):
-        byte = wire[pos]
-        length |= (byte & 0x7F) << shift
-        pos += 1
-        if not byte & 0x80:
-            break
-        shift += 7
-    if length != payload_len or pos + length != len(wire):
-        return None
-    return pos
+
+@functools.lru_cache(maxsize=256)
+def _packed_header(payload_len: int) -> bytes:
+    """What a serialized DoubleSeries holding only `payload_len` bytes of packed doubles
+    starts with: the key of field 1 / wire type 2 and the length as a (minimal) varint,
+    as protobuf writes it. Anything else (unknown fields) takes the element path."""
+    varint = bytearray()
+    while True:
+        byte, payload_len = payload_len & 0x7F, payload_len >> 7
+        varint.append(byte | 0x80 if payload_len else byte)
+        if not payload_len:
+            return b"\x0a" + bytes(varint)
 
 
 def _timestamps(timestamps: pb.TimestampSeries, name: str) -> pl.Series:

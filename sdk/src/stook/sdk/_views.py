@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import dataclasses
 import uuid
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from functools import cache
 from typing import TYPE_CHECKING, Any, Literal, TypeVar, overload
@@ -208,10 +208,8 @@ class MetricsDataView:
             raise read_error(pb.MetricsData, self.source, f"data {self.name!r}: {exc}") from None
 
     def _convert(self, series: pb.Series, name: str) -> pl.Series:
-        from stook.sdk._series import to_polars
-
         try:
-            return to_polars(series, self._check_has_series(), name)
+            return _to_polars()(series, self._check_has_series(), name)
         except MalformedError as exc:
             raise read_error(pb.MetricsData, self.source, f"data {self.name!r}: {exc}") from None
 
@@ -356,6 +354,16 @@ class JobMetricsView:
                 )
             )
         return pl.concat(parts, how="diagonal").select(schema.columns)
+
+
+@cache
+def _to_polars() -> Callable[[pb.Series, SeriesKind, str], pl.Series]:
+    """`stook.sdk._series.to_polars` (and with it polars), imported on first use. Not an
+    import statement per call: ``from stook.sdk._series import ...`` costs a few µs each
+    time, a good part of converting a job's 300 doubles."""
+    from stook.sdk._series import to_polars
+
+    return to_polars
 
 
 @cache

@@ -38,6 +38,7 @@ from stook.sdk.aggregations._registry import (
 )
 from stook.sdk.aggregations._scalar_defaults import ScalarDefaults
 from stook.sdk.aggregations._scalar_stats import ScalarStats
+from stook.sdk.aggregations._series_map import SeriesByName
 from stook.sdk.aggregations._status_counts import (
     JOB_STATUSES,
     METRIC_STATUSES,
@@ -99,6 +100,7 @@ __all__ = [
     "ScalarColumn",
     "ScalarDefaults",
     "ScalarStats",
+    "SeriesByName",
     "SummaryError",
     "SummaryJob",
     "SummaryVersionError",

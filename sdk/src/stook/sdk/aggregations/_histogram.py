@@ -6,7 +6,7 @@ from __future__ import annotations
 import math
 import uuid
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Self
+from typing import TYPE_CHECKING, Any, Self
 
 from stook.sdk import _data
 from stook.sdk._buckets import Bucket, histogram_buckets
@@ -16,8 +16,10 @@ from stook.sdk.aggregations._base import Aggregation, Needs
 from stook.sdk.aggregations._errors import JobDataError
 from stook.sdk.aggregations._job_metrics import histogram_of
 from stook.sdk.aggregations._record import JobRecord
+from stook.sdk.aggregations._series_map import SeriesByName
 
 if TYPE_CHECKING:
+    import numpy as np
     import polars as pl
 
 DEFAULT_MAX_VALUES = 2_000_000
@@ -68,7 +70,10 @@ class MergedHistogram(Aggregation[JobRecord]):
     outside_counted: int = field(default=0, init=False)
     # In counts mode, values wait here and are binned _BIN_BATCH at a time: binning each
     # job's few hundred values alone cost a quarter of the client's CPU per request.
-    unbinned: list[pl.Series] = field(default_factory=list, init=False)
+    # A job's values come as a Series, or as numpy from a fetch (`SeriesByName.values_of`).
+    unbinned: list[pl.Series | np.ndarray[Any, np.dtype[np.float64]]] = field(
+        default_factory=list, init=False
+    )
     unbinned_values: int = field(default=0, init=False)
     dropped_nan: int = field(default=0, init=False)
     jobs: int = field(default=0, init=False)
@@ -147,16 +152,27 @@ class MergedHistogram(Aggregation[JobRecord]):
 
     def _flush(self) -> None:
         if self.unbinned:
-            import polars as pl
+            import numpy as np
 
             pending, self.unbinned, self.unbinned_values = self.unbinned, [], 0
-            self._bin(pl.concat(pending, rechunk=True))
+            # Counts do not depend on the order of the values: each kind is joined its own
+            # way (a Series' to_numpy each costs ~4x its share of one concat).
+            arrays = [p for p in pending if isinstance(p, np.ndarray)]
+            if arrays:
+                self._bin_values(np.concatenate(arrays))
+            if len(arrays) < len(pending):
+                import polars as pl
+
+                series = [p for p in pending if not isinstance(p, np.ndarray)]
+                self._bin(pl.concat(series, rechunk=True))
 
     def _bin(self, s: pl.Series) -> None:
+        self._bin_values(s.to_numpy())
+
+    def _bin_values(self, values: np.ndarray[Any, np.dtype[np.float64]]) -> None:
         import numpy as np
 
         assert self.bucket_counts is not None  # only called once binned
-        values = s.to_numpy()
         edges = self._edges()
         outside = (values < edges[0][0]) | (values > edges[-1][1])
         self.outside_counted += int(np.count_nonzero(outside))
@@ -178,13 +194,10 @@ class MergedHistogram(Aggregation[JobRecord]):
             self._bin(chunk)
 
     def _add(self, s: pl.Series) -> None:
-        self.total += s.len()
         if self.bucket_counts is not None:
-            self.unbinned.append(s)
-            self.unbinned_values += s.len()
-            if self.unbinned_values >= _BIN_BATCH:
-                self._flush()
+            self._add_unbinned(s)
             return
+        self.total += s.len()
         self.chunks.append(s)
         if len(self.chunks) >= _CONSOLIDATE_AT:
             import polars as pl
@@ -194,7 +207,41 @@ class MergedHistogram(Aggregation[JobRecord]):
         if self.total > self.max_values:
             self._switch_to_counts()
 
+    def _add_unbinned(self, values: pl.Series | np.ndarray[Any, np.dtype[np.float64]]) -> None:
+        self.total += len(values)
+        self.unbinned.append(values)
+        self.unbinned_values += len(values)
+        if self.unbinned_values >= _BIN_BATCH:
+            self._flush()
+
+    def _add_values(self, values: np.ndarray[Any, np.dtype[np.float64]]) -> None:
+        """`update` for a job's values as numpy (no nulls, Float64): as `_add` of their
+        series with the NaNs dropped, without the polars Series while in counts mode."""
+        self.jobs += 1
+        # The sum of squares is NaN exactly when a value is (its terms are never -inf),
+        # and a dot product costs less than a sum: ~1-2 µs for a job's 300 values.
+        if math.isnan(values.dot(values)):
+            import numpy as np
+
+            nan = np.isnan(values)
+            nans = int(np.count_nonzero(nan))
+            if nans:
+                self.dropped_nan += nans
+                values = values[~nan]
+        if self.bucket_counts is not None:
+            self._add_unbinned(values)
+            return
+        import polars as pl
+
+        assert self.data is not None
+        self._add(pl.Series(self.data, values))
+
     def update(self, job: JobRecord) -> None:
+        if self.data is not None and isinstance(job.series, SeriesByName):
+            values = job.series.values_of(self.data)
+            if values is not None:
+                self._add_values(values)
+                return
         if self.metric is not None:
             found = histogram_of(job, self.metric)
             if found is None:

@@ -58,8 +58,9 @@ class JobRecord:
 
     `scalars` holds every SCALAR job metric by name; `series` holds the plain (not per
     category) double metrics data the aggregation plan asked for, by data name, as
-    Float64; `data` holds every metrics data the plan asked for (`Needs.data`), of any
-    kind, as typed views that keep indexes and category names; `metric_statuses` holds
+    Float64 (batch mode hands a `SeriesByName`, which makes each on first access);
+    `data` holds every metrics data the plan asked for (`Needs.data`), of any kind, as
+    typed views that keep indexes and category names; `metric_statuses` holds
     the status of every job metric, scalar or not. `job_metrics` holds the metrics the
     plan named (`Needs.metrics`, or all of them for `Needs.every_metric`) with the data
     they reference, read as one `JobMetricsView`; None when the plan named none.

@@ -19,6 +19,8 @@ __all__ = ["decoders_ready", "start_importing"]
 
 _MODULES = ("numpy", "polars")
 _importing: asyncio.Future[None] | None = None
+# Set once both are seen imported: every job with a series asks, and once is enough.
+_ready = False
 
 
 def _loaded(name: str) -> bool:
@@ -44,7 +46,11 @@ def start_importing() -> None:
 
 async def decoders_ready() -> None:
     """Return once polars and numpy are imported, without blocking the event loop."""
+    global _ready
+    if _ready:
+        return
     if all(_loaded(name) for name in _MODULES):
+        _ready = True
         return
     start_importing()
     assert _importing is not None

@@ -29,7 +29,7 @@ from stook.sdk import (
     read_metric,
     read_metrics_data,
 )
-from stook.sdk.aggregations import Needs
+from stook.sdk.aggregations import Needs, SeriesByName
 from stook.service.api import ApiMetric, ApiMetricsData, StorageClient
 from stook.service.fetch._decoders import decoders_ready
 from stook.service.fetch._presigned import fetch_listed
@@ -80,8 +80,11 @@ class JobBlobs:
         self._data = data
         self._relist_metrics = relist_metrics
         self._relist_data = relist_data
-        self._listed = {d.data_id: d for d in data if d.is_standard}
-        self._files = {d.data_id: d for d in data if not d.is_standard}
+        # One pass: a job lists a dozen data, and this runs for every job.
+        self._listed: dict[uuid.UUID, ApiMetricsData] = {}
+        self._files: dict[uuid.UUID, ApiMetricsData] = {}
+        for d in data:
+            (self._listed if d.is_standard else self._files)[d.data_id] = d
         self._views: dict[uuid.UUID, MetricsDataView] = {}
 
     @property
@@ -127,7 +130,7 @@ class JobBlobs:
                 await self._download_all(self._resolve(missing, index=True))
                 pending = list(missing)
         data: dict[str, MetricsDataView] = {}
-        series: dict[str, pl.Series] = {}
+        doubles: dict[str, MetricsDataView] = {}
         if any(self._views[item.data_id].kind is SeriesKind.DOUBLE for item in named):
             await decoders_ready()  # polars, imported off the loop's thread
         for item in named:
@@ -136,14 +139,17 @@ class JobBlobs:
                 view = view.with_index(self._views[view.index_id])
             data[item.name] = view
             # Per-category data keeps its categories in `data`: no single series of it.
+            # Made into polars Series only when an aggregation asks (see `SeriesByName`).
             if view.kind is SeriesKind.DOUBLE and not view.per_category:
-                series[item.name] = _series(view)
+                doubles[item.name] = view
         job_metrics = None
         if self.wants_metrics:
             job_metrics = self._job_metrics(metric_views)
-        return JobBlobsResult(data=data, series=series, job_metrics=job_metrics)
+        return JobBlobsResult(data=data, series=SeriesByName(doubles), job_metrics=job_metrics)
 
     def _wanted_metrics(self) -> list[ApiMetric]:
+        if not self.wants_metrics:
+            return []  # the common plan: data by name only; no need to ask per metric
         wanted: list[ApiMetric] = []
         for metric in self._metrics:
             if not self._needs.wants_metric(metric.name):
@@ -282,13 +288,6 @@ async def _gather(*awaitables: Awaitable[_T]) -> list[_T]:
     if not awaitables:
         return []
     return list(await asyncio.gather(*awaitables))
-
-
-def _series(view: MetricsDataView) -> pl.Series:
-    try:
-        return view.series()
-    except ReadError as exc:
-        raise InvalidDataError(str(exc)) from None
 
 
 def decode_values(payload: bytes, *, source: str) -> pl.Series:
