@@ -10,6 +10,7 @@ from collections.abc import Mapping
 from typing import Any
 
 import pytest
+from aiohttp import hdrs
 from multidict import CIMultiDict, CIMultiDictProxy
 from tenacity import wait_none
 from yarl import URL
@@ -305,6 +306,22 @@ async def test_timeout_is_retried(server: ScriptedServer, sleep: RecordingSleep)
     async with client(server, policy) as api:
         await api.get_batch(PROJECT, BATCH)
     assert len(server.hits(BATCH_PATH)) == 2
+
+
+async def test_a_cookie_an_answer_sets_is_not_sent_back(
+    server: ScriptedServer, fast_policy: RetryPolicy
+) -> None:
+    server.script(
+        BATCH_PATH,
+        answer(200, json.dumps(batch_json()).encode(), headers={"Set-Cookie": "session=abc"}),
+        answer_json(batch_json()),
+    )
+    # By name: aiohttp's default jar keeps no cookie from an IP address.
+    by_name = server.base_url.replace("127.0.0.1", "localhost")
+    async with ApiClient(by_name, TOKEN, retry=fast_policy) as api:
+        await api.get_batch(PROJECT, BATCH)
+        await api.get_batch(PROJECT, BATCH)
+    assert [hdrs.COOKIE in seen.headers for seen in server.hits(BATCH_PATH)] == [False, False]
 
 
 async def test_a_timeout_takes_back_the_cancellation_it_sent(

@@ -191,6 +191,9 @@ class HttpTransport:
             trust_env=False,
             proxy=self._proxy,
             auto_decompress=True,
+            # No API or presigned storage request needs a cookie: none is kept, so none
+            # can travel to another host or request.
+            cookie_jar=aiohttp.DummyCookieJar(),
         )
 
     async def __aexit__(
