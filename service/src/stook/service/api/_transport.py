@@ -270,14 +270,14 @@ class HttpTransport:
 
         What ``asyncio.timeout`` does, with a timer of its own instead of a Timeout object
         entered and left through two coroutines and rescheduled (~2 µs a request): when the
-        timer fires it cancels this task, and the cancellation it caused, and only that
-        one, becomes a TimeoutError.
+        timer fires it cancels this task, and the cancellation it sent, and only that one,
+        becomes a TimeoutError.
         """
         task = asyncio.current_task()
         assert task is not None  # a transport is used from a task
         cancelling = task.cancelling()
         deadline = _Deadline(task)
-        loop = asyncio.get_running_loop()
+        loop = task.get_loop()
         timer = loop.call_at(loop.time() + self._timeout, deadline.expire)
         try:
             async with session.get(
@@ -304,7 +304,7 @@ class HttpTransport:
                     raise IncompleteBodyError(
                         method="GET", url=answer.url, received=len(body), expected=expected
                     )
-                return Response(
+                response = Response(
                     status=answer.status, headers=answer.headers, body=body, url=answer.url
                 )
         except BaseException as exc:
@@ -317,8 +317,12 @@ class HttpTransport:
             ):
                 raise TimeoutError from None
             raise
+        else:
+            if deadline.expired:  # fired, but the cancellation never arrived
+                task.uncancel()
         finally:
             timer.cancel()
+        return response
 
     def _read_at_once(self, answer: aiohttp.ClientResponse) -> bool:
         """Whether the whole body may be read in one call; BodyTooLargeError if it declares
