@@ -10,7 +10,7 @@ from collections.abc import Mapping
 from typing import Any
 
 import pytest
-from aiohttp import hdrs
+from aiohttp import hdrs, web
 from multidict import CIMultiDict, CIMultiDictProxy
 from tenacity import wait_none
 from yarl import URL
@@ -341,11 +341,17 @@ async def test_a_timeout_takes_back_the_cancellation_it_sent(
 async def test_a_request_cancelled_from_outside_stays_cancelled(
     server: ScriptedServer, fast_policy: RetryPolicy
 ) -> None:
-    server.script(BATCH_PATH, answer(200, delay=1.0))
+    arrived = asyncio.Event()
+
+    async def respond_late(_request: web.Request) -> web.StreamResponse:
+        arrived.set()
+        await asyncio.sleep(1.0)
+        return web.Response()
+
+    server.script(BATCH_PATH, respond_late)
     async with client(server, fast_policy) as api:
         fetch = asyncio.create_task(api.get_batch(PROJECT, BATCH))
-        while not server.hits(BATCH_PATH):
-            await asyncio.sleep(0.01)
+        await arrived.wait()
         fetch.cancel()
         with pytest.raises(asyncio.CancelledError):
             await fetch
