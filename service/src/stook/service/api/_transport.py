@@ -96,7 +96,8 @@ class Transport(Protocol):
 
     A client takes one as ``transport=`` (as httpx takes ``transport=`` and aiohttp
     ``connector=``); it opens it, sends its GETs through it and closes it. ``stats`` are
-    the counters the client reports (the retry loop adds its retries there).
+    the counters the client reports (the retry loop adds its retries there). The API
+    client sends each request's query in its URL, not as ``params``.
     """
 
     stats: TransferStats
