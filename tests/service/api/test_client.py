@@ -10,6 +10,7 @@ from collections.abc import Mapping
 from typing import Any
 
 import pytest
+from aiohttp import hdrs, web
 from multidict import CIMultiDict, CIMultiDictProxy
 from tenacity import wait_none
 from yarl import URL
@@ -307,6 +308,56 @@ async def test_timeout_is_retried(server: ScriptedServer, sleep: RecordingSleep)
     assert len(server.hits(BATCH_PATH)) == 2
 
 
+async def test_a_cookie_an_answer_sets_is_not_sent_back(
+    server: ScriptedServer, fast_policy: RetryPolicy
+) -> None:
+    server.script(
+        BATCH_PATH,
+        answer(200, json.dumps(batch_json()).encode(), headers={"Set-Cookie": "session=abc"}),
+        answer_json(batch_json()),
+    )
+    # By name: aiohttp's default jar keeps no cookie from an IP address.
+    by_name = server.base_url.replace("127.0.0.1", "localhost")
+    async with ApiClient(by_name, TOKEN, retry=fast_policy) as api:
+        await api.get_batch(PROJECT, BATCH)
+        await api.get_batch(PROJECT, BATCH)
+    assert [hdrs.COOKIE in seen.headers for seen in server.hits(BATCH_PATH)] == [False, False]
+
+
+async def test_a_timeout_takes_back_the_cancellation_it_sent(
+    server: ScriptedServer, sleep: RecordingSleep
+) -> None:
+    policy = RetryPolicy(backoff=wait_none(), sleep=sleep, request_timeout=0.1)
+    server.script(BATCH_PATH, answer(200, delay=1.0), answer_json(batch_json()))
+    async with client(server, policy) as api:
+        await api.get_batch(PROJECT, BATCH)
+        task = asyncio.current_task()
+        assert task is not None
+        # A cancellation left counted would turn the caller's next timeout into a
+        # CancelledError.
+        assert task.cancelling() == 0
+
+
+async def test_a_request_cancelled_from_outside_stays_cancelled(
+    server: ScriptedServer, fast_policy: RetryPolicy
+) -> None:
+    arrived = asyncio.Event()
+
+    async def respond_late(_request: web.Request) -> web.StreamResponse:
+        arrived.set()
+        await asyncio.sleep(1.0)
+        return web.Response()
+
+    server.script(BATCH_PATH, respond_late)
+    async with client(server, fast_policy) as api:
+        fetch = asyncio.create_task(api.get_batch(PROJECT, BATCH))
+        await arrived.wait()
+        fetch.cancel()
+        with pytest.raises(asyncio.CancelledError):
+            await fetch
+    assert len(server.hits(BATCH_PATH)) == 1
+
+
 @pytest.mark.parametrize(
     ("status", "error"),
     [(400, ApiStatusError), (401, AuthError), (403, AuthError), (404, NotFoundError)],
@@ -431,8 +482,11 @@ async def test_a_transport_passed_in_carries_every_api_request(fast_policy: Retr
         assert transport.opened
     assert transport.closed
     assert [job.job_id for job in jobs] == [uuid.UUID(int=1), uuid.UUID(int=2)]
-    assert [str(url) for url, _ in transport.sent] == [f"https://api.example.com{JOBS_PATH}"] * 2
-    assert [query.get("pageToken") for _, query in transport.sent] == [None, "p2"]
+    # The query comes in the URL, built by the client (see ApiClient._url).
+    assert [str(url.with_query(None)) for url, _ in transport.sent] == [
+        f"https://api.example.com{JOBS_PATH}"
+    ] * 2
+    assert [url.query.get("pageToken") for url, _ in transport.sent] == [None, "p2"]
     assert api.stats is transport.stats
     assert api.stats.requests == 2
 
@@ -595,3 +649,30 @@ async def test_storage_transport_refuses_a_per_request_authorization_header(
         with pytest.raises(RuntimeError, match="refusing to send Authorization"):
             await transport.get(URL(server.url("/obj")), headers={"Authorization": "Bearer x"})
     assert server.seen == []
+
+
+@pytest.mark.parametrize(
+    ("path", "params"),
+    [
+        (f"/projects/{PROJECT}/batches/{BATCH}/jobs", {"pageSize": 100}),
+        (f"projects/{PROJECT}/jobs", {"pageSize": 100, "pageToken": "AbC-1_2.3~"}),
+        (f"/projects/{PROJECT}/batches", {"pageSize": 5, "search": "name = 'a b' AND x"}),
+        ("/projects/a b/ü", {"pageToken": "p/2=+&x%41"}),
+        ("/projects/../x/./y", None),
+        ("/projects/x%2Fy", {"name": "ü"}),
+        ("/projects/x", {"pageSize": 1, "pageToken": ""}),
+        ("/projects//x/", {}),
+    ],
+)
+@pytest.mark.parametrize("base", ["https://api.example.com/v1", "https://api.example.com/a%20b/"])
+def test_a_url_written_out_is_the_url_yarl_would_build(
+    base: str, path: str, params: dict[str, str | int] | None
+) -> None:
+    api = ApiClient(base, TOKEN)
+    quoted = URL(str(URL(base)).rstrip("/") + "/" + path.lstrip("/"))
+    expected = quoted.extend_query(params) if params else quoted
+    got = api._url(path, params)
+    assert got == expected
+    assert str(got) == str(expected)
+    assert got.raw_path == expected.raw_path
+    assert got.raw_query_string == expected.raw_query_string

@@ -87,6 +87,31 @@ async def test_fixed_limit_bounds_requests_in_flight() -> None:
     await third
 
 
+async def test_a_fixed_limit_serves_waiters_in_order_and_passes_on_a_cancelled_slot() -> None:
+    limit = FixedLimit(1)
+    await limit.acquire()
+    first = asyncio.ensure_future(limit.acquire())
+    second = asyncio.ensure_future(limit.acquire())
+    third = asyncio.ensure_future(limit.acquire())
+    await asyncio.sleep(0)
+    # The slot goes to the first waiter, which is cancelled before it could use it: the
+    # slot passes on to the next one instead of being lost.
+    limit.release(200, 0.01)
+    first.cancel()
+    await asyncio.sleep(0)
+    assert first.cancelled()
+    await second
+    assert not third.done()
+    # A waiter cancelled while still waiting just leaves the queue.
+    third.cancel()
+    await asyncio.sleep(0)
+    limit.release(200, 0.01)
+    assert limit.stats.in_flight == 0
+    assert limit.stats.acquisitions == 2
+    await limit.acquire()
+    assert limit.stats.in_flight == 1
+
+
 async def test_a_fixed_limit_counts_slots_waits_and_throttle_trips() -> None:
     clock = Clock()
     limit = FixedLimit(1, clock=clock)

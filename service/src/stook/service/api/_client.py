@@ -8,6 +8,7 @@ token cannot follow a presigned URL (or a redirect from one) to another host.
 from __future__ import annotations
 
 import json
+import re
 import uuid
 from collections.abc import AsyncIterator, Callable, Mapping
 from types import TracebackType
@@ -68,6 +69,10 @@ _BATCH_DATA = metrics_data_parser(MetricOwner.BATCH)
 DEFAULT_PAGE_SIZE: Final = 100
 # What one API answer (a JSON page) may hold, decompressed.
 DEFAULT_MAX_API_BODY_MB: Final = 16.0
+# A path, and a query key or value, that yarl would neither quote nor normalise: such a URL
+# is written out as text and parsed as already encoded (see ApiClient._url).
+_PLAIN_PATH: Final = re.compile(r"[A-Za-z0-9_/-]*")
+_PLAIN_QUERY: Final = re.compile(r"[A-Za-z0-9_.~-]*")
 
 
 class ApiClient:
@@ -204,13 +209,13 @@ class ApiClient:
         self, path: str, params: Mapping[str, str | int] | None = None
     ) -> dict[str, Any]:
         """GET ``path`` (relative to the base URL) and return its JSON object."""
-        url = self._url(path)
+        url = self._url(path, params)
         response = await call_with_retries(
-            lambda: self._get_once(url, params),
+            lambda: self._get_once(url),
             self._policy,
             stats=self.stats,
             method="GET",
-            url=str(url),
+            url=url,
             gate=self.gate,
         )
         try:
@@ -374,15 +379,45 @@ class ApiClient:
         async for item in self.paginate(path, items_key, params, on_total=on_total):
             yield parse(item)
 
-    def _url(self, path: str) -> URL:
-        # Joined as text: yarl's join() would drop the base path ("/v1") for "/projects/...".
-        return URL(self._base_text + "/" + path.lstrip("/"))
+    def _url(self, path: str, params: Mapping[str, str | int] | None = None) -> URL:
+        """The URL of `path` under the base URL, with `params` as its query.
 
-    async def _get_once(self, url: URL, params: Mapping[str, str | int] | None) -> Response:
-        response = await self._transport.get(url, params=params)
+        Joined as text: yarl's join() would drop the base path ("/v1") for "/projects/...".
+        A path of UUIDs and names, with a query of numbers and plain page tokens (every
+        request of a run, in practice), is written out and parsed as already encoded: the
+        same URL that quoting it and adding the query would make, for a quarter of the
+        CPU (yarl's extend_query alone costs more than the parse).
+        """
+        path = path.lstrip("/")
+        text = self._base_text + "/" + path
+        if _PLAIN_PATH.fullmatch(path) is not None:
+            query = _plain_query(params) if params else ""
+            if query is not None:
+                return URL(text + query, encoded=True)
+        url = URL(text)
+        return url.extend_query(params) if params else url
+
+    async def _get_once(self, url: URL) -> Response:
+        response = await self._transport.get(url)
         if response.ok:
             return response
         raise _api_error(response, self._base.origin())
+
+
+def _plain_query(params: Mapping[str, str | int]) -> str | None:
+    """``?key=value&...`` when no key or value needs quoting, else None."""
+    parts = []
+    for key, value in params.items():
+        if type(value) is int:
+            text = str(value)
+        elif type(value) is str and _PLAIN_QUERY.fullmatch(value) is not None:
+            text = value
+        else:
+            return None
+        if _PLAIN_QUERY.fullmatch(key) is None:
+            return None
+        parts.append(f"{key}={text}")
+    return "?" + "&".join(parts)
 
 
 def _loads(body: bytes) -> Any:

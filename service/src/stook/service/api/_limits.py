@@ -124,7 +124,10 @@ class FixedLimit:
             raise ValueError(f"concurrency must be at least 1, got {limit}")
         self.limit = limit
         self.in_flight = 0
-        self._slots = asyncio.Semaphore(limit)
+        # Waiting requests, first come first served; a slot is handed straight to the
+        # first. Not an asyncio.Semaphore: its acquire is one more coroutine per request,
+        # and asks twice whether it is locked.
+        self._waiters: deque[asyncio.Future[None]] = deque()
         self._counts = _Counters(peak_limit=limit)
         self._hold = hold
         self._clock = clock
@@ -145,15 +148,26 @@ class FixedLimit:
         )
 
     async def acquire(self) -> None:
-        if self._slots.locked():
-            self._counts.waits += 1
-        await self._slots.acquire()
-        self.in_flight += 1
-        self._counts.acquisitions += 1
+        if self.in_flight < self.limit and not self._waiters:
+            self.in_flight += 1
+            self._counts.acquisitions += 1
+            return
+        self._counts.waits += 1
+        waiter: asyncio.Future[None] = asyncio.get_running_loop().create_future()
+        self._waiters.append(waiter)
+        try:
+            await waiter  # handed a slot, already counted in flight (see _hand_over)
+        except BaseException:
+            # Cancelled after being handed a slot: pass it on rather than leak it.
+            if waiter.done() and not waiter.cancelled():
+                self._counts.acquisitions -= 1
+                self._hand_over()
+            else:
+                self._waiters.remove(waiter)
+            raise
 
     def release(self, status: int | None, seconds: float) -> None:
-        self.in_flight -= 1
-        self._slots.release()
+        self._hand_over()
         if status is not None and status in THROTTLE_STATUSES:
             counts = self._counts
             counts.throttled += 1
@@ -161,6 +175,17 @@ class FixedLimit:
             if now - self._last_throttle > self._hold:
                 counts.trips += 1
             self._last_throttle = now
+
+    def _hand_over(self) -> None:
+        """Give a freed slot to the first request still waiting, or free it."""
+        waiters = self._waiters
+        while waiters:
+            waiter = waiters.popleft()
+            if not waiter.done():
+                self._counts.acquisitions += 1
+                waiter.set_result(None)
+                return
+        self.in_flight -= 1
 
 
 class NestedLimit:

@@ -123,7 +123,7 @@ def _new_retrying(
     *,
     stats: TransferStats,
     method: str,
-    url: str,
+    url: str | URL,
 ) -> AsyncRetrying:
     """A fresh :class:`AsyncRetrying` for one request.
 
@@ -165,7 +165,7 @@ def _new_retrying(
 def _observe(
     gate: OriginGate,
     exc: BaseException,
-    url: str,
+    url: str | URL,
     policy: RetryPolicy,
     *,
     request: object,
@@ -194,7 +194,7 @@ async def call_with_retries(
     *,
     stats: TransferStats,
     method: str,
-    url: str,
+    url: str | URL,
     gate: OriginGate | None = None,
 ) -> _T:
     """Await ``attempt()`` until it succeeds, fails for good, or its time budget is spent.
@@ -284,7 +284,7 @@ async def call_with_retries(
 
 
 def _give_up(
-    budget: _Budget, last: BaseException | None, attempts: int, *, method: str, url: str
+    budget: _Budget, last: BaseException | None, attempts: int, *, method: str, url: str | URL
 ) -> Exception:
     """The error that ends a request whose retries stopped (see :class:`_Stop`)."""
     policy = budget.policy

@@ -116,12 +116,12 @@ class StorageClient:
     async def _fetch_once(self, url: URL) -> bytes:
         for _hop in range(_MAX_STORAGE_REDIRECTS + 1):
             response = await self._transport.get(url)
+            if response.ok:
+                return response.body
             location = response.headers.get(hdrs.LOCATION)
             if response.status in _REDIRECT_STATUSES and location:
                 url = url.join(URL(location, encoded=True))
                 continue
-            if response.ok:
-                return response.body
             raise _storage_error(response)
         raise StorageError(
             f"more than {_MAX_STORAGE_REDIRECTS} redirects from object storage", url=url

@@ -96,7 +96,8 @@ class Transport(Protocol):
 
     A client takes one as ``transport=`` (as httpx takes ``transport=`` and aiohttp
     ``connector=``); it opens it, sends its GETs through it and closes it. ``stats`` are
-    the counters the client reports (the retry loop adds its retries there).
+    the counters the client reports (the retry loop adds its retries there). The API
+    client sends each request's query in its URL, not as ``params``.
     """
 
     stats: TransferStats
@@ -191,6 +192,9 @@ class HttpTransport:
             trust_env=False,
             proxy=self._proxy,
             auto_decompress=True,
+            # No API or presigned storage request needs a cookie: none is kept, so none
+            # can travel to another host or request.
+            cookie_jar=aiohttp.DummyCookieJar(),
         )
 
     async def __aexit__(
@@ -225,8 +229,7 @@ class HttpTransport:
         status: int | None = None
         try:
             self.stats.requests += 1
-            async with asyncio.timeout(self._timeout):
-                response = await self._send(session, url, params, headers)
+            response = await self._send_within_timeout(session, url, params, headers)
             status = response.status
         except TimeoutError:
             raise TransportError(
@@ -257,53 +260,97 @@ class HttpTransport:
             )
         return response
 
-    async def _send(
+    async def _send_within_timeout(
         self,
         session: aiohttp.ClientSession,
         url: URL,
         params: Mapping[str, str | int] | None,
         headers: Mapping[str, str] | None,
     ) -> Response:
-        async with session.get(
-            url,
-            params=params,
-            headers=headers,
-            allow_redirects=self._follow_redirects,
-            max_redirects=_MAX_API_REDIRECTS,
-        ) as answer:
-            body = await self._read_body(answer)
-            expected = answer.content_length
-            # With Content-Encoding the header counts compressed bytes, not what read() gives.
-            if (
-                expected is not None
-                and len(body) < expected
-                and hdrs.CONTENT_ENCODING not in answer.headers
-                and answer.status not in _NO_BODY_STATUSES
-            ):
-                raise IncompleteBodyError(
-                    method="GET", url=answer.url, received=len(body), expected=expected
-                )
-            return Response(status=answer.status, headers=answer.headers, body=body, url=answer.url)
+        """Send the GET and read its body, or TimeoutError once the timeout has passed.
 
-    async def _read_body(self, answer: aiohttp.ClientResponse) -> bytes:
+        What ``asyncio.timeout`` does, with a timer of its own instead of a Timeout object
+        entered and left through two coroutines and rescheduled (~2 µs a request): when the
+        timer fires it cancels this task, and the cancellation it sent, and only that one,
+        becomes a TimeoutError.
+        """
+        task = asyncio.current_task()
+        assert task is not None  # a transport is used from a task
+        cancelling = task.cancelling()
+        deadline = _Deadline(task)
+        loop = task.get_loop()
+        timer = loop.call_at(loop.time() + self._timeout, deadline.expire)
+        try:
+            async with session.get(
+                url,
+                params=params,
+                headers=headers,
+                allow_redirects=self._follow_redirects,
+                max_redirects=_MAX_API_REDIRECTS,
+            ) as answer:
+                if self._read_at_once(answer):
+                    body = await answer.read()
+                else:
+                    assert self._body_cap is not None  # only a capped body is read in chunks
+                    body = await self._read_capped(answer, self._body_cap)
+                expected = answer.content_length
+                # With Content-Encoding the header counts compressed bytes, not what read()
+                # gives.
+                if (
+                    expected is not None
+                    and len(body) < expected
+                    and hdrs.CONTENT_ENCODING not in answer.headers
+                    and answer.status not in _NO_BODY_STATUSES
+                ):
+                    raise IncompleteBodyError(
+                        method="GET", url=answer.url, received=len(body), expected=expected
+                    )
+                response = Response(
+                    status=answer.status, headers=answer.headers, body=body, url=answer.url
+                )
+        except BaseException as exc:
+            # As asyncio.timeout: take back the cancellation the timer sent, and make it a
+            # TimeoutError unless the task was also cancelled from outside.
+            if (
+                deadline.expired
+                and task.uncancel() <= cancelling
+                and isinstance(exc, asyncio.CancelledError)
+            ):
+                raise TimeoutError from None
+            raise
+        else:
+            if deadline.expired:  # fired, but the cancellation never arrived
+                task.uncancel()
+        finally:
+            timer.cancel()
+        return response
+
+    def _read_at_once(self, answer: aiohttp.ClientResponse) -> bool:
+        """Whether the whole body may be read in one call; BodyTooLargeError if it declares
+        more than the cap.
+
+        aiohttp reads no more than a declared, unencoded length, so within the cap such a
+        body is read at once, without a chunk loop (or a coroutine of its own).
+        """
+        cap = self._body_cap
+        if cap is None:
+            return True
+        declared = answer.content_length
+        if declared is None or hdrs.CONTENT_ENCODING in answer.headers:
+            return False
+        if declared > cap.max_bytes:
+            answer.close()  # not worth reading: drop the connection instead
+            raise BodyTooLargeError(
+                method="GET", url=answer.url, cap=cap.max_bytes, setting=cap.setting
+            )
+        return True
+
+    async def _read_capped(self, answer: aiohttp.ClientResponse, cap: BodyCap) -> bytes:
         """The whole body, or BodyTooLargeError once more than the cap has arrived.
 
         aiohttp decompresses as it streams, so what is counted here is the decompressed
         size: a small gzip answer that inflates without end is stopped at the cap too.
         """
-        cap = self._body_cap
-        if cap is None:
-            return await answer.read()
-        declared = answer.content_length
-        if declared is not None and hdrs.CONTENT_ENCODING not in answer.headers:
-            if declared > cap.max_bytes:
-                answer.close()  # not worth reading: drop the connection instead
-                raise BodyTooLargeError(
-                    method="GET", url=answer.url, cap=cap.max_bytes, setting=cap.setting
-                )
-            # aiohttp reads no more than a declared, unencoded length: within the cap, the
-            # whole body is read at once, without a chunk loop.
-            return await answer.read()
         chunks: list[bytes] = []
         size = 0
         async for chunk in answer.content.iter_any():
@@ -334,6 +381,21 @@ class HttpTransport:
             # aiohttp would turn user info into a Basic Authorization header.
             return url.with_user(None)
         return url
+
+
+class _Deadline:
+    """The per-attempt timer's target: it cancels the attempt's task, and remembers that it
+    did, so that only that cancellation becomes a TimeoutError."""
+
+    __slots__ = ("expired", "task")
+
+    def __init__(self, task: asyncio.Task[object]) -> None:
+        self.task = task
+        self.expired = False
+
+    def expire(self) -> None:
+        self.expired = True
+        self.task.cancel()
 
 
 def _env_proxy(url: URL) -> URL | None:
