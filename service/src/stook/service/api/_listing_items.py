@@ -18,7 +18,7 @@ import uuid
 from collections.abc import Callable, Mapping
 from typing import Any, Final
 
-from stook.service.api._fields import parse_rfc3339, parse_uuid
+from stook.service.api._fields import new_uuid, parse_rfc3339, parse_uuid
 from stook.service.api._models import (
     ApiMetric,
     ApiMetricsData,
@@ -141,7 +141,7 @@ def _metric(data: Mapping[str, Any], owner: MetricOwner) -> ApiMetric | None:
             return None
         # In field order; the same checks as ApiMetric.from_json.
         return _new_metric(
-            uuid.UUID(metric_id),  # unique per item: not worth a place in the ID cache
+            new_uuid(metric_id),  # unique per item: not worth a place in the ID cache
             _text(get("name")) or "",
             kind,
             status,
