@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import pickle
 import uuid
 from typing import Any
 
@@ -248,3 +249,19 @@ def test_a_data_id_listed_by_a_metric_is_one_object() -> None:
     data = metrics_data_parser(MetricOwner.JOB)(DATA)
     assert data.data_id == metric.data_ids[0]
     assert data.data_id is metric.data_ids[0]
+
+
+def test_fast_items_are_the_frozen_dataclasses_themselves() -> None:
+    # Built as a writable twin, then made the model's class: nothing of the twin remains.
+    for parse, data, model in (
+        (metric_parser(MetricOwner.JOB), METRIC, ApiMetric),
+        (metrics_data_parser(MetricOwner.JOB), DATA, ApiMetricsData),
+    ):
+        item = parse(data)
+        assert type(item) is model
+        assert hash(item) == hash(model.from_json(data, owner=MetricOwner.JOB))
+        copy = pickle.loads(pickle.dumps(item))
+        assert type(copy) is model
+        same(copy, item)
+        with pytest.raises(dataclasses.FrozenInstanceError):
+            item.name = "renamed"  # type: ignore[misc]

@@ -37,31 +37,25 @@ _NO_STATUS: Final = ApiMetricStatus.NO_STATUS_REPORTED
 _STANDARD: Final = MetricsDataStorageType.STANDARD
 
 
-def _slot_setters(cls: type) -> tuple[Callable[[object, object], None], ...]:
-    # The slots' own descriptors, in field order: setting them is what a frozen dataclass's
-    # __init__ does through object.__setattr__, at half the cost.
-    return tuple(cls.__dict__[f.name].__set__ for f in dataclasses.fields(cls))
+def _writable_twin(cls: type) -> type:
+    """A plain class with ``cls``'s slots: an item is written as one of these and then made
+    a ``cls`` by assigning its ``__class__`` (allowed between classes of the same layout).
+
+    Its slot writes are plain attribute stores, which the interpreter specializes; a frozen
+    dataclass's ``__init__`` goes through ``object.__setattr__`` for each field, and the
+    slots' own descriptors, called, cost a method call each. A metric item: 1.19 µs to
+    build that way, 0.47 µs this way. Equality, hashing, ``repr`` and pickling are the
+    dataclass's own: the object is a ``cls`` like any other.
+    """
+    slots = cls.__dict__["__slots__"]
+    if tuple(slots) != tuple(f.name for f in dataclasses.fields(cls)):
+        raise TypeError(f"{cls.__name__}: its slots are not its fields")
+    return type(f"_Writable{cls.__name__}", (), {"__slots__": slots})
 
 
-# Written out, not looped over: a loop over the setters cost a third of the gain.
-(_m0, _m1, _m2, _m3, _m4, _m5, _m6, _m7, _m8, _m9, _m10, _m11, _m12) = _slot_setters(ApiMetric)
-(_d0, _d1, _d2, _d3, _d4, _d5, _d6, _d7, _d8) = _slot_setters(ApiMetricsData)
+_WritableMetric: Final = _writable_twin(ApiMetric)
+_WritableMetricsData: Final = _writable_twin(ApiMetricsData)
 _new = object.__new__
-
-
-def _new_metric(*v: Any) -> ApiMetric:
-    item: ApiMetric = _new(ApiMetric)
-    _m0(item, v[0]), _m1(item, v[1]), _m2(item, v[2]), _m3(item, v[3]), _m4(item, v[4])
-    _m5(item, v[5]), _m6(item, v[6]), _m7(item, v[7]), _m8(item, v[8]), _m9(item, v[9])
-    _m10(item, v[10]), _m11(item, v[11]), _m12(item, v[12])
-    return item
-
-
-def _new_metrics_data(*v: Any) -> ApiMetricsData:
-    item: ApiMetricsData = _new(ApiMetricsData)
-    _d0(item, v[0]), _d1(item, v[1]), _d2(item, v[2]), _d3(item, v[3]), _d4(item, v[4])
-    _d5(item, v[5]), _d6(item, v[6]), _d7(item, v[7]), _d8(item, v[8])
-    return item
 
 
 class _MalformedError(Exception):
@@ -139,22 +133,25 @@ def _metric(data: Mapping[str, Any], owner: MetricOwner) -> ApiMetric | None:
             event_metric = False
         elif type(event_metric) is not bool:
             return None
-        # In field order; the same checks as ApiMetric.from_json.
-        return _new_metric(
-            new_uuid(metric_id),  # unique per item: not worth a place in the ID cache
-            _text(get("name")) or "",
-            kind,
-            status,
-            value,
-            _text(get("unit")),
-            _text(get("metricURL")),
-            data_ids,
-            event_metric,
-            owner,
-            _opt_id(get("jobID")) if owner is MetricOwner.JOB else None,
-            _opt_id(get("batchID")),
-            _timestamp(get("creationTimestamp")),
-        )
+        # The same checks as ApiMetric.from_json, in its order: the first failure
+        # decides which error from_json then gives.
+        item: Any = _new(_WritableMetric)
+        item.metric_id = new_uuid(metric_id)  # unique per item: not worth the ID cache
+        item.name = _text(get("name")) or ""
+        item.type = kind
+        item.status = status
+        item.value = value
+        item.unit = _text(get("unit"))
+        item.metric_url = _text(get("metricURL"))
+        item.data_ids = data_ids
+        item.event_metric = event_metric
+        item.owner = owner
+        item.job_id = _opt_id(get("jobID")) if owner is MetricOwner.JOB else None
+        item.batch_id = _opt_id(get("batchID"))
+        item.creation_timestamp = _timestamp(get("creationTimestamp"))
+        item.__class__ = ApiMetric
+        metric: ApiMetric = item
+        return metric
     except (_MalformedError, ValueError, TypeError, AttributeError):
         return None
 
@@ -173,18 +170,20 @@ def _metrics_data(data: Mapping[str, Any], owner: MetricOwner) -> ApiMetricsData
         else:
             return None
         job = owner is MetricOwner.JOB
-        return _new_metrics_data(
-            # Through the ID cache: the job's metrics list it too (their dataIDs).
-            parse_uuid(data_id),
-            _text(get("name")) or "",
-            storage_type,
-            _text(get("metricsDataURL")),
-            _text(get("filename")),
-            owner,
-            _opt_id(get("jobID")) if job else None,
-            None if job else _opt_id(get("batchID")),
-            _timestamp(get("creationTimestamp")),
-        )
+        item: Any = _new(_WritableMetricsData)
+        # Through the ID cache: the job's metrics list it too (their dataIDs).
+        item.data_id = parse_uuid(data_id)
+        item.name = _text(get("name")) or ""
+        item.metrics_data_type = storage_type
+        item.metrics_data_url = _text(get("metricsDataURL"))
+        item.filename = _text(get("filename"))
+        item.owner = owner
+        item.job_id = _opt_id(get("jobID")) if job else None
+        item.batch_id = None if job else _opt_id(get("batchID"))
+        item.creation_timestamp = _timestamp(get("creationTimestamp"))
+        item.__class__ = ApiMetricsData
+        data_item: ApiMetricsData = item
+        return data_item
     except (_MalformedError, ValueError, TypeError, AttributeError):
         return None
 
