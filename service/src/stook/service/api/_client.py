@@ -25,7 +25,7 @@ from stook.service.api._errors import (
     RedirectedRefusalError,
 )
 from stook.service.api._limits import AimdLimiter, ConcurrencyLimit, FixedLimit, NestedLimit
-from stook.service.api._listing_items import metric_parser, metrics_data_parser
+from stook.service.api._listing_items import metric_parser, metrics_data_parser, read_job
 from stook.service.api._models import (
     ApiMetric,
     ApiMetricsData,
@@ -290,7 +290,7 @@ class ApiClient:
     ) -> AsyncIterator[Job]:
         """The jobs (tests) of a batch; ``on_total`` hears the listing's job count first."""
         path = f"/projects/{_id(project_id)}/batches/{_id(batch_id)}/jobs"
-        return self._list(path, "jobs", Job.from_json, on_total=on_total)
+        return self._list(path, "jobs", read_job, on_total=on_total)
 
     def list_job_metrics(
         self, project_id: IdLike, batch_id: IdLike, job_id: IdLike

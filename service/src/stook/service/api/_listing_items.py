@@ -24,15 +24,20 @@ from stook.service.api._models import (
     ApiMetricsData,
     ApiMetricStatus,
     ApiMetricType,
+    ConflatedJobStatus,
+    Job,
+    JobStatus,
     MetricOwner,
     MetricsDataStorageType,
 )
 
-__all__ = ["metric_parser", "metrics_data_parser"]
+__all__ = ["metric_parser", "metrics_data_parser", "read_job"]
 
 _TYPES: Final[Mapping[str, Any]] = ApiMetricType._value2member_map_
 _STATUSES: Final[Mapping[str, Any]] = ApiMetricStatus._value2member_map_
 _STORAGE_TYPES: Final[Mapping[str, Any]] = MetricsDataStorageType._value2member_map_
+_CONFLATED: Final[Mapping[str, Any]] = ConflatedJobStatus._value2member_map_
+_JOB_STATUSES: Final[Mapping[str, Any]] = JobStatus._value2member_map_
 _NO_STATUS: Final = ApiMetricStatus.NO_STATUS_REPORTED
 _STANDARD: Final = MetricsDataStorageType.STANDARD
 
@@ -55,6 +60,7 @@ def _writable_twin(cls: type) -> type:
 
 _WritableMetric: Final = _writable_twin(ApiMetric)
 _WritableMetricsData: Final = _writable_twin(ApiMetricsData)
+_WritableJob: Final = _writable_twin(Job)
 _new = object.__new__
 
 
@@ -66,6 +72,15 @@ def _text(value: object) -> str | None:
     """An optional string: "" and null read as None."""
     if type(value) is str:
         return value or None
+    if value is None:
+        return None
+    raise _MalformedError
+
+
+def _opt_choice(value: object, members: Mapping[str, Any]) -> Any:
+    """An optional open enumeration: its member, else its raw text; "" and null: None."""
+    if type(value) is str:
+        return members.get(value, value) if value else None
     if value is None:
         return None
     raise _MalformedError
@@ -186,6 +201,48 @@ def _metrics_data(data: Mapping[str, Any], owner: MetricOwner) -> ApiMetricsData
         return data_item
     except (_MalformedError, ValueError, TypeError, AttributeError):
         return None
+
+
+def _job(data: Mapping[str, Any]) -> Job | None:
+    get = data.get
+    try:
+        job_id = get("jobID")
+        if type(job_id) is not str or not job_id:
+            return None
+        parameters = get("parameters")
+        if type(parameters) is dict:
+            for key, value in parameters.items():
+                if type(value) is not str or type(key) is not str:
+                    return None
+            parameters = dict(parameters)  # a copy, as from_json's: the page is not kept
+        elif parameters is None or parameters == "":
+            parameters = {}
+        else:
+            return None
+        # The same checks as Job.from_json, in its order.
+        item: Any = _new(_WritableJob)
+        item.job_id = new_uuid(job_id)  # unique per job: not worth the ID cache
+        item.conflated_status = _opt_choice(get("conflatedStatus"), _CONFLATED)
+        item.job_status = _opt_choice(get("jobStatus"), _JOB_STATUSES)
+        item.job_metrics_status = _opt_choice(get("jobMetricsStatus"), _STATUSES)
+        item.batch_id = _opt_id(get("batchID"))
+        item.project_id = _opt_id(get("projectID"))
+        item.experience_id = _opt_id(get("experienceID"))
+        item.experience_name = _text(get("experienceName"))
+        item.build_id = _opt_id(get("buildID"))
+        item.creation_timestamp = _timestamp(get("creationTimestamp"))
+        item.parameters = parameters
+        item.__class__ = Job
+        job: Job = item
+        return job
+    except (_MalformedError, ValueError, TypeError, AttributeError):
+        return None
+
+
+def read_job(data: Mapping[str, Any]) -> Job:
+    """A jobs listing's item: the fast path, else ``Job.from_json``."""
+    item = _job(data) if type(data) is dict else None
+    return item if item is not None else Job.from_json(data)
 
 
 def metric_parser(owner: MetricOwner) -> Callable[[Mapping[str, Any]], ApiMetric]:
