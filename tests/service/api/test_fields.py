@@ -7,7 +7,7 @@ import uuid
 
 import pytest
 
-from stook.service.api._fields import new_uuid
+from stook.service.api._fields import new_uuid, uuid_text
 
 CANONICAL = "61fbd861-8d13-523b-9236-d0af9a8ecadb"
 
@@ -49,3 +49,20 @@ def test_what_is_no_id_fails_as_uuid_fails(text: object) -> None:
         new_uuid(text)  # type: ignore[arg-type]
     assert type(caught.value) is type(expected.value)
     assert str(caught.value) == str(expected.value)
+
+
+@pytest.mark.parametrize(
+    "ident", [uuid.UUID(CANONICAL), uuid.UUID(int=0), uuid.UUID(int=2**128 - 1)]
+)
+def test_an_id_is_written_as_str_writes_it(ident: uuid.UUID) -> None:
+    assert uuid_text(ident) == str(ident)
+    assert uuid_text(ident) == str(ident)  # remembered, still the same
+    assert uuid_text(uuid.UUID(int=ident.int ^ 1)) == str(uuid.UUID(int=ident.int ^ 1))
+
+
+def test_a_subclass_of_uuid_is_written_its_own_way() -> None:
+    class Short(uuid.UUID):
+        def __str__(self) -> str:
+            return "short"
+
+    assert uuid_text(Short(CANONICAL)) == "short"

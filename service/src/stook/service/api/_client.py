@@ -24,6 +24,7 @@ from stook.service.api._errors import (
     NotFoundError,
     RedirectedRefusalError,
 )
+from stook.service.api._fields import uuid_text
 from stook.service.api._limits import AimdLimiter, ConcurrencyLimit, FixedLimit, NestedLimit
 from stook.service.api._listing_items import metric_parser, metrics_data_parser, read_job
 from stook.service.api._models import (
@@ -404,7 +405,7 @@ def _loads(body: bytes) -> Any:
 def _id(value: IdLike) -> str:
     """An ID for a URL path; parsing it also keeps anything but a UUID out of the path."""
     if isinstance(value, uuid.UUID):
-        return str(value)
+        return uuid_text(value)
     try:
         return str(uuid.UUID(value))
     except (ValueError, AttributeError, TypeError):

@@ -17,7 +17,7 @@ from typing import Any, TypeVar
 
 from stook.service.api._errors import ApiResponseError
 
-__all__ = ["Fields", "new_uuid", "parse_rfc3339", "parse_uuid"]
+__all__ = ["Fields", "new_uuid", "parse_rfc3339", "parse_uuid", "uuid_text"]
 
 _E = TypeVar("_E", bound=enum.Enum)
 
@@ -51,6 +51,21 @@ def new_uuid(text: str) -> uuid.UUID:
             _set_is_safe(ident, _UNKNOWN_SAFETY)
             return ident
     return _UUID(text)
+
+
+@functools.lru_cache(maxsize=4_096)
+def _text_of(number: int) -> str:
+    return str(_UUID(int=number))
+
+
+def uuid_text(ident: uuid.UUID) -> str:
+    """``str(ident)``, remembered by the ID's number.
+
+    Every request's path names its project and batch, and a job's listings name the job
+    twice: formatting them each time (``UUID.__str__`` is Python code) cost five times a
+    look-up by the number, an int whose hash is computed in C (a UUID's is not).
+    """
+    return _text_of(ident.int) if type(ident) is _UUID else str(ident)
 
 
 # A listing repeats its job and batch IDs in every item; parsing each once saves a third of
