@@ -39,6 +39,7 @@ _STORAGE_TYPES: Final[Mapping[str, Any]] = MetricsDataStorageType._value2member_
 _CONFLATED: Final[Mapping[str, Any]] = ConflatedJobStatus._value2member_map_
 _JOB_STATUSES: Final[Mapping[str, Any]] = JobStatus._value2member_map_
 _NO_STATUS: Final = ApiMetricStatus.NO_STATUS_REPORTED
+_JOB: Final = MetricOwner.JOB
 _STANDARD: Final = MetricsDataStorageType.STANDARD
 
 
@@ -152,16 +153,19 @@ def _metric(data: Mapping[str, Any], owner: MetricOwner) -> ApiMetric | None:
         # decides which error from_json then gives.
         item: Any = _new(_WritableMetric)
         item.metric_id = new_uuid(metric_id)  # unique per item: not worth the ID cache
-        item.name = _text(get("name")) or ""
+        name = get("name")
+        item.name = name if type(name) is str else _text(name) or ""
         item.type = kind
         item.status = status
         item.value = value
-        item.unit = _text(get("unit"))
-        item.metric_url = _text(get("metricURL"))
+        unit = get("unit")
+        item.unit = (unit or None) if type(unit) is str else _text(unit)
+        url = get("metricURL")
+        item.metric_url = (url or None) if type(url) is str else _text(url)
         item.data_ids = data_ids
         item.event_metric = event_metric
         item.owner = owner
-        item.job_id = _opt_id(get("jobID")) if owner is MetricOwner.JOB else None
+        item.job_id = _opt_id(get("jobID")) if owner is _JOB else None
         item.batch_id = _opt_id(get("batchID"))
         item.creation_timestamp = _timestamp(get("creationTimestamp"))
         item.__class__ = ApiMetric
@@ -184,13 +188,15 @@ def _metrics_data(data: Mapping[str, Any], owner: MetricOwner) -> ApiMetricsData
             storage_type = _STANDARD
         else:
             return None
-        job = owner is MetricOwner.JOB
+        job = owner is _JOB
         item: Any = _new(_WritableMetricsData)
         # Through the ID cache: the job's metrics list it too (their dataIDs).
         item.data_id = parse_uuid(data_id)
-        item.name = _text(get("name")) or ""
+        name = get("name")
+        item.name = name if type(name) is str else _text(name) or ""
         item.metrics_data_type = storage_type
-        item.metrics_data_url = _text(get("metricsDataURL"))
+        url = get("metricsDataURL")
+        item.metrics_data_url = (url or None) if type(url) is str else _text(url)
         item.filename = _text(get("filename"))
         item.owner = owner
         item.job_id = _opt_id(get("jobID")) if job else None
