@@ -1,11 +1,13 @@
-"""A job's metric and metrics-data listing items, read on a fast path when well-formed.
+"""Listing items (a job's metrics and metrics data, a batch's jobs), read on a fast path
+when well-formed.
 
 A batch run parses ~22 listing items per job, each into a frozen dataclass through the
 :class:`~stook.service.api._fields.Fields` accessors: a method call per field, and a
 frozen ``__init__`` that sets each field through ``object.__setattr__``. That was the
 largest share of stook's own CPU per request (~15 % at 0 ms latency). Here an item whose
 every field already has the shape a well-formed answer has (by exact type) is read in one
-function and its object is built by setting the slots directly. Anything else — a wrong
+function and its object is written as a twin with the same slots, then given the model's
+class (see ``_writable_twin``). Anything else — a wrong
 type, an ID that is no UUID, a timestamp without a zone — returns None, and the caller
 reads the item through ``from_json``, which also words the error. Both paths give equal
 objects (tests/service/api/test_listing_items.py).
