@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import pickle
 import uuid
 from typing import Any
 
@@ -16,12 +17,14 @@ from resim.sdk.client.models.metrics_data_type import MetricsDataType as ResimMe
 
 from stook.service.api._errors import ApiResponseError
 from stook.service.api._listing_items import (
+    _job,
     _metric,
     _metrics_data,
     metric_parser,
     metrics_data_parser,
+    read_job,
 )
-from stook.service.api._models import ApiMetric, ApiMetricsData, MetricOwner
+from stook.service.api._models import ApiMetric, ApiMetricsData, Job, MetricOwner
 
 IDS = [str(uuid.UUID(int=i + 1)) for i in range(6)]
 METRIC: dict[str, Any] = {
@@ -248,3 +251,102 @@ def test_a_data_id_listed_by_a_metric_is_one_object() -> None:
     data = metrics_data_parser(MetricOwner.JOB)(DATA)
     assert data.data_id == metric.data_ids[0]
     assert data.data_id is metric.data_ids[0]
+
+
+def test_fast_items_are_the_frozen_dataclasses_themselves() -> None:
+    # Built as a writable twin, then made the model's class: nothing of the twin remains.
+    for parse, data, model in (
+        (metric_parser(MetricOwner.JOB), METRIC, ApiMetric),
+        (metrics_data_parser(MetricOwner.JOB), DATA, ApiMetricsData),
+    ):
+        item = parse(data)
+        assert type(item) is model
+        assert hash(item) == hash(model.from_json(data, owner=MetricOwner.JOB))
+        copy = pickle.loads(pickle.dumps(item))
+        assert type(copy) is model
+        same(copy, item)
+        with pytest.raises(dataclasses.FrozenInstanceError):
+            item.name = "renamed"  # type: ignore[misc]
+
+
+JOB: dict[str, Any] = {
+    "jobID": IDS[3],
+    "projectID": IDS[5],
+    "batchID": IDS[4],
+    "buildID": IDS[2],
+    "experienceID": IDS[1],
+    "experienceName": "Highway merge 01",
+    "conflatedStatus": "PASSED",
+    "jobStatus": "SUCCEEDED",
+    "jobMetricsStatus": "FAIL_WARN",
+    "statusHistory": [{"status": "SUBMITTED", "updatedAt": "2025-01-18T14:00:00Z"}],
+    "creationTimestamp": "2025-01-18T14:00:00Z",
+    "parameters": {"max_speed": "10", "planner_mode": "cautious"},
+    "orgID": "org",
+}
+JOB_VARIANTS: list[dict[str, Any]] = [
+    {},
+    {"conflatedStatus": "NEW_STATUS"},
+    {"conflatedStatus": ""},
+    {"conflatedStatus": None},
+    {"jobStatus": "SOMETHING"},
+    {"jobMetricsStatus": None},
+    {"batchID": ""},
+    {"projectID": None},
+    {"experienceID": ""},
+    {"experienceName": ""},
+    {"experienceName": None},
+    {"buildID": None},
+    {"creationTimestamp": ""},
+    {"creationTimestamp": "2025-01-18t14:00:00z"},
+    {"parameters": {}},
+    {"parameters": None},
+    {"parameters": ""},
+]
+
+
+@pytest.mark.parametrize("change", JOB_VARIANTS)
+def test_job_items_read_as_from_json_reads_them(change: dict[str, Any]) -> None:
+    data = changed(JOB, change)
+    ours = read_job(data)
+    same(ours, Job.from_json(data))
+    assert type(ours.parameters) is dict
+    assert ours.parameters is not data.get("parameters")  # a copy: the page is not kept
+
+
+def test_a_well_formed_job_takes_the_fast_path() -> None:
+    assert _job(JOB) is not None
+    item = read_job(JOB)
+    assert type(item) is Job
+    assert hash(item) == hash(Job.from_json(JOB))
+    same(pickle.loads(pickle.dumps(item)), item)
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        item.experience_name = "renamed"  # type: ignore[misc]
+
+
+@pytest.mark.parametrize(
+    "change",
+    [
+        {"jobID": "1234"},
+        {"jobID": ""},
+        {"jobID": None},
+        {"conflatedStatus": 3},
+        {"jobStatus": True},
+        {"batchID": "x"},
+        {"experienceID": 3},
+        {"experienceName": 3},
+        {"creationTimestamp": "yesterday"},
+        {"creationTimestamp": "2025-01-01T00:00:00"},
+        {"parameters": ["a"]},
+        {"parameters": {"max_speed": 10}},
+        {"parameters": "x"},
+    ],
+)
+def test_malformed_job_items_fail_as_from_json_says(change: dict[str, Any]) -> None:
+    data = changed(JOB, change)
+    assert _job(data) is None
+    with pytest.raises(ApiResponseError) as expected:
+        Job.from_json(data)
+    with pytest.raises(ApiResponseError) as caught:
+        read_job(data)
+    assert str(caught.value) == str(expected.value)

@@ -25,8 +25,9 @@ from stook.service.api._errors import (
     NotFoundError,
     RedirectedRefusalError,
 )
+from stook.service.api._fields import uuid_text
 from stook.service.api._limits import AimdLimiter, ConcurrencyLimit, FixedLimit, NestedLimit
-from stook.service.api._listing_items import metric_parser, metrics_data_parser
+from stook.service.api._listing_items import metric_parser, metrics_data_parser, read_job
 from stook.service.api._models import (
     ApiMetric,
     ApiMetricsData,
@@ -295,7 +296,7 @@ class ApiClient:
     ) -> AsyncIterator[Job]:
         """The jobs (tests) of a batch; ``on_total`` hears the listing's job count first."""
         path = f"/projects/{_id(project_id)}/batches/{_id(batch_id)}/jobs"
-        return self._list(path, "jobs", Job.from_json, on_total=on_total)
+        return self._list(path, "jobs", read_job, on_total=on_total)
 
     def list_job_metrics(
         self, project_id: IdLike, batch_id: IdLike, job_id: IdLike
@@ -439,7 +440,7 @@ def _loads(body: bytes) -> Any:
 def _id(value: IdLike) -> str:
     """An ID for a URL path; parsing it also keeps anything but a UUID out of the path."""
     if isinstance(value, uuid.UUID):
-        return str(value)
+        return uuid_text(value)
     try:
         return str(uuid.UUID(value))
     except (ValueError, AttributeError, TypeError):
