@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import sys
+from types import SimpleNamespace
 
 import pytest
 
@@ -12,7 +13,7 @@ from stook.service.modes import _report_imports
 @pytest.fixture
 def imported(monkeypatch: pytest.MonkeyPatch) -> list[str]:
     done: list[str] = []
-    monkeypatch.setattr(_report_imports.importlib, "import_module", done.append)
+    monkeypatch.setattr(_report_imports, "importlib", SimpleNamespace(import_module=done.append))
     return done
 
 
@@ -31,7 +32,7 @@ def test_a_busy_process_imports_nothing_once_the_search_has_imported_ruptures(
     looks = iter([True, True, False])  # busy twice, then the search imports ruptures
     modules = dict(sys.modules)
     modules.pop("ruptures", None)
-    monkeypatch.setattr(_report_imports.sys, "modules", modules)
+    monkeypatch.setattr(_report_imports, "sys", SimpleNamespace(modules=modules))
 
     def busy() -> bool:
         if next(looks):
@@ -52,7 +53,7 @@ def test_a_failed_import_ends_the_thread_quietly(monkeypatch: pytest.MonkeyPatch
         raise ImportError(module)
 
     monkeypatch.setattr(_report_imports, "_busy", lambda: False)
-    monkeypatch.setattr(_report_imports.importlib, "import_module", fail)
+    monkeypatch.setattr(_report_imports, "importlib", SimpleNamespace(import_module=fail))
     _report_imports._import_when_idle()
     assert tried == [_report_imports._STEPS[0]]
 
