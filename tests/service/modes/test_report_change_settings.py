@@ -3,7 +3,8 @@ default report aggregations, and refused before any request when wrong."""
 
 from __future__ import annotations
 
-from typing import Any
+import uuid
+from typing import Any, cast
 
 import pytest
 
@@ -97,3 +98,20 @@ def test_report_tables_build_the_new_kinds() -> None:
     assert (changes.name, changes.penalty, changes.experiences) == ("Moves", 4.0, False)
     assert isinstance(unstable, UnstableExperiences)
     assert (unstable.top_n, unstable.metrics) == (3, ["err"])
+
+
+@pytest.mark.parametrize(("settings", "started"), [({}, 1), ({"change_points": False}, 0)])
+def test_a_report_fetch_starts_importing_ruptures_when_the_search_will_need_it(
+    monkeypatch: pytest.MonkeyPatch, settings: dict[str, object], started: int
+) -> None:
+    # `stook run` and `run_report` both fetch through ReportMode.fetcher.
+    from stook.sdk.aggregations import Needs
+    from stook.service.modes import _report
+    from stook.service.modes._inputs import ApiAccess, ReportInputs
+
+    calls: list[None] = []
+    monkeypatch.setattr(_report, "import_change_points_when_idle", lambda: calls.append(None))
+    access = ApiAccess("http://127.0.0.1:9", "token", uuid.UUID(PROJECT))
+    mode = _report.ReportMode(ReportInputs(access, uuid.uuid4()), parse({"report": settings}))
+    mode.fetcher(cast(Any, None), Needs(), lambda outcome: None)
+    assert len(calls) == started

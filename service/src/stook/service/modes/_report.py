@@ -84,6 +84,10 @@ class ReportMode:
     def fetcher(
         self, api: ApiClient, needs: Needs, on_progress: Callable[[ReportOutcome], None]
     ) -> ReportFetcher:
+        if searches_change_points(self.config):
+            # The search imports ruptures (about a second of CPU) once every batch is in;
+            # a fetch that waits on the network has that second to spare.
+            import_change_points_when_idle()
         return ReportFetcher(
             api,
             self.inputs.access.project_id,
@@ -141,8 +145,6 @@ async def run_report(
 ) -> ReportResult:
     """Fetch the report's batches, fold them into the aggregations, write the output."""
     mode = ReportMode(inputs, config)
-    if searches_change_points(config):
-        import_change_points_when_idle()
     result = await run_pipeline(
         mode,
         inputs.access,
