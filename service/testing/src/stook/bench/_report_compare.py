@@ -19,7 +19,7 @@ from pathlib import Path
 from typing import Any, Final
 
 from stook.bench._measure import Measurement, in_fresh_process, peak_rss_mb, resim_available
-from stook.bench._startup import stook_command
+from stook.bench._whole_process import time_stook_run
 from stook.emulator import EmulatorConfig, EmulatorInfo, EmulatorProcess
 
 
@@ -138,35 +138,8 @@ asyncio.run(
 
 
 def _time_stook_report_run(info: EmulatorInfo, folder: Path, concurrency: int) -> float:
-    inputs, outputs = folder / "inputs", folder / "outputs"
-    info.write_report_config(inputs)
-    config = folder / "stook.toml"
-    config.write_text(f"[fetch]\nconcurrency = {concurrency}\n", encoding="utf-8")
-    argv = [
-        *stook_command(),
-        "run",
-        "--inputs",
-        str(inputs),
-        "--outputs",
-        str(outputs),
-        "--config",
-        str(config),
-        "--log-level",
-        "error",
-    ]
-    started = time.perf_counter()
-    subprocess.run(
-        argv,
-        cwd=folder,
-        stdout=subprocess.DEVNULL,
-        stderr=subprocess.DEVNULL,
-        check=True,
-        timeout=_TIMEOUT_S,
-    )
-    seconds = time.perf_counter() - started
-    if not (outputs / "metrics.binproto").is_file():
-        raise RuntimeError("stook run exited 0 without writing metrics.binproto")
-    return seconds
+    info.write_report_config(folder / "inputs")
+    return time_stook_run(folder, f"[fetch]\nconcurrency = {concurrency}\n")
 
 
 def _time_resim_report(info: EmulatorInfo, folder: Path) -> float:

@@ -50,11 +50,18 @@ print(len(fetched))
 
 
 def _time_stook_run(info: EmulatorInfo, folder: Path) -> float:
-    inputs, outputs = folder / "inputs", folder / "outputs"
+    inputs = folder / "inputs"
     inputs.mkdir(parents=True)
     info.write_batch_config(inputs)
+    return time_stook_run(folder, SWEEP_CONFIG)
+
+
+def time_stook_run(folder: Path, config_toml: str) -> float:
+    """`stook run` as a whole process on ``folder/inputs`` (written beforehand), with
+    `config_toml` as its config: the seconds from before it starts until it exits."""
+    inputs, outputs = folder / "inputs", folder / "outputs"
     config = folder / "stook.toml"
-    config.write_text(SWEEP_CONFIG, encoding="utf-8")
+    config.write_text(config_toml, encoding="utf-8")
     argv = [
         *stook_command(),
         "run",
