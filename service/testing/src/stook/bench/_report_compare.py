@@ -83,14 +83,19 @@ def measure_resim_report(info: EmulatorInfo) -> Measurement:
     )
 
 
-def compare_report_with_resim(batches: int, jobs: int, latency_ms: float) -> dict[str, Any]:
-    config = EmulatorConfig(
+def _report_emulator(batches: int, jobs: int, latency_ms: float) -> EmulatorConfig:
+    """The report both comparisons fetch: `batches` of `jobs` jobs, answers `latency_ms` late."""
+    return EmulatorConfig(
         seed=5,
         report_batches=batches,
         report_jobs_per_batch=jobs,
         cache_jobs=max(batches * jobs, 1),
         latency_ms=latency_ms,
     )
+
+
+def compare_report_with_resim(batches: int, jobs: int, latency_ms: float) -> dict[str, Any]:
+    config = _report_emulator(batches, jobs, latency_ms)
     with EmulatorProcess(config) as emulator:
         # Warm-up: the emulator generates every job's metrics on first request.
         in_fresh_process(measure_stook_report, emulator.info, 64)
@@ -169,13 +174,7 @@ def compare_report_whole_process(
 ) -> dict[str, Any]:
     """Every run's seconds for both, their medians and the speedup (stook alone without
     resim-open-core installed)."""
-    config = EmulatorConfig(
-        seed=5,
-        report_batches=batches,
-        report_jobs_per_batch=jobs,
-        cache_jobs=max(batches * jobs, 1),
-        latency_ms=latency_ms,
-    )
+    config = _report_emulator(batches, jobs, latency_ms)
     with_resim = resim_available()
     runs: dict[str, list[float]] = {"stook": [], "resim": []}
     with EmulatorProcess(config) as emulator, tempfile.TemporaryDirectory() as tmp:
