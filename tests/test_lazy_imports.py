@@ -29,6 +29,21 @@ def test_importing_does_not_import_polars_or_numpy(module: str) -> None:
     assert done.stdout == "[]\n"
 
 
+def test_building_aggregations_lists_no_plugins_before_a_kind_needs_it() -> None:
+    # importlib.metadata (~20 ms) is imported only to look for a kind that is not built in.
+    script = (
+        "import sys, stook.service.modes\n"
+        "from stook.sdk.aggregations import build_all\n"
+        "build_all({'pass_rate': [{}]}, section='batch')\n"
+        "print('importlib.metadata' in sys.modules)\n"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", script], capture_output=True, text=True, timeout=60
+    )
+    assert done.returncode == 0, done.stderr
+    assert done.stdout == "False\n"
+
+
 def test_previewing_imports_neither_plotly_nor_polars(tmp_path: Path) -> None:
     # `stook preview` embeds plotly.js read from the plotly package's files: the Python
     # package itself (and its numpy) is never imported, nor is polars.

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import importlib.metadata
 import uuid
 from dataclasses import dataclass, field
 from importlib.metadata import EntryPoint
@@ -311,7 +312,7 @@ def _fake_entry_points(*eps: EntryPoint) -> Any:
 
 def test_plugins_from_entry_points(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setattr(
-        _registry,
+        importlib.metadata,
         "entry_points",
         _fake_entry_points(
             EntryPoint("max_of", f"{HERE}:MaxOfScalar", "stook.aggregations"),
@@ -341,7 +342,7 @@ def test_a_built_in_kind_is_built_without_listing_the_plugins(
     def no_scan(*, group: str) -> list[EntryPoint]:
         raise AssertionError(f"plugins listed ({group}) for a built-in kind")
 
-    monkeypatch.setattr(_registry, "entry_points", no_scan)
+    monkeypatch.setattr(importlib.metadata, "entry_points", no_scan)
     built = build_all({"pass_rate": [{}]}, section="batch")
     assert [type(a) for a in built] == [PassRate]
     with pytest.raises(AssertionError, match="plugins listed"):

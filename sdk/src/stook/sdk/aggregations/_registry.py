@@ -12,7 +12,6 @@ import sys
 import types
 import typing
 from collections.abc import Mapping, Sequence
-from importlib.metadata import entry_points
 from typing import Any
 
 from stook.sdk._errors import StookError
@@ -125,6 +124,10 @@ def load_class(reference: str, *, where: str) -> type[Aggregation[Any]]:
 
 def kinds(section: str = "batch") -> dict[str, type[Aggregation[Any]] | str]:
     """Every aggregation kind a config section may name: built-ins and installed plugins."""
+    # Imported here: importlib.metadata costs ~20 ms of every start-up, and only a
+    # kind that is not built in is looked for among the plugins.
+    from importlib.metadata import entry_points
+
     found: dict[str, type[Aggregation[Any]] | str] = dict(_BUILTIN_BY_SECTION[section])
     for ep in entry_points(group=ENTRY_POINT_GROUPS[section]):
         found.setdefault(ep.name, ep.value)
