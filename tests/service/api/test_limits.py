@@ -112,6 +112,20 @@ async def test_a_fixed_limit_serves_waiters_in_order_and_passes_on_a_cancelled_s
     assert limit.stats.in_flight == 1
 
 
+async def test_a_waiter_cancelled_and_passed_over_before_it_runs_stays_cancelled() -> None:
+    limit = FixedLimit(1)
+    await limit.acquire()
+    waiting = asyncio.ensure_future(limit.acquire())
+    await asyncio.sleep(0)
+    waiting.cancel()  # its future is cancelled now, its task runs later
+    limit.release(200, 0.01)  # passes over the cancelled waiter and frees the slot
+    await asyncio.sleep(0)
+    assert waiting.cancelled()
+    assert limit.stats.in_flight == 0
+    await limit.acquire()
+    assert limit.stats.in_flight == 1
+
+
 async def test_a_fixed_limit_counts_slots_waits_and_throttle_trips() -> None:
     clock = Clock()
     limit = FixedLimit(1, clock=clock)

@@ -162,7 +162,7 @@ class FixedLimit:
             if waiter.done() and not waiter.cancelled():
                 self._counts.acquisitions -= 1
                 self._hand_over()
-            else:
+            elif waiter in self._waiters:  # a release may have passed it over already
                 self._waiters.remove(waiter)
             raise
 
