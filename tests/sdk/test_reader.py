@@ -248,6 +248,48 @@ def test_missing_or_bad_ids_are_refused() -> None:
         read_metric(m.SerializeToString())
 
 
+def _refused_data() -> list[tuple[pb.MetricsData, str]]:
+    def data(kind: int, name: str = "d", **fields: object) -> pb.MetricsData:
+        d = bare_data(kind, **fields)
+        d.name = name
+        return d
+
+    cases = [
+        (data(pb.NO_DATA_TYPE), "data 'd': data type is unset"),
+        (data(pb.NO_DATA_TYPE, name=""), "data (unnamed): data type is unset"),
+    ]
+    d = data(pb.DOUBLE_SERIES_DATA_TYPE)
+    d.metrics_data_id.id.data = ""
+    cases.append((d, "data 'd': id is missing"))
+    d = data(pb.DOUBLE_SERIES_DATA_TYPE)
+    d.metrics_data_id.id.data = "{418e78d2-c5d6-576c-af09-0f8c761e8ee}"
+    cases.append((d, "data 'd': id '{418e78d2-c5d6-576c-af09-0f8c761e8ee}' is not a UUID"))
+    d = data(pb.DOUBLE_SERIES_DATA_TYPE)
+    d.index_data_id.id.data = "zz"
+    cases.append((d, "data 'd': index id 'zz' is not a UUID"))
+    d = data(pb.EXTERNAL_FILE_DATA_TYPE)
+    d.series.doubles.series.append(1.0)
+    cases.append((d, "data 'd' is declared an external file but holds a series"))
+    d = data(pb.DOUBLE_SERIES_DATA_TYPE, is_per_category=True)
+    d.series.doubles.series.append(1.0)
+    cases.append((d, "data 'd': is_per_category is True but it holds series"))
+    d = data(pb.DOUBLE_SERIES_DATA_TYPE, name="")
+    d.series.strings.series.append("x")
+    cases.append((d, "data (unnamed) is declared double but its series holds strings"))
+    d = data(pb.DOUBLE_SERIES_DATA_TYPE, is_per_category=True)
+    d.series_per_category.category_to_series["a"].strings.series.append("x")
+    cases.append((d, "data 'd' is declared double but its series holds strings"))
+    return cases
+
+
+@pytest.mark.parametrize(("msg", "error"), _refused_data())
+def test_refused_data_is_named_in_the_error(msg: pb.MetricsData, error: str) -> None:
+    # The label is made only for an error (see `_data_view`); it must still say this.
+    with pytest.raises(ReadError) as info:
+        read_metrics_data(msg.SerializeToString(), source="s.bin")
+    assert str(info.value) == f"could not read MetricsData from 's.bin': {error}"
+
+
 # ---------------------------------------------------------------- fuzzing
 
 

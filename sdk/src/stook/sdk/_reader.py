@@ -35,7 +35,7 @@ from __future__ import annotations
 import uuid
 from collections.abc import Callable, Iterable, Mapping
 from types import MappingProxyType
-from typing import TYPE_CHECKING, Any, Literal, TypeVar
+from typing import TYPE_CHECKING, Any, Final, Literal, TypeVar
 
 from google.protobuf.message import Error as ProtobufError
 from google.protobuf.message import Message
@@ -51,6 +51,8 @@ from stook.sdk._enums import (
     kind_of,
 )
 from stook.sdk._errors import MalformedError, read_error
+from stook.sdk._hex_uuid import hex_uuid
+from stook.sdk._twins import writable_twin
 from stook.sdk._views import EventView, JobMetricsView, MetricsDataView, MetricView
 
 if TYPE_CHECKING:
@@ -165,7 +167,7 @@ def _uuid(text: str, what: str) -> uuid.UUID:
     if not text:
         raise MalformedError(f"{what} is missing")
     try:
-        return uuid.UUID(hex=text)
+        return hex_uuid(text)
     except ValueError:
         raise MalformedError(f"{what} {text!r} is not a UUID") from None
 
@@ -184,13 +186,12 @@ def _enum(cls: type[_E], value: int) -> _E | int | None:
         return value
 
 
-def _kind(data_type: int, what: str) -> SeriesKind | None:
-    """The series kind of a data type; None for one this schema does not know."""
+def _kind(data_type: int) -> SeriesKind | None:
+    """The series kind of a data type; None for one this schema does not know (or unset,
+    which the caller checks first where it is an error)."""
     try:
         return kind_of(data_type)[0]
     except ValueError:
-        if data_type == pb.NO_DATA_TYPE:
-            raise MalformedError(f"{what} is unset") from None
         return None
 
 
@@ -198,44 +199,66 @@ def _label(kind: str, name: str) -> str:
     return f"{kind} {name!r}" if name else f"{kind} (unnamed)"
 
 
+def _data_label(msg: pb.MetricsData) -> str:
+    # Made only for an error: every downloaded series is read here.
+    return _label("data", msg.name)
+
+
+def _data_uuid(msg: pb.MetricsData, text: str, what: str) -> uuid.UUID:
+    """`_uuid` of one of `msg`'s IDs, its label made only when it is no UUID."""
+    try:
+        return hex_uuid(text)
+    except ValueError:
+        return _uuid(text, f"{_data_label(msg)}: {what}")
+
+
+_WritableDataView: Final = writable_twin(MetricsDataView)
+_new = object.__new__
+
+
 def _data_view(msg: pb.MetricsData, source: str) -> MetricsDataView:
-    label = _label("data", msg.name)
-    kind = _kind(msg.data_type, f"{label}: data type")
+    data_type = msg.data_type
+    if data_type == pb.NO_DATA_TYPE:
+        raise MalformedError(f"{_data_label(msg)}: data type is unset")
+    kind = _kind(data_type)
     holds = msg.WhichOneof("data")
     if kind is SeriesKind.EXTERNAL_FILE:
         if holds not in (None, "external_file"):
-            raise MalformedError(f"{label} is declared an external file but holds a {holds}")
+            raise MalformedError(
+                f"{_data_label(msg)} is declared an external file but holds a {holds}"
+            )
     elif kind is not None:  # of an unknown data type, nothing says what its series hold
         expected = "series_per_category" if msg.is_per_category else "series"
         if holds not in (None, expected):
-            raise MalformedError(
-                f"{label}: is_per_category is {msg.is_per_category} but it holds {holds}"
-            )
+            declared = f"is_per_category is {msg.is_per_category}"
+            raise MalformedError(f"{_data_label(msg)}: {declared} but it holds {holds}")
         # `series` and `series_per_category` are one oneof: only the one set holds series.
         if holds == "series":
-            _check_series(msg.series, kind, label)
+            _check_series(msg.series, kind, msg)
         elif holds == "series_per_category":
             for series in msg.series_per_category.category_to_series.values():
-                _check_series(series, kind, label)
+                _check_series(series, kind, msg)
+    # Written through its twin (see `_twins`): a view per downloaded series.
+    view: Any = _new(_WritableDataView)
+    view.id = _data_uuid(msg, msg.metrics_data_id.id.data, "id")
+    view.name = msg.name
+    view.unit = msg.unit
+    view.kind = kind
+    view.indexed = msg.is_indexed
     index_text = msg.index_data_id.id.data
-    return MetricsDataView(
-        id=_uuid(msg.metrics_data_id.id.data, f"{label}: id"),
-        name=msg.name,
-        unit=msg.unit,
-        kind=kind,
-        indexed=msg.is_indexed,
-        index_id=_uuid(index_text, f"{label}: index id") if index_text else None,
-        index_kind=(
-            _kind(msg.index_data_type, f"{label}: index data type")
-            if msg.index_data_type != pb.NO_DATA_TYPE
-            else None
-        ),
-        per_category=msg.is_per_category,
-        categories=tuple(msg.category_names),
-        external_path=msg.external_file.path if holds == "external_file" else None,
-        raw=msg,
-        source=source,
-    )
+    view.index_id = _data_uuid(msg, index_text, "index id") if index_text else None
+    index_type = msg.index_data_type
+    view.index_kind = _kind(index_type) if index_type != pb.NO_DATA_TYPE else None
+    view.per_category = msg.is_per_category
+    names = msg.category_names
+    view.categories = tuple(names) if names else ()
+    view.external_path = msg.external_file.path if holds == "external_file" else None
+    view.raw = msg
+    view.source = source
+    view.index = None
+    view.__class__ = MetricsDataView
+    data_view: MetricsDataView = view
+    return data_view
 
 
 _ELEMENT_FIELDS: dict[SeriesKind, str] = {
@@ -247,10 +270,12 @@ _ELEMENT_FIELDS: dict[SeriesKind, str] = {
 }
 
 
-def _check_series(series: pb.Series, kind: SeriesKind, label: str) -> None:
+def _check_series(series: pb.Series, kind: SeriesKind, msg: pb.MetricsData) -> None:
     holds = series.WhichOneof("series")
     if holds is not None and holds != _ELEMENT_FIELDS[kind]:
-        raise MalformedError(f"{label} is declared {kind.value} but its series holds {holds}")
+        raise MalformedError(
+            f"{_data_label(msg)} is declared {kind.value} but its series holds {holds}"
+        )
 
 
 def _referenced_ids(values: pb.MetricValues) -> list[pb.MetricsDataId]:
