@@ -248,3 +248,56 @@ def test_histogram_of_fetched_series_is_the_same_as_of_polars_series(
     assert Output(mine).writer.serialize() == Output(theirs).writer.serialize()
     # Their series are made only when asked for: the histogram did not ask.
     assert not any(record.series._made for record in fetched)  # type: ignore[attr-defined]
+
+
+def test_fetched_values_are_kept_in_arrival_order_across_many_jobs() -> None:
+    # Past _CONSOLIDATE_AT jobs, fetched values (numpy) and polars series alternate in
+    # runs; the kept values are still the appended ones, in the order they came, whether
+    # read directly, after pickling or after a merge.
+    import pickle
+
+    import polars as pl
+
+    per_job = [[i + 0.25, -float(i), 0.0 if i % 7 else -0.0] for i in range(700)]
+    records = [
+        _fetched_job(vs) if (i // 50) % 3 else job(series={"v": vs}) for i, vs in enumerate(per_job)
+    ]
+    appended = [v for vs in per_job for v in vs]
+
+    def histogram(part: list[JobRecord]) -> MergedHistogram:
+        agg = fold(MergedHistogram("H", "v", lower=0.0, upper=4.0, buckets=4), part)
+        assert isinstance(agg, MergedHistogram)
+        return agg
+
+    whole = histogram(records)
+    assert whole.kept_arrays  # some fetched values still wait
+    assert pl.concat(whole._kept()).to_list() == appended
+    assert whole.total == len(appended)
+    merged, travelled = histogram(records[:333]), histogram(records[:333])
+    merged.merge(histogram(records[333:]))  # its waiting values are merged too
+    travelled.merge(pickle.loads(pickle.dumps(histogram(records[333:]))))
+    polars_only = histogram([job(series={"v": vs}) for vs in per_job])
+    for agg in (whole, merged, travelled):
+        assert pl.concat(agg._kept()).to_list() == appended
+        assert agg.values().to_numpy().tobytes() == polars_only.values().to_numpy().tobytes()
+        assert Output(agg).writer.serialize() == Output(polars_only).writer.serialize()
+
+
+def test_fetched_values_switch_to_counts_with_the_ones_still_waiting() -> None:
+    per_job = [[float(i % 5), 9.0] for i in range(300)]
+    fetched = fold(
+        MergedHistogram("H", "v", lower=0.0, upper=4.0, buckets=4, max_values=500),
+        [_fetched_job(vs) for vs in per_job],
+    )
+    expected = fold(
+        MergedHistogram("H", "v", lower=0.0, upper=4.0, buckets=4, max_values=500),
+        [job(series={"v": vs}) for vs in per_job],
+    )
+    assert isinstance(fetched, MergedHistogram)
+    assert isinstance(expected, MergedHistogram)
+    assert fetched.binned
+    assert (fetched.counts, fetched.outside, fetched.total) == (
+        expected.counts,
+        expected.outside,
+        expected.total,
+    )

@@ -65,6 +65,13 @@ class MergedHistogram(Aggregation[JobRecord]):
     metric: str | None = None
 
     chunks: list[pl.Series] = field(default_factory=list, init=False)
+    # In exact mode, a fetched job's values (numpy, from `SeriesByName.values_of`) wait
+    # here and join `chunks` as one Series, _CONSOLIDATE_AT jobs at a time or whenever
+    # `chunks` is read (see `_kept`): a polars Series per job cost more than the rest of
+    # the job's update. Order is kept: a polars job first joins the waiting values.
+    kept_arrays: list[np.ndarray[Any, np.dtype[np.float64]]] = field(
+        default_factory=list, init=False
+    )
     bucket_counts: list[int] | None = field(default=None, init=False)
     total: int = field(default=0, init=False)
     outside_counted: int = field(default=0, init=False)
@@ -187,9 +194,20 @@ class MergedHistogram(Aggregation[JobRecord]):
             mine + int(new) for mine, new in zip(self.bucket_counts, counts, strict=True)
         ]
 
+    def _kept(self) -> list[pl.Series]:
+        """`chunks`, with the values waiting in `kept_arrays` joined to them as one Series."""
+        if self.kept_arrays:
+            import numpy as np
+            import polars as pl
+
+            arrays, self.kept_arrays = self.kept_arrays, []
+            assert self.data is not None  # numpy values come for `data` only
+            self.chunks.append(pl.Series(self.data, np.concatenate(arrays)))
+        return self.chunks
+
     def _switch_to_counts(self) -> None:
         self.bucket_counts = [0] * len(self._edges())
-        chunks, self.chunks = self.chunks, []
+        chunks, self.chunks = self._kept(), []
         for chunk in chunks:
             self._bin(chunk)
 
@@ -198,7 +216,7 @@ class MergedHistogram(Aggregation[JobRecord]):
             self._add_unbinned(s)
             return
         self.total += s.len()
-        self.chunks.append(s)
+        self._kept().append(s)
         if len(self.chunks) >= _CONSOLIDATE_AT:
             import polars as pl
 
@@ -231,10 +249,12 @@ class MergedHistogram(Aggregation[JobRecord]):
         if self.bucket_counts is not None:
             self._add_unbinned(values)
             return
-        import polars as pl
-
-        assert self.data is not None
-        self._add(pl.Series(self.data, values))
+        self.total += len(values)
+        self.kept_arrays.append(values)
+        if len(self.kept_arrays) >= _CONSOLIDATE_AT:
+            self._kept()
+        if self.total > self.max_values:
+            self._switch_to_counts()
 
     def update(self, job: JobRecord) -> None:
         if self.data is not None and isinstance(job.series, SeriesByName):
@@ -288,7 +308,7 @@ class MergedHistogram(Aggregation[JobRecord]):
             self.bucket_counts = [a + b for a, b in zip(mine, theirs, strict=True)]
             self.total += other.total
             return
-        for chunk in other.chunks:
+        for chunk in other._kept():
             self._add(chunk)
 
     def __getstate__(self) -> dict[str, object]:
@@ -297,7 +317,7 @@ class MergedHistogram(Aggregation[JobRecord]):
         the number of values), and kept values as one Series (8 bytes a value) rather than
         a Series per job, each with its own few hundred bytes of framing."""
         self._flush()
-        if len(self.chunks) > 1:
+        if len(self._kept()) > 1:
             import polars as pl
 
             self.chunks = [pl.concat(self.chunks, rechunk=True)]
@@ -308,9 +328,10 @@ class MergedHistogram(Aggregation[JobRecord]):
         histogram does not depend on the order of its values, so sorted output is stable."""
         import polars as pl
 
-        if not self.chunks:
+        chunks = self._kept()
+        if not chunks:
             return pl.Series(self.data or self.metric, [], dtype=pl.Float64)
-        values = pl.concat(self.chunks, rechunk=True)
+        values = pl.concat(chunks, rechunk=True)
         # -0.0 becomes 0.0: they compare equal, so sorting alone keeps their arrival order.
         # (polars folds `x + 0.0` to x, so the usual arithmetic trick does not work here.)
         return values.zip_with(values != 0.0, pl.Series([0.0] * values.len())).sort()
