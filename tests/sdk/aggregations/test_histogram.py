@@ -10,6 +10,8 @@ import math
 import uuid
 
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 
 from stook.sdk import (
     HistogramMetric,
@@ -23,7 +25,7 @@ from stook.sdk import (
     read_metrics_data,
 )
 from stook.sdk._buckets import histogram_buckets
-from stook.sdk.aggregations import JobRecord, MergedHistogram, SeriesByName
+from stook.sdk.aggregations import JobRecord, MergedHistogram, SeriesByName, _histogram
 from tests.sdk.aggregations.support import Output, fold, job, reference_counts
 
 
@@ -301,3 +303,31 @@ def test_fetched_values_switch_to_counts_with_the_ones_still_waiting() -> None:
         expected.outside,
         expected.total,
     )
+
+
+@pytest.mark.parametrize("compare_up_to", [0, 10**6], ids=["search", "compare"])
+@given(
+    buckets=st.sampled_from([1, 2, 7, 20, 129]),
+    picks=st.lists(st.integers(0, 10**6), max_size=60),
+    extra=st.lists(
+        st.floats(allow_nan=False) | st.sampled_from([-0.0, 0.0, 4.0, math.inf, -math.inf]),
+        max_size=20,
+    ),
+)
+def test_both_ways_of_binning_count_as_the_reference(
+    compare_up_to: int, buckets: int, picks: list[int], extra: list[float]
+) -> None:
+    # Up to _COMPARE_UP_TO buckets values are counted by a comparison pass per edge, past
+    # it by a search of the edges: each must put every value where `reference_counts` does.
+    edges = histogram_buckets("H", buckets, 0.0, 4.0)
+    on_edges = [lo for lo, _ in edges] + [4.0]
+    values = [on_edges[p % len(on_edges)] for p in picks] + extra
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(_histogram, "_COMPARE_UP_TO", compare_up_to)
+        agg = fold(
+            MergedHistogram("H", "v", lower=0.0, upper=4.0, buckets=buckets, max_values=1),
+            [job(series={"v": [9.0, 9.0]}), job(series={"v": values})],
+        )
+        assert isinstance(agg, MergedHistogram)
+        assert agg.counts == reference_counts([9.0, 9.0, *values], edges)
+        assert agg.outside == 2 + sum(1 for v in values if v < 0.0 or v > 4.0)
