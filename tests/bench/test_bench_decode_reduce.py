@@ -1,11 +1,18 @@
 """Decode and reduce throughput: doubles per second from MetricsData bytes to a reduction.
 
-The path batch mode takes for every downloaded series: protobuf bytes -> polars
-(`read_metrics_data(...).series()`) -> the aggregation. Three shapes: job-sized series (100
-payloads of 300 doubles, as the emulator's jobs have), long-job series (100 x 3,000) and
-one large series (300,000 doubles), where per-call costs vanish. Timed only with
-`--benchmark-enable` (`make bench`); the normal test run executes each once, as a smoke
-test, and asserts no speed.
+Two paths from protobuf bytes to a reduction:
+
+* the public one, ``read_metrics_data(...).series()`` (polars) -> the aggregation;
+* the one batch mode takes for every downloaded series (the ``fetched-`` rows): each
+  job's views handed over as a `SeriesByName`, whose values the merged histogram takes
+  as numpy (`SeriesByName.values_of`) without a polars Series. These rows end as a run
+  does: with the waiting values binned (counts mode) or sorted into the column `finish`
+  writes (exact mode, `MergedHistogram.values`).
+
+Three shapes: job-sized series (100 payloads of 300 doubles, as the emulator's jobs
+have), long-job series (100 x 3,000) and one large series (300,000 doubles), where
+per-call costs vanish. Timed only with `--benchmark-enable` (`make bench`); the normal
+test run executes each once, as a smoke test, and asserts no speed.
 
 Doubles per second = `doubles` (in extra_info) x the benchmark's operations per second.
 """
@@ -22,7 +29,7 @@ import pytest
 
 from stook.sdk import MetricsWriter, data
 from stook.sdk._reader import read_metrics_data
-from stook.sdk.aggregations import JobRecord, MergedHistogram, Scalar, WeightedMean
+from stook.sdk.aggregations import JobRecord, MergedHistogram, Scalar, SeriesByName, WeightedMean
 
 # job-sized: the emulator's jobs; long-job: five minutes of a 10 Hz signal per job.
 SHAPES = {"job-sized": (100, 300), "long-job": (100, 3_000), "large": (1, 300_000)}
@@ -64,6 +71,20 @@ def reduce_histogram(counts_mode: bool) -> Callable[[list[bytes]], object]:
     return run
 
 
+def reduce_fetched_histogram(counts_mode: bool) -> Callable[[list[bytes]], object]:
+    def run(batch: list[bytes]) -> object:
+        h = histogram(counts_mode)
+        for i, payload in enumerate(batch):
+            view = read_metrics_data(payload, source="bench")
+            series = SeriesByName({"speeds": view})
+            h.update(JobRecord(uuid.UUID(int=i + 1), "PASSED", series=series))
+        if counts_mode:
+            return h.counts  # bins the values still waiting
+        return h.values()
+
+    return run
+
+
 def reduce_weighted_mean(batch: list[bytes]) -> object:
     # Each job's series reduced to its mean, weighted by its length, across the jobs.
     agg = WeightedMean("Mean speed", "mean speed", weight="samples")
@@ -78,6 +99,8 @@ REDUCERS: dict[str, Callable[[list[bytes]], object]] = {
     "histogram-exact": reduce_histogram(counts_mode=False),
     "histogram-counts": reduce_histogram(counts_mode=True),
     "weighted-mean": reduce_weighted_mean,
+    "fetched-histogram-exact": reduce_fetched_histogram(counts_mode=False),
+    "fetched-histogram-counts": reduce_fetched_histogram(counts_mode=True),
 }
 
 
