@@ -7,8 +7,10 @@ validator and by ReSim's own (the platform's oracle); see `support.Output`.
 from __future__ import annotations
 
 import math
+import struct
 import uuid
 
+import polars as pl
 import pytest
 from hypothesis import given
 from hypothesis import strategies as st
@@ -258,8 +260,6 @@ def test_fetched_values_are_kept_in_arrival_order_across_many_jobs() -> None:
     # read directly, after pickling or after a merge.
     import pickle
 
-    import polars as pl
-
     per_job = [[i + 0.25, -float(i), 0.0 if i % 7 else -0.0] for i in range(700)]
     records = [
         _fetched_job(vs) if (i // 50) % 3 else job(series={"v": vs}) for i, vs in enumerate(per_job)
@@ -331,3 +331,28 @@ def test_both_ways_of_binning_count_as_the_reference(
         assert isinstance(agg, MergedHistogram)
         assert agg.counts == reference_counts([9.0, 9.0, *values], edges)
         assert agg.outside == 2 + sum(1 for v in values if v < 0.0 or v > 4.0)
+
+
+def test_kept_values_are_sorted_with_negative_zero_as_zero() -> None:
+    per_job = [[2.0, -0.0, math.inf], [0.0, -math.inf, -0.0, 5e-324, -5e-324], [1.0, -2.0]]
+    agg = fold(MergedHistogram("H", "v", lower=0.0, upper=4.0), [_fetched_job(per_job[0])])
+    agg = fold(agg, [job(series={"v": vs}) for vs in per_job[1:]])
+    assert isinstance(agg, MergedHistogram)
+    got = agg.values()
+    expected = sorted(0.0 if v == 0.0 else v for vs in per_job for v in vs)
+    assert (got.name, got.dtype) == ("v", pl.Float64())
+    assert got.to_numpy().tobytes() == struct.pack(f"<{len(expected)}d", *expected)
+
+
+def test_kept_nulls_read_as_zeros_as_they_always_have() -> None:
+    # Only a hand-made record's series can hold nulls (a read one cannot): they are kept
+    # as zeros, which the written histogram shows, as before.
+    agg = fold(
+        MergedHistogram("H", "v", lower=0.0, upper=4.0),
+        [
+            job(series={"v": [1.0, -0.0]}),
+            JobRecord(uuid.uuid4(), "PASSED", series={"v": pl.Series([None, 3.0])}),
+        ],
+    )
+    assert isinstance(agg, MergedHistogram)
+    assert agg.values().to_list() == [0.0, 0.0, 1.0, 3.0]
