@@ -7,7 +7,6 @@ import struct
 import uuid
 from datetime import UTC, datetime
 
-import numpy as np
 import polars as pl
 import pytest
 
@@ -20,7 +19,7 @@ from stook.sdk import (
     parse_metrics_data,
     read_metrics_data,
 )
-from stook.sdk._series import _float64_series, doubles_array
+from stook.sdk._series import doubles_array
 from tests.sdk.support import bare_data
 
 # ---------------------------------------------------------------- a ReSim-written output
@@ -168,39 +167,3 @@ def test_doubles_array_with_unknown_fields_falls_back_to_copying() -> None:
     d.series.doubles.MergeFromString(b"\x10\x07")
     view = read_metrics_data(d.SerializeToString())
     assert doubles_array(view.raw.series.doubles).tolist() == [float(i) for i in range(1000)]
-
-
-def test_double_series_are_made_by_polars_native_constructor() -> None:
-    # The fast path is in use with the polars this project pins; if a polars upgrade
-    # loses it, conversions still work (the public constructor) but cost ~5x more.
-    assert _float64_series().__name__ == "native"
-
-
-@pytest.mark.parametrize("offset", [0, 1, 3])  # aligned, and as packed views start
-def test_native_constructor_gives_the_public_constructor_series(offset: int) -> None:
-    special = [0.0, -0.0, math.inf, -math.inf, 5e-324, math.nan, 1.7976931348623157e308]
-    wire = b"\x00" * offset + struct.pack("<300d", *(special * 43)[:300])
-    values = np.frombuffer(wire, "<f8", 300, offset)
-    got, expected = _float64_series()("speeds", values), pl.Series("speeds", values)
-    assert (got.name, got.dtype, got.null_count()) == ("speeds", pl.Float64(), 0)
-    assert got.to_numpy().tobytes() == expected.to_numpy().tobytes() == wire[offset:]
-
-
-class _NotASeries(pl.Series):
-    pass
-
-
-@pytest.mark.parametrize("change", ["missing", "different"])
-def test_a_changed_polars_falls_back_to_the_public_constructor(change: str) -> None:
-    original = pl.Series._from_pyseries.__func__  # type: ignore[attr-defined]
-    with pytest.MonkeyPatch.context() as patch:
-        if change == "missing":
-            patch.delattr(pl.Series, "_from_pyseries")
-        else:  # what it makes is not what the public constructor makes
-            patch.setattr(
-                pl.Series, "_from_pyseries", classmethod(lambda _, s: original(_NotASeries, s))
-            )
-        made = _float64_series.__wrapped__()
-    assert made.__name__ == "public"
-    values = np.array([1.5, -0.0])
-    assert made("v", values).to_numpy().tobytes() == values.tobytes()

@@ -10,10 +10,7 @@ into a `ReadError` that names the data.
 from __future__ import annotations
 
 import functools
-import math
-import sys
 import uuid
-from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -78,52 +75,7 @@ def _doubles(doubles: pb.DoubleSeries, name: str) -> pl.Series:
     # double; below a few dozen values that is still the faster way.
     if len(doubles.series) < _PACKED_PATH_MIN:
         return pl.Series(name, doubles.series, dtype=pl.Float64)
-    return _float64_series()(name, doubles_array(doubles))
-
-
-_Float64Series = Callable[[str, np.ndarray[Any, np.dtype[np.float64]]], pl.Series]
-
-
-@functools.cache
-def _float64_series() -> _Float64Series:
-    """``pl.Series(name, values)`` for a 1-D little-endian float64 array, in a fifth of
-    the time when polars allows.
-
-    polars' constructor spends ~6 µs in Python (byte order, shape, alignment, mask and
-    dtype checks) before its native constructor of ~1 µs: most of a job-sized series'
-    conversion. Our arrays need only the alignment (a packed view starts at an odd
-    offset), so the native constructor is called directly, through polars' private API,
-    exactly as the public one ends up calling it. That path is checked against the
-    public constructor once; if polars has changed (anything missing, failing or giving
-    another series), or on a big-endian machine, the public constructor is used.
-    """
-
-    def public(name: str, values: np.ndarray[Any, np.dtype[np.float64]]) -> pl.Series:
-        return pl.Series(name, values)
-
-    try:
-        new_f64 = type(pl.Series(dtype=pl.Float64)._s).new_f64
-        from_native = pl.Series._from_pyseries
-
-        def native(name: str, values: np.ndarray[Any, np.dtype[np.float64]]) -> pl.Series:
-            if not values.flags.aligned:
-                values = values.copy()
-            return from_native(new_f64(name, values, False))  # False: NaN stays NaN
-
-        probe = np.frombuffer(b"\0" + _PROBE.tobytes(), _LITTLE_ENDIAN_F8, len(_PROBE), 1)
-        made, expected = native("probe", probe), public("probe", probe)
-        same = (
-            type(made) is pl.Series
-            and (made.name, made.dtype, made.null_count()) == ("probe", pl.Float64(), 0)
-            and made.to_numpy().tobytes() == expected.to_numpy().tobytes()
-        )
-    except Exception:  # any change in polars' private API means: not here
-        return public
-    return native if same and sys.byteorder == "little" else public
-
-
-# Bit patterns a conversion must keep: NaN (not null), -0.0, infinities, a subnormal.
-_PROBE = np.array([1.5, -0.0, math.nan, math.inf, -math.inf, 5e-324], dtype=np.float64)
+    return pl.Series(name, doubles_array(doubles))
 
 
 def doubles_array(doubles: pb.DoubleSeries) -> np.ndarray[Any, np.dtype[np.float64]]:
