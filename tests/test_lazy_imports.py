@@ -44,6 +44,27 @@ def test_building_aggregations_lists_no_plugins_before_a_kind_needs_it() -> None
     assert done.stdout == "False\n"
 
 
+def test_a_batch_run_imports_neither_report_nor_baseline_aggregations() -> None:
+    # A batch run builds the default batch aggregations and those of its config: the report
+    # aggregations (~30 ms), the baseline comparison and its statistics are imported only
+    # by the runs that use them.
+    script = (
+        "import sys, stook.service.cli._run\n"
+        "from stook.service.modes import parse\n"
+        "from stook.sdk.aggregations import default_batch_aggregations\n"
+        "default_batch_aggregations()\n"
+        "parse({'batch': {'pass_rate': [{}]}, 'report': {'top_n': 3}}).batch_aggregations()\n"
+        "unused = ('stook.sdk.aggregations.report', 'stook.sdk.aggregations._baseline',\n"
+        "          'stook.sdk.stats', 'stook.sdk.aggregations._histogram')\n"
+        "print(sorted(m for m in unused if m in sys.modules))\n"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", script], capture_output=True, text=True, timeout=60
+    )
+    assert done.returncode == 0, done.stderr
+    assert done.stdout == "[]\n"
+
+
 def test_previewing_imports_neither_plotly_nor_polars(tmp_path: Path) -> None:
     # `stook preview` embeds plotly.js read from the plotly package's files: the Python
     # package itself (and its numpy) is never imported, nor is polars.
