@@ -44,18 +44,22 @@ def test_building_aggregations_lists_no_plugins_before_a_kind_needs_it() -> None
     assert done.stdout == "False\n"
 
 
-def test_a_batch_run_imports_neither_report_nor_baseline_aggregations() -> None:
+def test_a_local_batch_run_imports_only_what_it_uses() -> None:
     # A batch run builds the default batch aggregations and those of its config: the report
     # aggregations (~30 ms), the baseline comparison and its statistics are imported only
-    # by the runs that use them.
+    # by the runs that use them; the sharded engines' machinery and the fetch library only
+    # by the runs and programs that use those.
     script = (
         "import sys, stook.service.cli._run\n"
-        "from stook.service.modes import parse\n"
+        "from stook.service.modes import engine_for, fetch_step_for, parse\n"
         "from stook.sdk.aggregations import default_batch_aggregations\n"
         "default_batch_aggregations()\n"
-        "parse({'batch': {'pass_rate': [{}]}, 'report': {'top_n': 3}}).batch_aggregations()\n"
+        "config = parse({'batch': {'pass_rate': [{}]}, 'report': {'top_n': 3}})\n"
+        "config.batch_aggregations()\n"
+        "fetch_step_for(engine_for(config), None)\n"
         "unused = ('stook.sdk.aggregations.report', 'stook.sdk.aggregations._baseline',\n"
-        "          'stook.sdk.stats', 'stook.sdk.aggregations._histogram')\n"
+        "          'stook.sdk.stats', 'stook.sdk.aggregations._histogram',\n"
+        "          'stook.service.modes._engine', 'stook.service.modes._library')\n"
         "print(sorted(m for m in unused if m in sys.modules))\n"
     )
     done = subprocess.run(
