@@ -69,6 +69,21 @@ def test_a_local_batch_run_imports_only_what_it_uses() -> None:
     assert done.stdout == "[]\n"
 
 
+def test_show_and_validate_import_neither_the_writer_nor_the_data_constructors() -> None:
+    # `stook show` and `validate` read a file: stook.sdk hands out its names on first use,
+    # so the writer (with secrets, for its temporary files) is not imported for them.
+    script = (
+        "import sys\nfrom stook.service.cli._inspect import show_file, validate_file\n"
+        "unused = ('stook.sdk._writer', 'stook.sdk._atomic', 'stook.sdk._data', 'secrets')\n"
+        "print(sorted(m for m in unused if m in sys.modules))\n"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", script], capture_output=True, text=True, timeout=60
+    )
+    assert done.returncode == 0, done.stderr
+    assert done.stdout == "[]\n"
+
+
 def test_previewing_imports_neither_plotly_nor_polars(tmp_path: Path) -> None:
     # `stook preview` embeds plotly.js read from the plotly package's files: the Python
     # package itself (and its numpy) is never imported, nor is polars.

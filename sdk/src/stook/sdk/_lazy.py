@@ -31,13 +31,15 @@ def lazy_exports(
 ) -> tuple[Callable[[str], object], Callable[[], list[str]]]:
     """A module ``__getattr__`` and ``__dir__`` for `package`: each name of `exports` is
     imported from the module it maps to (relative to `package` when it starts with a dot)
-    when first asked for, then kept in the package."""
+    when first asked for, then kept in the package; a name mapped to the package's
+    submodule of that name (``"data": ".data"``) is that submodule."""
 
     def get(name: str) -> object:
         module = exports.get(name)
         if module is None:
             raise AttributeError(f"module {package!r} has no attribute {name!r}")
-        value = getattr(importlib.import_module(module, package), name)
+        found = importlib.import_module(module, package)
+        value = found if found.__name__ == f"{package}.{name}" else getattr(found, name)
         setattr(sys.modules[package], name, value)  # later lookups skip __getattr__
         return value
 
