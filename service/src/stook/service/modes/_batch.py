@@ -13,7 +13,6 @@ from stook.sdk import MetricStatus, MetricsWriter
 from stook.sdk.aggregations import default_batch_aggregations
 from stook.service.api import ApiClient, RetryPolicy
 from stook.service.fetch import BatchFetcher, FetchOutcome, MissingJob
-from stook.service.modes._baseline import ComparedFetcher
 from stook.service.modes._config import ConfigError, StookConfig
 from stook.service.modes._inputs import BatchInputs
 from stook.service.modes._pipeline import RunResult, run_pipeline
@@ -27,6 +26,7 @@ if TYPE_CHECKING:
         BatchSummaryWriter,
         Needs,
     )
+    from stook.service.modes._baseline import ComparedFetcher
 
 BatchResult = RunResult[FetchOutcome]
 
@@ -83,6 +83,9 @@ class BatchMode:
         self, api: ApiClient, needs: Needs, on_progress: Callable[[FetchOutcome], None]
     ) -> BatchFetcher | ComparedFetcher:
         if self.comparison is not None and self.config.baseline is not None:
+            # The baseline's search and its failure directions: for the runs that have one.
+            from stook.service.modes._baseline import ComparedFetcher
+
             return ComparedFetcher(
                 api,
                 self.inputs.access.project_id,
