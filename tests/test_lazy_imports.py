@@ -48,7 +48,7 @@ def test_a_local_batch_run_imports_only_what_it_uses() -> None:
     # A batch run builds the default batch aggregations and those of its config: the report
     # aggregations (~30 ms), the baseline comparison and its statistics are imported only
     # by the runs that use them; the sharded engines' machinery, the report fetch and the
-    # fetch library only by the runs and programs that use those.
+    # fetch library only by the runs and programs that use those; tomllib only with a file.
     script = (
         "import sys, stook.service.cli._run\n"
         "from stook.service.modes import engine_for, fetch_step_for, parse\n"
@@ -60,7 +60,8 @@ def test_a_local_batch_run_imports_only_what_it_uses() -> None:
         "unused = ('stook.sdk.aggregations.report', 'stook.sdk.aggregations._baseline',\n"
         "          'stook.sdk.stats', 'stook.sdk.aggregations._histogram',\n"
         "          'stook.service.modes._engine', 'stook.service.modes._library',\n"
-        "          'stook.service.fetch._report_fetch', 'stook.service.fetch._baseline_find')\n"
+        "          'stook.service.fetch._report_fetch', 'stook.service.fetch._baseline_find',\n"
+        "          'tomllib')\n"
         "print(sorted(m for m in unused if m in sys.modules))\n"
     )
     done = subprocess.run(
