@@ -44,6 +44,50 @@ def test_building_aggregations_lists_no_plugins_before_a_kind_needs_it() -> None
     assert done.stdout == "False\n"
 
 
+def test_a_local_batch_run_imports_only_what_it_uses() -> None:
+    # A batch run builds the default batch aggregations and those of its config: the report
+    # aggregations (~30 ms), the baseline comparison and its statistics are imported only
+    # by the runs that use them; the sharded engines' machinery, the report fetch and the
+    # fetch library only by the runs and programs that use those; tomllib only with a file.
+    script = (
+        "import sys, stook.service.cli._run\n"
+        "from stook.service.modes import engine_for, fetch_step_for, parse\n"
+        "from stook.sdk.aggregations import default_batch_aggregations\n"
+        "default_batch_aggregations()\n"
+        "config = parse({'batch': {'pass_rate': [{}]}, 'report': {'top_n': 3}})\n"
+        "config.batch_aggregations()\n"
+        "fetch_step_for(engine_for(config), None)\n"
+        "unused = ('stook.sdk.aggregations.report', 'stook.sdk.aggregations._baseline',\n"
+        "          'stook.sdk.stats', 'stook.sdk.aggregations._histogram',\n"
+        "          'stook.service.modes._engine', 'stook.service.modes._library',\n"
+        "          'stook.service.fetch._report_fetch', 'stook.service.fetch._baseline_find',\n"
+        "          'tomllib')\n"
+        "print(sorted(m for m in unused if m in sys.modules))\n"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", script], capture_output=True, text=True, timeout=60
+    )
+    assert done.returncode == 0, done.stderr
+    assert done.stdout == "[]\n"
+
+
+def test_show_and_validate_import_neither_the_writer_nor_the_data_constructors() -> None:
+    # `stook show` and `validate` read a file: stook.sdk hands out its names on first use,
+    # so the writer (with secrets, for its temporary files) is not imported for them, and
+    # the rules only by `validate`.
+    script = (
+        "import sys\nfrom stook.service.cli._inspect import show_file, validate_file\n"
+        "unused = ('stook.sdk._writer', 'stook.sdk._atomic', 'stook.sdk._data', 'secrets',\n"
+        "          'stook.sdk._validate')\n"
+        "print(sorted(m for m in unused if m in sys.modules))\n"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", script], capture_output=True, text=True, timeout=60
+    )
+    assert done.returncode == 0, done.stderr
+    assert done.stdout == "[]\n"
+
+
 def test_previewing_imports_neither_plotly_nor_polars(tmp_path: Path) -> None:
     # `stook preview` embeds plotly.js read from the plotly package's files: the Python
     # package itself (and its numpy) is never imported, nor is polars.

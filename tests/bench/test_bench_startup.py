@@ -35,3 +35,18 @@ def test_table_has_a_row_per_command() -> None:
     table = startup_table(_startup(**MEASURED))
     assert "| `stook validate` | 0.200 | <= 0.15 |" in table
     assert "| `stook run`, to its first request | 0.300 | <= 0.35 |" in table
+
+
+def test_the_commands_are_timed_with_stooks_modules_byte_compiled() -> None:
+    # As pip leaves an installed wheel: without it, an editable checkout run under
+    # PYTHONDONTWRITEBYTECODE compiles every module from source at every start-up.
+    import importlib.util
+    from pathlib import Path
+
+    import stook.sdk._lazy as module
+    from stook.bench._startup import byte_compile_stook
+
+    cached = Path(importlib.util.cache_from_source(module.__file__))
+    cached.unlink(missing_ok=True)
+    byte_compile_stook()
+    assert cached.is_file()

@@ -179,7 +179,13 @@ PUBLIC_API: dict[str, list[str]] = {
     "stook.service.preview": ["PREVIEW_NAME", "PreviewInput", "render_html", "write_preview"],
     "stook.service.cli": ["Voice", "build_parser", "main", "run_cli", "summary_lines"],
 }
-LAZY = ["stook.service", "stook.service.api", "stook.service.cli"]
+LAZY = [
+    "stook.service",
+    "stook.service.api",
+    "stook.service.cli",
+    "stook.service.fetch",
+    "stook.service.modes",
+]
 PACKAGES = sorted(PUBLIC_API)
 
 

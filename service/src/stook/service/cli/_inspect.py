@@ -15,7 +15,6 @@ from stook.sdk import (
     MetricView,
     ReadError,
     SeriesKind,
-    find_problems,
     read_job_metrics,
 )
 
@@ -37,6 +36,8 @@ def _read(path: Path) -> JobMetricsView:
 
 def validate_file(path: Path, out: TextIO | None = None) -> int:
     """Print every rule the file breaks; exit 0 when there is none, 4 otherwise."""
+    from stook.sdk import find_problems  # the rules: for `validate`, not `show`
+
     stream = out or sys.stdout
     view = _read(path)
     problems = find_problems(view.raw)

@@ -24,7 +24,7 @@ import os
 import uuid
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import structlog
 
@@ -45,7 +45,6 @@ from stook.service.modes import (
     InputsError,
     OutputsError,
     Progress,
-    ReportMode,
     RunResult,
     StookConfig,
     TestInputs,
@@ -58,8 +57,10 @@ from stook.service.modes import (
     human_bytes,
     load,
     run_pipeline,
-    run_test_mode,
 )
+
+if TYPE_CHECKING:
+    from stook.service.modes import ReportMode
 
 log = structlog.get_logger("stook.run")
 
@@ -149,13 +150,19 @@ async def run(options: RunOptions, *, progress: Progress | None = None) -> Path:
     output = options.outputs / OUTPUT_NAME
     _remove_stale_temp_files(output)
     if isinstance(mode, TestInputs):
+        from stook.service.modes import run_test_mode
+
         log.info("test mode", config=config.source)
         written = await run_test_mode(mode, config, output)
         _preview(written, options, config)
         return written
-    pieces: BatchMode | ReportMode = (
-        BatchMode(mode, config) if isinstance(mode, BatchInputs) else ReportMode(mode, config)
-    )
+    pieces: BatchMode | ReportMode
+    if isinstance(mode, BatchInputs):
+        pieces = BatchMode(mode, config)
+    else:
+        from stook.service.modes import ReportMode  # and the report fetch: report mode's own
+
+        pieces = ReportMode(mode, config)
     log.info(
         f"{pieces.kind} mode", **{f"{pieces.kind}_id": str(pieces.output_id)}, config=config.source
     )

@@ -12,14 +12,17 @@ from __future__ import annotations
 import uuid
 from collections import defaultdict
 from collections.abc import Mapping
+from typing import TYPE_CHECKING
 
 import structlog
 
 from stook.sdk import ReadError, read_metric
-from stook.sdk.stats import Better
 from stook.service.api import ApiClient, ApiError, ApiMetric, AuthError, OriginUnavailableError
 from stook.service.fetch._presigned import fetch_listed
 from stook.service.fetch._scalars import is_scalar
+
+if TYPE_CHECKING:
+    from stook.sdk.stats import Better  # an alias: not worth the statistics' imports
 
 __all__ = ["failure_directions"]
 

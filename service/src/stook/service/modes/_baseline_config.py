@@ -16,10 +16,12 @@ from __future__ import annotations
 import uuid
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from stook.sdk.aggregations import BaselineComparison
-from stook.sdk.stats import Better
+if TYPE_CHECKING:
+    # Imported by the config that has a [batch.baseline] (comparison), not by every run.
+    from stook.sdk.aggregations import BaselineComparison
+    from stook.sdk.stats import Better
 
 _KEYS = {
     "batch",
@@ -57,6 +59,8 @@ class BaselineSettings:
 
     def comparison(self) -> BaselineComparison:
         """A fresh comparison aggregation with these options."""
+        from stook.sdk.aggregations import BaselineComparison
+
         return BaselineComparison(
             metrics=self.metrics,
             better=dict(self.better),

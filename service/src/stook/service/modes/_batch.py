@@ -7,22 +7,26 @@ import uuid
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from stook.sdk import MetricStatus, MetricsWriter
-from stook.sdk.aggregations import (
-    BaselineComparison,
-    BatchAggregation,
-    BatchSummaryWriter,
-    Needs,
-    default_batch_aggregations,
-)
+from stook.sdk.aggregations import default_batch_aggregations
 from stook.service.api import ApiClient, RetryPolicy
 from stook.service.fetch import BatchFetcher, FetchOutcome, MissingJob
-from stook.service.modes._baseline import ComparedFetcher
 from stook.service.modes._config import ConfigError, StookConfig
 from stook.service.modes._inputs import BatchInputs
 from stook.service.modes._pipeline import RunResult, run_pipeline
 from stook.service.modes._progress import Progress, Snapshot
+
+if TYPE_CHECKING:
+    # The baseline comparison and the summary are imported by the runs that have them.
+    from stook.sdk.aggregations import (
+        BaselineComparison,
+        BatchAggregation,
+        BatchSummaryWriter,
+        Needs,
+    )
+    from stook.service.modes._baseline import ComparedFetcher
 
 BatchResult = RunResult[FetchOutcome]
 
@@ -66,6 +70,8 @@ class BatchMode:
             self.comparison = self.config.baseline.comparison()
             self.aggregations.append(self.comparison)
         if self.config.summary:
+            from stook.sdk.aggregations import BatchSummaryWriter
+
             self.summary = BatchSummaryWriter()
             self.aggregations.append(self.summary)
 
@@ -77,6 +83,9 @@ class BatchMode:
         self, api: ApiClient, needs: Needs, on_progress: Callable[[FetchOutcome], None]
     ) -> BatchFetcher | ComparedFetcher:
         if self.comparison is not None and self.config.baseline is not None:
+            # The baseline's search and its failure directions: for the runs that have one.
+            from stook.service.modes._baseline import ComparedFetcher
+
             return ComparedFetcher(
                 api,
                 self.inputs.access.project_id,

@@ -31,7 +31,6 @@ weight = "Distance driven"
 from __future__ import annotations
 
 import dataclasses
-import tomllib
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -139,6 +138,8 @@ def load(path: Path | None) -> StookConfig:
     """Read a config file; None means no file: the defaults."""
     if path is None:
         return StookConfig()
+    import tomllib  # here: a run without a file (the defaults) need not import it
+
     name = str(path)
     try:
         doc = tomllib.loads(path.read_text(encoding="utf-8"))

@@ -19,12 +19,10 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
-import dataclasses
 import logging
 import pickle
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any, Protocol, cast
 
 import structlog
@@ -32,17 +30,16 @@ import structlog
 from stook.sdk.aggregations import Aggregation
 from stook.service.api import redact_text
 from stook.service.fetch import fetch_deadline
-from stook.service.modes._config import ConfigError, StookConfig
-from stook.service.modes._engine_config import EngineConfigError, EngineSettings, require_engine
+from stook.service.modes._config import ConfigError
+from stook.service.modes._engine_config import EngineConfigError, EngineSettings
 from stook.service.modes._open_api import Traffic, open_api
-from stook.service.modes._pipeline import FetchRun, FetchStep, fetch_here, show_progress, tick
+from stook.service.modes._pipeline import FetchRun, show_progress, tick
 from stook.service.modes._shard_errors import ShardError
 from stook.service.modes._shard_plans import BatchPlan, ReportPlan, plan_for
 from stook.service.modes._shard_progress import LiveShards, ShardProgress
 from stook.service.modes._shards import LogSettings, ShardDone, ShardFailed, split
-from stook.service.modes._user_code import import_folders
 
-__all__ = ["ShardRunner", "ShardedFetch", "engine_for", "fetch_step_for"]
+__all__ = ["ShardRunner", "ShardedFetch"]
 
 log = structlog.get_logger("stook.engine")
 
@@ -65,29 +62,6 @@ class ShardRunner(Protocol):
     def close(self, *, abort: bool) -> None:
         """Release the workers; `abort`: stop the shards still running, at once."""
         ...
-
-
-def engine_for(config: StookConfig, kind: str | None = None) -> EngineSettings:
-    """`[engine]`, its kind replaced by `--engine` when given; refuses one that cannot run
-    here (Ray not installed) before the first request (ConfigError, exit 2)."""
-    engine = config.engine
-    if kind is not None and kind != engine.kind:
-        # The table's address is Ray's: it says nothing to another kind.
-        address = engine.address if kind == "ray" else None
-        engine = dataclasses.replace(engine, kind=kind, address=address)
-    try:
-        require_engine(engine)
-    except EngineConfigError as exc:
-        source = "--engine" if kind is not None else config.source
-        raise ConfigError(f"{source}: {exc}") from None
-    return engine
-
-
-def fetch_step_for(engine: EngineSettings, config_file: Path | None) -> FetchStep:
-    """The pipeline's fetch-and-fold step for `[engine]`."""
-    if engine.kind == "local":
-        return fetch_here
-    return ShardedFetch(engine, tuple(str(f) for f in import_folders(config_file)))
 
 
 @dataclass(frozen=True, slots=True)

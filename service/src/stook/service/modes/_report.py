@@ -8,11 +8,10 @@ import uuid
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from stook.sdk import MetricStatus, MetricsWriter
-from stook.sdk.aggregations import Aggregation, Needs, default_report_aggregations
-from stook.sdk.aggregations.report import RegressionSummary, ScalarLines
+from stook.sdk.aggregations import default_report_aggregations
 from stook.service.api import ApiClient, RetryPolicy
 from stook.service.fetch import MissingJob, ReportFetcher, ReportOutcome
 from stook.service.modes._config import ConfigError, StookConfig
@@ -20,6 +19,11 @@ from stook.service.modes._inputs import ReportInputs
 from stook.service.modes._pipeline import RunResult, run_pipeline
 from stook.service.modes._progress import Progress, Snapshot
 from stook.service.modes._report_imports import import_change_points_when_idle
+
+if TYPE_CHECKING:
+    # The report aggregations are imported by report mode, not by every run.
+    from stook.sdk.aggregations import Aggregation, Needs
+    from stook.sdk.aggregations.report import RegressionSummary
 
 
 @dataclass(frozen=True, slots=True)
@@ -130,6 +134,8 @@ class ReportMode:
 
     def regressions(self) -> RegressionSummary | None:
         """What the default regression check found, read from the aggregation itself."""
+        from stook.sdk.aggregations.report import ScalarLines
+
         lines = [a for a in self.aggregations if isinstance(a, ScalarLines)]
         return lines[0].regressions() if lines else None
 

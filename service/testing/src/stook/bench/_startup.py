@@ -4,6 +4,11 @@
 until it has exited. `stook run` is timed from before its process is started until the
 emulator (in a process of its own, a fresh one per run) sees its first request; both
 sides read time.monotonic(), one clock for every process on the machine.
+
+stook's modules are byte-compiled first, as pip does when it installs a wheel: a checkout
+installed in editable mode, run with PYTHONDONTWRITEBYTECODE set (as in many containers),
+would otherwise compile every one of its modules from source at every start-up, about a
+third of `stook run`'s instructions before its first request.
 """
 
 from __future__ import annotations
@@ -34,6 +39,17 @@ def stook_command() -> list[str]:
     if script.exists():
         return [str(script)]
     return [sys.executable, "-c", "from stook.service.cli import main; main()"]
+
+
+def byte_compile_stook() -> None:
+    """Write the bytecode of the stook packages that the commands import (compileall skips
+    a module whose bytecode is up to date)."""
+    import compileall
+    import importlib
+
+    for name in ("stook.proto", "stook.sdk", "stook.service"):
+        for folder in importlib.import_module(name).__path__:
+            compileall.compile_dir(folder, quiet=1)
 
 
 def _clean_env() -> dict[str, str]:
@@ -81,6 +97,7 @@ def _time_to_first_request(folder: Path) -> float:
 def measure_startup(runs: int, say: Callable[[str], None] = print) -> dict[str, Any]:
     """Medians (and every run) in seconds, keyed by command; "run" is time to first request."""
     results: dict[str, Any] = {}
+    byte_compile_stook()
     with tempfile.TemporaryDirectory(prefix="stook-startup-") as tmp:
         folder = Path(tmp)
         file = str(_sample_file(folder))
