@@ -225,19 +225,11 @@ class BatchFetcher:
             experience_tags=tags,
         )
 
-    async def _list_metrics(self, job: Job) -> list[ApiMetric]:
-        return [
-            m
-            async for m in self._api.list_job_metrics(self._project_id, self._batch_id, job.job_id)
-        ]
+    def _list_metrics(self, job: Job) -> Awaitable[list[ApiMetric]]:
+        return self._api.all_job_metrics(self._project_id, self._batch_id, job.job_id)
 
-    async def _list_data(self, job: Job) -> list[ApiMetricsData]:
-        return [
-            d
-            async for d in self._api.list_job_metrics_data(
-                self._project_id, self._batch_id, job.job_id
-            )
-        ]
+    def _list_data(self, job: Job) -> Awaitable[list[ApiMetricsData]]:
+        return self._api.all_job_metrics_data(self._project_id, self._batch_id, job.job_id)
 
     async def _list_events(self, job: Job) -> list[JobEvent]:
         return [
