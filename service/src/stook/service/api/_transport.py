@@ -227,9 +227,51 @@ class HttpTransport:
         await self._limiter.acquire()
         held_from = time.perf_counter()
         status: int | None = None
+        # The per-attempt timeout, in this frame rather than a coroutine of its own (one
+        # layer fewer for every resumption of the request). What ``asyncio.timeout`` does,
+        # with a timer of its own instead of a Timeout object entered and left through two
+        # coroutines and rescheduled (~2 µs a request): when the timer fires it cancels this
+        # task, and the cancellation it sent, and only that one, becomes a TimeoutError.
         try:
             self.stats.requests += 1
-            response = await self._send_within_timeout(session, url, params, headers)
+            task = asyncio.current_task()
+            assert task is not None  # a transport is used from a task
+            cancelling = task.cancelling()
+            deadline = _Deadline(task)
+            loop = task.get_loop()
+            timer = loop.call_at(loop.time() + self._timeout, deadline.expire)
+            try:
+                async with session.get(
+                    url,
+                    params=params,
+                    headers=headers,
+                    allow_redirects=self._follow_redirects,
+                    max_redirects=_MAX_API_REDIRECTS,
+                ) as answer:
+                    if self._read_at_once(answer):
+                        body = await answer.read()
+                    else:
+                        assert self._body_cap is not None  # only a capped body is chunked
+                        body = await self._read_capped(answer, self._body_cap)
+                    _check_complete(answer, body)
+                    response = Response(
+                        status=answer.status, headers=answer.headers, body=body, url=answer.url
+                    )
+            except BaseException as exc:
+                # As asyncio.timeout: take back the cancellation the timer sent, and make it
+                # a TimeoutError unless the task was also cancelled from outside.
+                if (
+                    deadline.expired
+                    and task.uncancel() <= cancelling
+                    and isinstance(exc, asyncio.CancelledError)
+                ):
+                    raise TimeoutError from None
+                raise
+            else:
+                if deadline.expired:  # fired, but the cancellation never arrived
+                    task.uncancel()
+            finally:
+                timer.cancel()
             status = response.status
         except TimeoutError:
             raise TransportError(
@@ -258,71 +300,6 @@ class HttpTransport:
                 bytes=len(response.body),
                 ms=round((time.perf_counter() - started) * 1000, 1),
             )
-        return response
-
-    async def _send_within_timeout(
-        self,
-        session: aiohttp.ClientSession,
-        url: URL,
-        params: Mapping[str, str | int] | None,
-        headers: Mapping[str, str] | None,
-    ) -> Response:
-        """Send the GET and read its body, or TimeoutError once the timeout has passed.
-
-        What ``asyncio.timeout`` does, with a timer of its own instead of a Timeout object
-        entered and left through two coroutines and rescheduled (~2 µs a request): when the
-        timer fires it cancels this task, and the cancellation it sent, and only that one,
-        becomes a TimeoutError.
-        """
-        task = asyncio.current_task()
-        assert task is not None  # a transport is used from a task
-        cancelling = task.cancelling()
-        deadline = _Deadline(task)
-        loop = task.get_loop()
-        timer = loop.call_at(loop.time() + self._timeout, deadline.expire)
-        try:
-            async with session.get(
-                url,
-                params=params,
-                headers=headers,
-                allow_redirects=self._follow_redirects,
-                max_redirects=_MAX_API_REDIRECTS,
-            ) as answer:
-                if self._read_at_once(answer):
-                    body = await answer.read()
-                else:
-                    assert self._body_cap is not None  # only a capped body is read in chunks
-                    body = await self._read_capped(answer, self._body_cap)
-                expected = answer.content_length
-                # With Content-Encoding the header counts compressed bytes, not what read()
-                # gives.
-                if (
-                    expected is not None
-                    and len(body) < expected
-                    and hdrs.CONTENT_ENCODING not in answer.headers
-                    and answer.status not in _NO_BODY_STATUSES
-                ):
-                    raise IncompleteBodyError(
-                        method="GET", url=answer.url, received=len(body), expected=expected
-                    )
-                response = Response(
-                    status=answer.status, headers=answer.headers, body=body, url=answer.url
-                )
-        except BaseException as exc:
-            # As asyncio.timeout: take back the cancellation the timer sent, and make it a
-            # TimeoutError unless the task was also cancelled from outside.
-            if (
-                deadline.expired
-                and task.uncancel() <= cancelling
-                and isinstance(exc, asyncio.CancelledError)
-            ):
-                raise TimeoutError from None
-            raise
-        else:
-            if deadline.expired:  # fired, but the cancellation never arrived
-                task.uncancel()
-        finally:
-            timer.cancel()
         return response
 
     def _read_at_once(self, answer: aiohttp.ClientResponse) -> bool:
@@ -396,6 +373,21 @@ class _Deadline:
     def expire(self) -> None:
         self.expired = True
         self.task.cancel()
+
+
+def _check_complete(answer: aiohttp.ClientResponse, body: bytes) -> None:
+    """IncompleteBodyError when the body is shorter than its ``Content-Length``."""
+    expected = answer.content_length
+    # With Content-Encoding the header counts compressed bytes, not what read() gives.
+    if (
+        expected is not None
+        and len(body) < expected
+        and hdrs.CONTENT_ENCODING not in answer.headers
+        and answer.status not in _NO_BODY_STATUSES
+    ):
+        raise IncompleteBodyError(
+            method="GET", url=answer.url, received=len(body), expected=expected
+        )
 
 
 def _env_proxy(url: URL) -> URL | None:
