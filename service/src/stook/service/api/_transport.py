@@ -241,13 +241,17 @@ class HttpTransport:
             loop = task.get_loop()
             timer = loop.call_at(loop.time() + self._timeout, deadline.expire)
             try:
-                async with session.get(
+                # Awaited, not entered: `async with` adds three coroutines a request and a
+                # layer to every resumption; leaving it only releases the answer (a GET has
+                # no body writer to wait for), as the `finally` below does.
+                answer = await session.get(
                     url,
                     params=params,
                     headers=headers,
                     allow_redirects=self._follow_redirects,
                     max_redirects=_MAX_API_REDIRECTS,
-                ) as answer:
+                )
+                try:
                     if self._read_at_once(answer):
                         body = await answer.read()
                     else:
@@ -257,6 +261,8 @@ class HttpTransport:
                     response = Response(
                         status=answer.status, headers=answer.headers, body=body, url=answer.url
                     )
+                finally:
+                    answer.release()
             except BaseException as exc:
                 # As asyncio.timeout: take back the cancellation the timer sent, and make it
                 # a TimeoutError unless the task was also cancelled from outside.
