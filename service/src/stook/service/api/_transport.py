@@ -32,6 +32,7 @@ from aiohttp import hdrs
 from multidict import CIMultiDictProxy
 from yarl import URL
 
+from stook.service.api._deadlines import Deadlines
 from stook.service.api._errors import BodyTooLargeError, IncompleteBodyError, TransportError
 from stook.service.api._limits import ConcurrencyLimit, FixedLimit
 from stook.service.api._logging import get_logger
@@ -152,6 +153,7 @@ class HttpTransport:
         # A limiter shared with another transport makes one bound for both.
         self._limiter: ConcurrencyLimit = limiter or FixedLimit(concurrency)
         self._session: aiohttp.ClientSession | None = None
+        self._deadlines: Deadlines | None = None  # while open
         self._debug = False
         self._proxy = _env_proxy(proxy_for) if proxy_for is not None else None
         self._body_cap = body_cap
@@ -171,6 +173,7 @@ class HttpTransport:
         # logger on every call (2% of the client's CPU at 0 ms), and debug logging costs a
         # redact_url per request. The log level does not change during a run.
         self._debug = _log.is_enabled_for(logging.DEBUG)
+        self._deadlines = Deadlines(asyncio.get_running_loop(), self._timeout)
         connector = aiohttp.TCPConnector(
             limit=self._concurrency,
             limit_per_host=self._concurrency,
@@ -206,6 +209,9 @@ class HttpTransport:
         await self.close()
 
     async def close(self) -> None:
+        if self._deadlines is not None:
+            self._deadlines.close()
+            self._deadlines = None
         session, self._session = self._session, None
         if session is not None:
             await session.close()
@@ -219,7 +225,8 @@ class HttpTransport:
     ) -> Response:
         """Send one GET and read the whole body; any status is returned, not raised."""
         session = self._session
-        if session is None:
+        deadlines = self._deadlines
+        if session is None or deadlines is None:
             raise RuntimeError(f"{self.name} transport is not open; use 'async with'")
         if not self._credentials_allowed:
             url = self._without_credentials(session, url, headers)
@@ -229,17 +236,15 @@ class HttpTransport:
         status: int | None = None
         # The per-attempt timeout, in this frame rather than a coroutine of its own (one
         # layer fewer for every resumption of the request). What ``asyncio.timeout`` does,
-        # with a timer of its own instead of a Timeout object entered and left through two
-        # coroutines and rescheduled (~2 µs a request): when the timer fires it cancels this
-        # task, and the cancellation it sent, and only that one, becomes a TimeoutError.
+        # on the transport's one timer (see _deadlines): when the deadline passes it
+        # cancels this task, and the cancellation it sent, and only that one, becomes a
+        # TimeoutError.
         try:
             self.stats.requests += 1
             task = asyncio.current_task()
             assert task is not None  # a transport is used from a task
             cancelling = task.cancelling()
-            deadline = _Deadline(task)
-            loop = task.get_loop()
-            timer = loop.call_at(loop.time() + self._timeout, deadline.expire)
+            deadline = deadlines.start(task)
             try:
                 # Awaited, not entered: `async with` adds three coroutines a request and a
                 # layer to every resumption; leaving it only releases the answer (a GET has
@@ -277,7 +282,7 @@ class HttpTransport:
                 if deadline.expired:  # fired, but the cancellation never arrived
                     task.uncancel()
             finally:
-                timer.cancel()
+                deadline.ended = True
             status = response.status
         except TimeoutError:
             raise TransportError(
@@ -364,21 +369,6 @@ class HttpTransport:
             # aiohttp would turn user info into a Basic Authorization header.
             return url.with_user(None)
         return url
-
-
-class _Deadline:
-    """The per-attempt timer's target: it cancels the attempt's task, and remembers that it
-    did, so that only that cancellation becomes a TimeoutError."""
-
-    __slots__ = ("expired", "task")
-
-    def __init__(self, task: asyncio.Task[object]) -> None:
-        self.task = task
-        self.expired = False
-
-    def expire(self) -> None:
-        self.expired = True
-        self.task.cancel()
 
 
 def _check_complete(answer: aiohttp.ClientResponse, body: bytes) -> None:
