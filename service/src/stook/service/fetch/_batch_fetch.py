@@ -161,7 +161,7 @@ class BatchFetcher:
                 log.warning("job unavailable", job_id=str(job.job_id), reason=str(exc))
             else:
                 handled = on_job(record)
-                if inspect.isawaitable(handled):
+                if handled is not None and inspect.isawaitable(handled):
                     await handled
                 self.outcome.jobs_done += 1
             if self._on_progress is not None:
@@ -182,23 +182,28 @@ class BatchFetcher:
         data_items: list[ApiMetricsData] = next(listed) if wants_blobs else []
         events: tuple[JobEvent, ...] = tuple(next(listed)) if needs.events else ()
         tags: tuple[str, ...] = next(listed) if needs.experience_tags else ()
+        outcome = self.outcome
         if metrics:
-            self.outcome.jobs_with_metrics += 1
+            outcome.jobs_with_metrics += 1
+        # How errors and logs name the job, formatted once (UUID.__str__ is Python code).
+        source = f"job {job.job_id}"
         scalars = await read_scalars(
             self._api.storage,
             metrics,
             needs.wants_scalar,
-            source=f"job {job.job_id}",
+            source=source,
             relist=lambda: self._list_metrics(job),
         )
         # Listed is enough: a name the job has is no typo, even when its value is absent.
-        self.outcome.scalar_names.update(m.name for m in metrics if is_scalar(m))
-        self.outcome.metric_names.update(m.name for m in metrics if m.name)
-        unnamed = sum(not d.name for d in data_items)
+        # Lists, not generators: these run for every job.
+        outcome.scalar_names.update([m.name for m in metrics if is_scalar(m)])
+        outcome.metric_names.update([m.name for m in metrics if m.name])
+        data_names = [d.name for d in data_items if d.name]
+        unnamed = len(data_items) - len(data_names)
         if unnamed:
-            self.outcome.unnamed_data += unnamed
+            outcome.unnamed_data += unnamed
             log.debug("unnamed metrics data skipped", job_id=str(job.job_id), count=unnamed)
-        self.outcome.data_names.update(d.name for d in data_items if d.name)
+        outcome.data_names.update(data_names)
         blobs = None
         if wants_blobs:
             blobs = await JobBlobs(
@@ -209,6 +214,7 @@ class BatchFetcher:
                 data=data_items,
                 relist_metrics=lambda: self._list_metrics(job),
                 relist_data=lambda: self._list_data(job),
+                source=source,
             ).fetch()
         return JobRecord(
             job_id=job.job_id,
