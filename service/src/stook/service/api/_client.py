@@ -43,7 +43,7 @@ from stook.service.api._models import (
 from stook.service.api._paging import ListingGuard
 from stook.service.api._redact import redact_url, register_secret
 from stook.service.api._retry import RetryPolicy, new_gate
-from stook.service.api._retrying import call_with_retries
+from stook.service.api._retrying import call_with_retries, sent_at_once
 from stook.service.api._stats import TransferStats
 from stook.service.api._storage import DEFAULT_CONCURRENCY, StorageClient, answer_retry_after
 from stook.service.api._transport import (
@@ -211,14 +211,29 @@ class ApiClient:
     ) -> dict[str, Any]:
         """GET ``path`` (relative to the base URL) and return its JSON object."""
         url = self._url(path, params)
-        response = await call_with_retries(
-            lambda: self._get_once(url),
-            self._policy,
-            stats=self.stats,
-            method="GET",
-            url=url,
-            gate=self.gate,
-        )
+        # The first attempt in this frame (see sent_at_once); the rest, if any, retried.
+        gate = self.gate
+        first: tuple[Exception, int] | None = None
+        sent_in = sent_at_once(gate)
+        if sent_in is not None:
+            try:
+                response = await self._transport.get(url)
+                if not response.ok:
+                    raise _api_error(response, self._base.origin())
+            except Exception as exc:
+                first = (exc, sent_in)
+            else:
+                gate.answered(sent_in)
+        if sent_in is None or first is not None:
+            response = await call_with_retries(
+                lambda: self._get_once(url),
+                self._policy,
+                stats=self.stats,
+                method="GET",
+                url=url,
+                gate=gate,
+                first=first,
+            )
         try:
             document = _loads(response.body)
         except (UnicodeDecodeError, json.JSONDecodeError) as exc:
