@@ -651,6 +651,25 @@ async def test_storage_transport_refuses_a_per_request_authorization_header(
     assert server.seen == []
 
 
+async def test_a_transport_answers_with_a_response_like_one_made_by_its_init(
+    server: ScriptedServer,
+) -> None:
+    import dataclasses
+
+    server.script("/obj", answer(200, b"x"))
+    transport = HttpTransport(name="storage", concurrency=1, request_timeout=1.0)
+    async with transport:
+        response = await transport.get(URL(server.url("/obj")))
+    assert type(response) is Response
+    made = dataclasses.replace(response)  # every field through Response.__init__
+    assert response == made
+    assert (response.status, response.body, response.ok) == (200, b"x", True)
+    assert response.url == URL(server.url("/obj"))
+    assert repr(response) == repr(made)
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        response.status = 500  # type: ignore[misc]
+
+
 @pytest.mark.parametrize(
     ("path", "params"),
     [

@@ -413,3 +413,18 @@ async def test_a_failed_metrics_listing_cancels_the_jobs_other_listings() -> Non
     outcome = await fetcher.run(lambda record: None)
     assert [m.reason for m in outcome.missing] == ["the metrics listing failed"]
     assert api.data_listing_cancelled
+
+
+async def test_a_record_is_a_job_record_like_one_made_by_its_init(
+    server: ScriptedServer, batch: ScriptedBatch, fast_policy: RetryPolicy
+) -> None:
+    import dataclasses
+
+    batch.add_job(parameters={"max_speed": "10"})
+    (record,) = await _fetch(server, fast_policy, Needs(data=frozenset({"speeds"})))
+    assert type(record) is JobRecord
+    made = dataclasses.replace(record)  # every field through JobRecord.__init__
+    assert record == made
+    assert repr(record) == repr(made)
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        record.job_id = uuid.uuid4()  # type: ignore[misc]
