@@ -21,7 +21,7 @@ from typing import Any, Final
 
 import structlog
 
-from stook.sdk.aggregations import UNKNOWN_STATUS, JobEvent, JobRecord, Needs, Scalar
+from stook.sdk.aggregations import UNKNOWN_STATUS, JobEvent, JobRecord, Needs
 from stook.service.api import (
     ApiClient,
     ApiError,
@@ -33,7 +33,7 @@ from stook.service.api import (
 )
 from stook.service.fetch._collector import fewer_collections
 from stook.service.fetch._decoders import start_importing
-from stook.service.fetch._job_blobs import InvalidDataError, JobBlobs, JobBlobsResult
+from stook.service.fetch._job_blobs import InvalidDataError, JobBlobs
 from stook.service.fetch._job_extras import ExperienceTags, job_event
 from stook.service.fetch._scalars import is_scalar, read_scalars
 
@@ -110,8 +110,6 @@ class BatchFetcher:
         self._project_id = project_id
         self._batch_id = batch_id
         self._needs = needs
-        # Whether a job's metrics data are listed and blobs downloaded.
-        self._wants_blobs = bool(needs.data or needs.metrics) or needs.every_metric
         self._workers = workers
         self._on_progress = on_progress
         self._tags = ExperienceTags(api, project_id)
@@ -168,60 +166,13 @@ class BatchFetcher:
             await queue.put(None)
 
     async def _work(self, queue: asyncio.Queue[Job | None], on_job: OnJob) -> None:
-        """Fetch jobs off the queue, one at a time, until a None.
-
-        A job is fetched in this frame, not in a coroutine of its own: each resumption of
-        its requests passes through one coroutine layer fewer (~1 % of the client's CPU at
-        0 ms latency). What does not wait is in plain methods (`_start_listings`,
-        `_note_names`, `_record`).
-        """
-        needs = self._needs
-        wants_blobs = self._wants_blobs
-        outcome = self.outcome
         while (job := await queue.get()) is not None:
             try:
-                # The metrics listing is awaited here, the others in tasks of their own.
-                tasks = self._start_listings(job)
-                try:
-                    metrics: list[ApiMetric] = await self._list_metrics(job)
-                    listed = []
-                    for task in tasks:  # a loop: an async comprehension is a coroutine
-                        listed.append(await task)
-                except BaseException:
-                    # A failure cancels the rest, as the task group around the workers would.
-                    await _cancel(tasks)
-                    raise
-                data_items: list[ApiMetricsData] = listed[0] if wants_blobs else []
-                if metrics:
-                    outcome.jobs_with_metrics += 1
-                # How errors and logs name the job, formatted once (UUID.__str__ is Python
-                # code).
-                source = f"job {job.job_id}"
-                scalars = await read_scalars(
-                    self._api.storage,
-                    metrics,
-                    needs.wants_scalar,
-                    source=source,
-                    relist=lambda: self._list_metrics(job),
-                )
-                self._note_names(job, metrics, data_items)
-                blobs = None
-                if wants_blobs:
-                    blobs = await JobBlobs(
-                        self._api.storage,
-                        job.job_id,
-                        needs,
-                        metrics=metrics,
-                        data=data_items,
-                        relist_metrics=lambda: self._list_metrics(job),
-                        relist_data=lambda: self._list_data(job),
-                        source=source,
-                    ).fetch()
-                record = self._record(job, metrics, scalars, blobs, listed)
+                record = await self._fetch_job(job)
             except (AuthError, OriginUnavailableError):
                 raise
             except ApiError as exc:
-                outcome.missing.append(
+                self.outcome.missing.append(
                     MissingJob(job.job_id, job.experience_name or "", exc.summary)
                 )
                 log.warning("job unavailable", job_id=str(job.job_id), reason=str(exc))
@@ -229,29 +180,49 @@ class BatchFetcher:
                 handled = on_job(record)
                 if handled is not None and inspect.isawaitable(handled):
                     await handled
-                outcome.jobs_done += 1
+                self.outcome.jobs_done += 1
             if self._on_progress is not None:
-                self._on_progress(outcome)
+                self._on_progress(self.outcome)
 
-    def _start_listings(self, job: Job) -> list[asyncio.Task[Any]]:
-        """The job's listings other than its metrics', each started in a task of its own
-        (one task per job fewer than a gather; tasks were ~5 % of the client's CPU): its
-        metrics data, events and experience tags, as the plan needs them, in that order."""
+    async def _fetch_job(self, job: Job) -> JobRecord:
         needs = self._needs
+        wants_blobs = bool(needs.data or needs.metrics) or needs.every_metric
         others: list[Awaitable[Any]] = []
-        if self._wants_blobs:
+        if wants_blobs:
             others.append(self._list_data(job))
         if needs.events:
             others.append(self._list_events(job))
         if needs.experience_tags:
             others.append(self._tags.of(job.experience_id))
-        return [asyncio.ensure_future(c) for c in others]
-
-    def _note_names(
-        self, job: Job, metrics: list[ApiMetric], data_items: list[ApiMetricsData]
-    ) -> None:
-        """Note the names the job's listings hold, for the config's checks."""
+        # The metrics listing is awaited here, the others in tasks of their own (one task
+        # per job fewer than a gather; tasks were ~5 % of the client's CPU), and not through
+        # a helper: a coroutine layer fewer for each of its request's resumptions.
+        tasks = [asyncio.ensure_future(a) for a in others]
+        try:
+            metrics: list[ApiMetric] = await self._list_metrics(job)
+            results = []
+            for task in tasks:  # a loop: an async comprehension is a coroutine of its own
+                results.append(await task)
+        except BaseException:
+            # A failure cancels the rest, as the task group around the workers would.
+            await _cancel(tasks)
+            raise
+        listed = iter(results)
+        data_items: list[ApiMetricsData] = next(listed) if wants_blobs else []
+        events: tuple[JobEvent, ...] = tuple(next(listed)) if needs.events else ()
+        tags: tuple[str, ...] = next(listed) if needs.experience_tags else ()
         outcome = self.outcome
+        if metrics:
+            outcome.jobs_with_metrics += 1
+        # How errors and logs name the job, formatted once (UUID.__str__ is Python code).
+        source = f"job {job.job_id}"
+        scalars = await read_scalars(
+            self._api.storage,
+            metrics,
+            needs.wants_scalar,
+            source=source,
+            relist=lambda: self._list_metrics(job),
+        )
         # Listed is enough: a name the job has is no typo, even when its value is absent.
         # Lists, not generators: these run for every job.
         outcome.scalar_names.update([m.name for m in metrics if is_scalar(m)])
@@ -262,22 +233,20 @@ class BatchFetcher:
             outcome.unnamed_data += unnamed
             log.debug("unnamed metrics data skipped", job_id=str(job.job_id), count=unnamed)
         outcome.data_names.update(data_names)
-
-    def _record(
-        self,
-        job: Job,
-        metrics: list[ApiMetric],
-        scalars: dict[str, Scalar],
-        blobs: JobBlobsResult | None,
-        listed: list[Any],
-    ) -> JobRecord:
-        """The job's record; `listed` holds its other listings as `_start_listings` began them."""
-        needs = self._needs
-        rest = iter(listed[1:] if self._wants_blobs else listed)
-        events: tuple[JobEvent, ...] = tuple(next(rest)) if needs.events else ()
-        tags: tuple[str, ...] = next(rest) if needs.experience_tags else ()
+        blobs = None
+        if wants_blobs:
+            blobs = await JobBlobs(
+                self._api.storage,
+                job.job_id,
+                needs,
+                metrics=metrics,
+                data=data_items,
+                relist_metrics=lambda: self._list_metrics(job),
+                relist_data=lambda: self._list_data(job),
+                source=source,
+            ).fetch()
         # JobRecord(...), written as a plain object with its slots and then given its class
-        # (see _WritableRecord): a frozen dataclass's __init__ costs four times as much.
+        # (see _writable_twin): a frozen dataclass's __init__ costs four times as much.
         written: Any = _new(_WritableRecord)
         written.job_id = job.job_id
         written.conflated_status = str(job.conflated_status or UNKNOWN_STATUS)
