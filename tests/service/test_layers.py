@@ -41,6 +41,7 @@ API_ORDER = [
     "_fields",
     "_stats",
     "_limits",
+    "_deadlines",
     "_models",
     "_listing_items",
     "_paging",

@@ -101,6 +101,35 @@ async def test_paginates_through_every_page_with_bearer_token(
     assert all(hit.headers["Authorization"] == f"Bearer {TOKEN}" for hit in hits)
 
 
+async def test_a_jobs_listings_as_lists_read_every_page_as_its_items_do(
+    server: ScriptedServer, fast_policy: RetryPolicy
+) -> None:
+    job = uuid.UUID(int=7)
+    base = f"/v1/projects/{PROJECT}/batches/{BATCH}/jobs/{job}"
+
+    def metric(i: int) -> dict[str, Any]:
+        return {"metricID": str(uuid.UUID(int=100 + i)), "name": f"m{i}", "type": "SCALAR"}
+
+    def data(i: int) -> dict[str, Any]:
+        return {"dataID": str(uuid.UUID(int=200 + i)), "name": f"d{i}"}
+
+    pages = [
+        answer_json({"metrics": [metric(1), metric(2)], "nextPageToken": "p2"}),
+        answer_json({"metrics": [metric(2), metric(3)]}),  # a repeat, dropped
+    ]
+    server.script(f"{base}/metrics", *pages, *pages)
+    server.script(f"{base}/metricsData", answer_json({"metricsData": [data(1)]}))
+    async with client(server, fast_policy, page_size=2) as api:
+        as_list = await api.all_job_metrics(PROJECT, BATCH, job)
+        as_items = [m async for m in api.list_job_metrics(PROJECT, BATCH, job)]
+        data_list = await api.all_job_metrics_data(PROJECT, BATCH, job)
+    assert as_list == as_items
+    assert [m.name for m in as_list] == ["m1", "m2", "m3"]
+    assert [d.name for d in data_list] == ["d1"]
+    hits = server.hits(f"{base}/metrics")
+    assert [hit.query.get("pageToken") for hit in hits] == [None, "p2", None, "p2"]
+
+
 async def test_missing_next_page_token_and_missing_items_end_the_list(
     server: ScriptedServer, fast_policy: RetryPolicy
 ) -> None:
@@ -649,6 +678,25 @@ async def test_storage_transport_refuses_a_per_request_authorization_header(
         with pytest.raises(RuntimeError, match="refusing to send Authorization"):
             await transport.get(URL(server.url("/obj")), headers={"Authorization": "Bearer x"})
     assert server.seen == []
+
+
+async def test_a_transport_answers_with_a_response_like_one_made_by_its_init(
+    server: ScriptedServer,
+) -> None:
+    import dataclasses
+
+    server.script("/obj", answer(200, b"x"))
+    transport = HttpTransport(name="storage", concurrency=1, request_timeout=1.0)
+    async with transport:
+        response = await transport.get(URL(server.url("/obj")))
+    assert type(response) is Response
+    made = dataclasses.replace(response)  # every field through Response.__init__
+    assert response == made
+    assert (response.status, response.body, response.ok) == (200, b"x", True)
+    assert response.url == URL(server.url("/obj"))
+    assert repr(response) == repr(made)
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        response.status = 500  # type: ignore[misc]
 
 
 @pytest.mark.parametrize(

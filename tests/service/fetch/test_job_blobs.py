@@ -3,11 +3,12 @@ HTTP server scripted with the API's answers and real protobuf bytes (a MetricsWr
 
 from __future__ import annotations
 
+import asyncio
 import uuid
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
-from typing import Any
+from typing import Any, cast
 
 import pytest
 
@@ -382,3 +383,48 @@ async def test_jobs_are_fetched_with_fewer_garbage_collections(
         await fetcher.run(lambda record: seen.append(gc.get_threshold()[0]))
     assert seen == [FETCH_GC_THRESHOLD, FETCH_GC_THRESHOLD]
     assert gc.get_threshold() == before
+
+
+async def test_a_failed_metrics_listing_cancels_the_jobs_other_listings() -> None:
+    from stook.service.api import ApiResponseError
+    from stook.service.api._listing_items import read_job
+
+    class Api:
+        """Lists a job's metrics with an error, and its metrics data never."""
+
+        storage = None
+        data_listing_cancelled = False
+
+        async def all_job_metrics(self, *_ids: object) -> list[Any]:
+            await asyncio.sleep(0)  # the data listing starts meanwhile
+            raise ApiResponseError("the metrics listing failed")
+
+        async def all_job_metrics_data(self, *_ids: object) -> list[Any]:
+            try:
+                await asyncio.Event().wait()
+            finally:
+                self.data_listing_cancelled = True
+            return []
+
+    api = Api()
+    job = read_job({"jobID": str(uuid.uuid4())})
+    needs = Needs(data=frozenset({"speeds"}))
+    fetcher = BatchFetcher(cast(ApiClient, api), PROJECT, BATCH, needs, workers=1, jobs=[job])
+    outcome = await fetcher.run(lambda record: None)
+    assert [m.reason for m in outcome.missing] == ["the metrics listing failed"]
+    assert api.data_listing_cancelled
+
+
+async def test_a_record_is_a_job_record_like_one_made_by_its_init(
+    server: ScriptedServer, batch: ScriptedBatch, fast_policy: RetryPolicy
+) -> None:
+    import dataclasses
+
+    batch.add_job(parameters={"max_speed": "10"})
+    (record,) = await _fetch(server, fast_policy, Needs(data=frozenset({"speeds"})))
+    assert type(record) is JobRecord
+    made = dataclasses.replace(record)  # every field through JobRecord.__init__
+    assert record == made
+    assert repr(record) == repr(made)
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        record.job_id = uuid.uuid4()  # type: ignore[misc]

@@ -37,7 +37,7 @@ from stook.service.api._retry import (
 )
 from stook.service.api._stats import TransferStats
 
-__all__ = ["call_with_retries"]
+__all__ = ["call_with_retries", "sent_at_once"]
 
 _log = get_logger("stook.service.retry")
 
@@ -188,6 +188,35 @@ def _observe(
         gate.answered(sent_in)
 
 
+def sent_at_once(gate: OriginGate | None) -> int | None:
+    """Whether a request's first attempt may leave at once, and if so the gate's
+    `closures` as it leaves (the `sent_in` of `OriginGate.answered`); None while the gate
+    is closed (the request then goes through `call_with_retries` whole).
+
+    A caller may send that attempt in its own frame rather than through
+    `call_with_retries`: one coroutine layer fewer for each of the attempt's resumptions,
+    for nearly every request. On success it tells the gate (`gate.answered(sent_in)`); on
+    a failure it hands the error on as ``call_with_retries(..., first=(error, sent_in))``,
+    which goes on exactly as if it had sent that attempt itself.
+    """
+    if gate is None:
+        return 0
+    return gate.closures if gate.is_open else None
+
+
+def _first_failed(
+    exc: Exception, sent_in: int, policy: RetryPolicy, gate: OriginGate | None, url: str | URL
+) -> _Budget:
+    """The budget of a request whose first attempt, sent at once, failed with `exc`; the
+    gate hears of the failure."""
+    # Made only now, and the budget counted from here: most requests never need one, and
+    # the clock is not free.
+    budget = _Budget(policy, policy.clock(), gate)
+    if gate is not None:
+        _observe(gate, exc, url, policy, request=budget, sent_in=sent_in, probe=False)
+    return budget
+
+
 async def call_with_retries(
     attempt: Callable[[], Awaitable[_T]],
     policy: RetryPolicy,
@@ -196,6 +225,7 @@ async def call_with_retries(
     method: str,
     url: str | URL,
     gate: OriginGate | None = None,
+    first: tuple[Exception, int] | None = None,
 ) -> _T:
     """Await ``attempt()`` until it succeeds, fails for good, or its time budget is spent.
 
@@ -204,6 +234,9 @@ async def call_with_retries(
     origin is failing, not just this request), else :class:`RetriesExhaustedError` naming
     the last transient failure; a ``Retry-After`` that cannot be honoured raises
     :class:`RetryAfterTooLongError` at once.
+
+    `first`: the caller sent the first attempt itself (see `sent_at_once`), and it failed
+    with this error, sent in this state of the gate.
     """
     budget: _Budget | None = None
     first_failure: Exception | None = None
@@ -212,16 +245,16 @@ async def call_with_retries(
     # (measured at 0 ms latency). A failure is handed to tenacity as its own first attempt
     # (replayed below), so counting, waits, logging and the stop rule are unchanged. At a
     # closed gate, the first attempt waits there inside the loop instead.
-    if gate is None or gate.is_open:
-        sent_in = 0 if gate is None else gate.closures
+    if first is not None:
+        first_failure, first_sent_in = first
+        budget = _first_failed(first_failure, first_sent_in, policy, gate, url)
+        if not is_retryable(first_failure):
+            raise first_failure
+    elif (sent_in := sent_at_once(gate)) is not None:
         try:
             result = await attempt()
         except Exception as exc:
-            # Made only now, and the budget counted from here: most requests never need
-            # one, and the clock is not free.
-            budget = _Budget(policy, policy.clock(), gate)
-            if gate is not None:
-                _observe(gate, exc, url, policy, request=budget, sent_in=sent_in, probe=False)
+            budget = _first_failed(exc, sent_in, policy, gate, url)
             if not is_retryable(exc):
                 raise
             first_failure = exc

@@ -18,7 +18,7 @@ from stook.service.api._errors import PresignedUrlExpiredError, StorageError
 from stook.service.api._limits import ConcurrencyLimit
 from stook.service.api._redact import redact_url
 from stook.service.api._retry import RETRYABLE_STATUSES, RetryPolicy, new_gate, parse_retry_after
-from stook.service.api._retrying import call_with_retries
+from stook.service.api._retrying import call_with_retries, sent_at_once
 from stook.service.api._stats import TransferStats
 from stook.service.api._transport import (
     USER_AGENT,
@@ -104,13 +104,26 @@ class StorageClient:
         target = URL(url, encoded=True)
         if target.scheme not in ("http", "https") or not target.host:
             raise StorageError("not an http(s) URL", url=url)
+        # The first attempt in this frame (see sent_at_once); the rest, if any, retried.
+        gate = self.gate
+        first: tuple[Exception, int] | None = None
+        sent_in = sent_at_once(gate)
+        if sent_in is not None:
+            try:
+                body = await self._fetch_once(target)
+            except Exception as exc:
+                first = (exc, sent_in)
+            else:
+                gate.answered(sent_in)
+                return body
         return await call_with_retries(
             lambda: self._fetch_once(target),
             self._policy,
             stats=self.stats,
             method="GET",
             url=url,
-            gate=self.gate,
+            gate=gate,
+            first=first,
         )
 
     async def _fetch_once(self, url: URL) -> bytes:

@@ -25,15 +25,17 @@ import time
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from types import TracebackType
-from typing import Final, Protocol, Self
+from typing import Any, Final, Protocol, Self
 
 import aiohttp
 from aiohttp import hdrs
 from multidict import CIMultiDictProxy
 from yarl import URL
 
+from stook.service.api._deadlines import Deadlines
 from stook.service.api._errors import BodyTooLargeError, IncompleteBodyError, TransportError
 from stook.service.api._limits import ConcurrencyLimit, FixedLimit
+from stook.service.api._listing_items import _writable_twin
 from stook.service.api._logging import get_logger
 from stook.service.api._redact import redact_text, redact_url
 from stook.service.api._stats import TransferStats
@@ -89,6 +91,10 @@ class Response:
     @property
     def ok(self) -> bool:
         return 200 <= self.status < 300
+
+
+_WritableResponse: Final = _writable_twin(Response)
+_new = object.__new__
 
 
 class Transport(Protocol):
@@ -152,6 +158,7 @@ class HttpTransport:
         # A limiter shared with another transport makes one bound for both.
         self._limiter: ConcurrencyLimit = limiter or FixedLimit(concurrency)
         self._session: aiohttp.ClientSession | None = None
+        self._deadlines: Deadlines | None = None  # while open
         self._debug = False
         self._proxy = _env_proxy(proxy_for) if proxy_for is not None else None
         self._body_cap = body_cap
@@ -171,6 +178,7 @@ class HttpTransport:
         # logger on every call (2% of the client's CPU at 0 ms), and debug logging costs a
         # redact_url per request. The log level does not change during a run.
         self._debug = _log.is_enabled_for(logging.DEBUG)
+        self._deadlines = Deadlines(asyncio.get_running_loop(), self._timeout)
         connector = aiohttp.TCPConnector(
             limit=self._concurrency,
             limit_per_host=self._concurrency,
@@ -206,6 +214,9 @@ class HttpTransport:
         await self.close()
 
     async def close(self) -> None:
+        if self._deadlines is not None:
+            self._deadlines.close()
+            self._deadlines = None
         session, self._session = self._session, None
         if session is not None:
             await session.close()
@@ -219,7 +230,8 @@ class HttpTransport:
     ) -> Response:
         """Send one GET and read the whole body; any status is returned, not raised."""
         session = self._session
-        if session is None:
+        deadlines = self._deadlines
+        if session is None or deadlines is None:
             raise RuntimeError(f"{self.name} transport is not open; use 'async with'")
         if not self._credentials_allowed:
             url = self._without_credentials(session, url, headers)
@@ -227,9 +239,61 @@ class HttpTransport:
         await self._limiter.acquire()
         held_from = time.perf_counter()
         status: int | None = None
+        # The per-attempt timeout, in this frame rather than a coroutine of its own (one
+        # layer fewer for every resumption of the request). What ``asyncio.timeout`` does,
+        # on the transport's one timer (see _deadlines): when the deadline passes it
+        # cancels this task, and the cancellation it sent, and only that one, becomes a
+        # TimeoutError.
         try:
             self.stats.requests += 1
-            response = await self._send_within_timeout(session, url, params, headers)
+            task = asyncio.current_task()
+            assert task is not None  # a transport is used from a task
+            cancelling = task.cancelling()
+            deadline = deadlines.start(task)
+            try:
+                # Awaited, not entered: `async with` adds three coroutines a request and a
+                # layer to every resumption; leaving it only releases the answer (a GET has
+                # no body writer to wait for), as the `finally` below does.
+                answer = await session.get(
+                    url,
+                    params=params,
+                    headers=headers,
+                    allow_redirects=self._follow_redirects,
+                    max_redirects=_MAX_API_REDIRECTS,
+                )
+                try:
+                    if self._read_at_once(answer):
+                        body = await answer.read()
+                    else:
+                        assert self._body_cap is not None  # only a capped body is chunked
+                        body = await self._read_capped(answer, self._body_cap)
+                    _check_complete(answer, body)
+                    # Response(...), written as its writable twin (see _writable_twin):
+                    # a frozen dataclass's __init__ costs four times as much.
+                    written: Any = _new(_WritableResponse)
+                    written.status = answer.status
+                    written.headers = answer.headers
+                    written.body = body
+                    written.url = answer.url
+                    written.__class__ = Response
+                    response: Response = written
+                finally:
+                    answer.release()
+            except BaseException as exc:
+                # As asyncio.timeout: take back the cancellation the timer sent, and make it
+                # a TimeoutError unless the task was also cancelled from outside.
+                if (
+                    deadline.expired
+                    and task.uncancel() <= cancelling
+                    and isinstance(exc, asyncio.CancelledError)
+                ):
+                    raise TimeoutError from None
+                raise
+            else:
+                if deadline.expired:  # fired, but the cancellation never arrived
+                    task.uncancel()
+            finally:
+                deadline.ended = True
             status = response.status
         except TimeoutError:
             raise TransportError(
@@ -258,71 +322,6 @@ class HttpTransport:
                 bytes=len(response.body),
                 ms=round((time.perf_counter() - started) * 1000, 1),
             )
-        return response
-
-    async def _send_within_timeout(
-        self,
-        session: aiohttp.ClientSession,
-        url: URL,
-        params: Mapping[str, str | int] | None,
-        headers: Mapping[str, str] | None,
-    ) -> Response:
-        """Send the GET and read its body, or TimeoutError once the timeout has passed.
-
-        What ``asyncio.timeout`` does, with a timer of its own instead of a Timeout object
-        entered and left through two coroutines and rescheduled (~2 µs a request): when the
-        timer fires it cancels this task, and the cancellation it sent, and only that one,
-        becomes a TimeoutError.
-        """
-        task = asyncio.current_task()
-        assert task is not None  # a transport is used from a task
-        cancelling = task.cancelling()
-        deadline = _Deadline(task)
-        loop = task.get_loop()
-        timer = loop.call_at(loop.time() + self._timeout, deadline.expire)
-        try:
-            async with session.get(
-                url,
-                params=params,
-                headers=headers,
-                allow_redirects=self._follow_redirects,
-                max_redirects=_MAX_API_REDIRECTS,
-            ) as answer:
-                if self._read_at_once(answer):
-                    body = await answer.read()
-                else:
-                    assert self._body_cap is not None  # only a capped body is read in chunks
-                    body = await self._read_capped(answer, self._body_cap)
-                expected = answer.content_length
-                # With Content-Encoding the header counts compressed bytes, not what read()
-                # gives.
-                if (
-                    expected is not None
-                    and len(body) < expected
-                    and hdrs.CONTENT_ENCODING not in answer.headers
-                    and answer.status not in _NO_BODY_STATUSES
-                ):
-                    raise IncompleteBodyError(
-                        method="GET", url=answer.url, received=len(body), expected=expected
-                    )
-                response = Response(
-                    status=answer.status, headers=answer.headers, body=body, url=answer.url
-                )
-        except BaseException as exc:
-            # As asyncio.timeout: take back the cancellation the timer sent, and make it a
-            # TimeoutError unless the task was also cancelled from outside.
-            if (
-                deadline.expired
-                and task.uncancel() <= cancelling
-                and isinstance(exc, asyncio.CancelledError)
-            ):
-                raise TimeoutError from None
-            raise
-        else:
-            if deadline.expired:  # fired, but the cancellation never arrived
-                task.uncancel()
-        finally:
-            timer.cancel()
         return response
 
     def _read_at_once(self, answer: aiohttp.ClientResponse) -> bool:
@@ -383,19 +382,19 @@ class HttpTransport:
         return url
 
 
-class _Deadline:
-    """The per-attempt timer's target: it cancels the attempt's task, and remembers that it
-    did, so that only that cancellation becomes a TimeoutError."""
-
-    __slots__ = ("expired", "task")
-
-    def __init__(self, task: asyncio.Task[object]) -> None:
-        self.task = task
-        self.expired = False
-
-    def expire(self) -> None:
-        self.expired = True
-        self.task.cancel()
+def _check_complete(answer: aiohttp.ClientResponse, body: bytes) -> None:
+    """IncompleteBodyError when the body is shorter than its ``Content-Length``."""
+    expected = answer.content_length
+    # With Content-Encoding the header counts compressed bytes, not what read() gives.
+    if (
+        expected is not None
+        and len(body) < expected
+        and hdrs.CONTENT_ENCODING not in answer.headers
+        and answer.status not in _NO_BODY_STATUSES
+    ):
+        raise IncompleteBodyError(
+            method="GET", url=answer.url, received=len(body), expected=expected
+        )
 
 
 def _env_proxy(url: URL) -> URL | None:

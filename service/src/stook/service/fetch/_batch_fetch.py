@@ -11,12 +11,13 @@ in memory at once, whatever the batch size.
 from __future__ import annotations
 
 import asyncio
+import dataclasses
 import inspect
 import time
 import uuid
 from collections.abc import AsyncIterator, Awaitable, Callable, Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Final
 
 import structlog
 
@@ -39,6 +40,22 @@ from stook.service.fetch._scalars import is_scalar, read_scalars
 __all__ = ["BatchFetcher", "FetchOutcome", "InvalidDataError", "MissingJob", "OnJob"]
 
 log = structlog.get_logger("stook.fetch")
+
+
+def _writable_twin(cls: type) -> type:
+    """A plain class with ``cls``'s slots, which are its fields: an object written as one
+    of these becomes a ``cls`` when its ``__class__`` is assigned (the layouts are the
+    same). Its slot writes are plain stores; a frozen dataclass's ``__init__`` goes
+    through ``object.__setattr__`` for each field. Equality, hashing, ``repr`` and pickling
+    are the dataclass's own. (The API layer's listing items are written the same way.)"""
+    slots = cls.__dict__["__slots__"]
+    if tuple(slots) != tuple(f.name for f in dataclasses.fields(cls)):
+        raise TypeError(f"{cls.__name__}: its slots are not its fields")
+    return type(f"_Writable{cls.__name__}", (), {"__slots__": slots})
+
+
+_WritableRecord: Final = _writable_twin(JobRecord)
+_new = object.__new__
 
 
 @dataclass(frozen=True, slots=True)
@@ -161,7 +178,7 @@ class BatchFetcher:
                 log.warning("job unavailable", job_id=str(job.job_id), reason=str(exc))
             else:
                 handled = on_job(record)
-                if inspect.isawaitable(handled):
+                if handled is not None and inspect.isawaitable(handled):
                     await handled
                 self.outcome.jobs_done += 1
             if self._on_progress is not None:
@@ -182,23 +199,28 @@ class BatchFetcher:
         data_items: list[ApiMetricsData] = next(listed) if wants_blobs else []
         events: tuple[JobEvent, ...] = tuple(next(listed)) if needs.events else ()
         tags: tuple[str, ...] = next(listed) if needs.experience_tags else ()
+        outcome = self.outcome
         if metrics:
-            self.outcome.jobs_with_metrics += 1
+            outcome.jobs_with_metrics += 1
+        # How errors and logs name the job, formatted once (UUID.__str__ is Python code).
+        source = f"job {job.job_id}"
         scalars = await read_scalars(
             self._api.storage,
             metrics,
             needs.wants_scalar,
-            source=f"job {job.job_id}",
+            source=source,
             relist=lambda: self._list_metrics(job),
         )
         # Listed is enough: a name the job has is no typo, even when its value is absent.
-        self.outcome.scalar_names.update(m.name for m in metrics if is_scalar(m))
-        self.outcome.metric_names.update(m.name for m in metrics if m.name)
-        unnamed = sum(not d.name for d in data_items)
+        # Lists, not generators: these run for every job.
+        outcome.scalar_names.update([m.name for m in metrics if is_scalar(m)])
+        outcome.metric_names.update([m.name for m in metrics if m.name])
+        data_names = [d.name for d in data_items if d.name]
+        unnamed = len(data_items) - len(data_names)
         if unnamed:
-            self.outcome.unnamed_data += unnamed
+            outcome.unnamed_data += unnamed
             log.debug("unnamed metrics data skipped", job_id=str(job.job_id), count=unnamed)
-        self.outcome.data_names.update(d.name for d in data_items if d.name)
+        outcome.data_names.update(data_names)
         blobs = None
         if wants_blobs:
             blobs = await JobBlobs(
@@ -209,35 +231,32 @@ class BatchFetcher:
                 data=data_items,
                 relist_metrics=lambda: self._list_metrics(job),
                 relist_data=lambda: self._list_data(job),
+                source=source,
             ).fetch()
-        return JobRecord(
-            job_id=job.job_id,
-            conflated_status=str(job.conflated_status or UNKNOWN_STATUS),
-            experience_name=job.experience_name or "",
-            experience_id=job.experience_id,
-            scalars=scalars,
-            series=blobs.series if blobs is not None else {},
-            metric_statuses=[str(m.status) for m in metrics],
-            data=blobs.data if blobs is not None else {},
-            job_metrics=blobs.job_metrics if blobs is not None else None,
-            parameters=job.parameters,
-            events=events,
-            experience_tags=tags,
-        )
+        # JobRecord(...), written as a plain object with its slots and then given its class
+        # (see _writable_twin): a frozen dataclass's __init__ costs four times as much.
+        written: Any = _new(_WritableRecord)
+        written.job_id = job.job_id
+        written.conflated_status = str(job.conflated_status or UNKNOWN_STATUS)
+        written.experience_name = job.experience_name or ""
+        written.experience_id = job.experience_id
+        written.scalars = scalars
+        written.series = blobs.series if blobs is not None else {}
+        written.metric_statuses = [str(m.status) for m in metrics]
+        written.data = blobs.data if blobs is not None else {}
+        written.job_metrics = blobs.job_metrics if blobs is not None else None
+        written.parameters = job.parameters
+        written.events = events
+        written.experience_tags = tags
+        written.__class__ = JobRecord
+        record: JobRecord = written
+        return record
 
-    async def _list_metrics(self, job: Job) -> list[ApiMetric]:
-        return [
-            m
-            async for m in self._api.list_job_metrics(self._project_id, self._batch_id, job.job_id)
-        ]
+    def _list_metrics(self, job: Job) -> Awaitable[list[ApiMetric]]:
+        return self._api.all_job_metrics(self._project_id, self._batch_id, job.job_id)
 
-    async def _list_data(self, job: Job) -> list[ApiMetricsData]:
-        return [
-            d
-            async for d in self._api.list_job_metrics_data(
-                self._project_id, self._batch_id, job.job_id
-            )
-        ]
+    def _list_data(self, job: Job) -> Awaitable[list[ApiMetricsData]]:
+        return self._api.all_job_metrics_data(self._project_id, self._batch_id, job.job_id)
 
     async def _list_events(self, job: Job) -> list[JobEvent]:
         return [

@@ -72,9 +72,12 @@ class JobBlobs:
         data: Sequence[ApiMetricsData],
         relist_metrics: Callable[[], Awaitable[Sequence[ApiMetric]]],
         relist_data: Callable[[], Awaitable[Sequence[ApiMetricsData]]],
+        source: str | None = None,
     ) -> None:
+        """`source` names the job in errors (``job <ID>``), when the caller has it already."""
         self._storage = storage
         self._job_id = job_id
+        self._source = source
         self._needs = needs
         self._metrics = metrics
         self._data = data
@@ -166,7 +169,9 @@ class JobBlobs:
         return wanted
 
     def _where(self, what: str) -> str:
-        return f"job {self._job_id} / {what}"
+        if self._source is None:
+            self._source = f"job {self._job_id}"
+        return f"{self._source} / {what}"
 
     async def _metric(self, metric: ApiMetric) -> MetricView:
         source = self._where(f"metric {metric.name!r}")
@@ -213,6 +218,10 @@ class JobBlobs:
 
     async def _download_all(self, items: Iterable[ApiMetricsData]) -> None:
         todo = {i.data_id: i for i in items if i.data_id not in self._views}
+        if len(todo) == 1:  # the common plan: one series a job, awaited with no gather
+            ((data_id, item),) = todo.items()
+            self._views[data_id] = await self._download(item)
+            return
         if not todo:
             return
         views = await _gather(*(self._download(i) for i in todo.values()))
