@@ -5,7 +5,8 @@ The in-process comparison (`compare_with_resim`) times the fetch alone; a user r
 each client is a fresh process on the same emulator, timed from before it is started until
 it has exited: `stook run` with a config that downloads one series per job into a
 histogram, and a Python process that calls ReSim's `fetch_job_metrics_by_batch` (its
-import included). Runs alternate, stook then ReSim, and the medians decide.
+import included). Runs alternate, stook then ReSim, and the medians decide. stook's
+modules are byte-compiled first, as pip compiles an installed wheel's (and ReSim's).
 """
 
 from __future__ import annotations
@@ -20,7 +21,7 @@ from pathlib import Path
 from typing import Any, Final
 
 from stook.bench._measure import resim_available
-from stook.bench._startup import stook_command
+from stook.bench._startup import byte_compile_stook, stook_command
 from stook.bench._sweep import SWEEP_CONFIG, emulator_for
 from stook.emulator import EmulatorInfo
 
@@ -74,6 +75,7 @@ def time_stook_run(folder: Path, config_toml: str) -> float:
         "--log-level",
         "error",
     ]
+    byte_compile_stook()  # as an installed wheel is (see _startup); untimed
     started = time.perf_counter()
     subprocess.run(
         argv,
