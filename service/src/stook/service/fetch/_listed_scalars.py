@@ -6,7 +6,8 @@ into an `ApiMetric` first (IDs, timestamps, a frozen dataclass) was most of the 
 own CPU per listing. Here a listing whose every item is well-formed is read in one pass:
 each item's fields are checked for the shapes the model accepts, as the model reads them
 (`stook.service.api._listing_items._metric`), but nothing is built but the scalars. A
-timestamp not seen before is checked by reading its item as the model does. A listing
+timestamp other than the previous item's is read with `datetime.fromisoformat`, as the model first
+reads it, and else by reading its item as the model does. A listing
 with anything else — a field of another type, an ID not written as 36 hex digits and
 hyphens, a timestamp the model refuses, a SCALAR listed with a null value (its number is
 in its message) — gives None, and the caller reads it through the model, which converts
@@ -18,6 +19,7 @@ from __future__ import annotations
 
 import re
 from dataclasses import dataclass
+from datetime import datetime
 from typing import Any, Final
 
 from stook.service.api import (
@@ -39,9 +41,16 @@ _SCALAR: Final = ApiMetricType.SCALAR.value
 _NO_STATUS: Final = ApiMetricStatus.NO_STATUS_REPORTED.value
 _JOB: Final = MetricOwner.JOB
 
-# Timestamps found well-formed: a report's items were mostly created a batch at a time.
-_timestamps: set[str] = set()
-_TIMESTAMPS_KEPT: Final = 1_024
+_from_iso: Final = datetime.fromisoformat
+
+
+def _zoned(text: str) -> bool:
+    """Whether `datetime.fromisoformat` reads `text` as a time with a zone: what the model
+    reads as well (`parse_rfc3339` tries it first; it refuses a time without a zone)."""
+    try:
+        return _from_iso(text).tzinfo is not None
+    except ValueError:
+        return False
 
 
 @dataclass(frozen=True, slots=True)
@@ -62,6 +71,7 @@ def read_listed_scalars(items: list[Any]) -> ListedScalars | None:
     names: list[str] = []
     statuses: list[str] = []
     owner_ids: set[str] = set()  # the job and batch IDs, checked once a listing
+    timestamp = ""  # the last item's, checked: a listing's items were created together
     for item in items:
         if type(item) is not dict:
             return None
@@ -112,15 +122,14 @@ def read_listed_scalars(items: list[Any]) -> ListedScalars | None:
                 return None
         created = get("creationTimestamp")
         if type(created) is str:
-            if created and created not in _timestamps:
-                # One not seen before: checked as the model reads it, with the whole item.
+            if created and created != timestamp and not _zoned(created):
+                # Not one `datetime.fromisoformat` reads with a zone: the model decides,
+                # reading the whole item (it reads more than fromisoformat does).
                 try:
                     ApiMetric.from_json(item, owner=_JOB)
                 except ApiResponseError:
                     return None
-                if len(_timestamps) >= _TIMESTAMPS_KEPT:
-                    _timestamps.clear()
-                _timestamps.add(created)
+            timestamp = created
         elif created is not None:
             return None
         if kind == _SCALAR and not event_metric and name:

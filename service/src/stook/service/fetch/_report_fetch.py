@@ -105,8 +105,8 @@ class _PendingBatch:
     jobs: list[JobSummary]
     remaining: int
     listed: bool = False
-    # Job metric statuses as listed, as strings.
-    job_statuses: Counter[str] = field(default_factory=Counter)
+    # Job metric statuses as listed, as strings (counted once the batch is in).
+    job_statuses: list[str] = field(default_factory=list)
     # Per job: its scalars, (value, unit) by name, as a summary has them (made into the
     # batch's columns when it is done).
     job_values: dict[uuid.UUID, Mapping[str, tuple[float, str]]] = field(default_factory=dict)
@@ -315,7 +315,7 @@ class ReportFetcher:
                 # Listed is enough for a name: a name a job has is no typo, even when its
                 # value is absent.
                 self.outcome.job_scalar_names.update(listed.names)
-                pending.job_statuses.update(listed.statuses)
+                pending.job_statuses += listed.statuses
                 pending.job_values[job.job_id] = listed.values
             pending.remaining -= 1
             self.outcome.jobs_done += 1
@@ -362,7 +362,7 @@ class ReportFetcher:
         columns = pending.columns or JobColumns.build(
             pending.jobs,
             [pending.job_values.get(j.job_id, {}) for j in pending.jobs],
-            pending.job_statuses,
+            Counter(pending.job_statuses),
         )
         on_batch(
             BatchRecord.with_columns(
