@@ -192,3 +192,17 @@ def test_a_repeated_timestamp_is_checked_once_and_a_bad_one_still_refused() -> N
 def test_a_job_id_checked_once_per_listing_and_another_still_checked() -> None:
     assert read_listed_scalars([METRIC, METRIC | {"metricID": IDS[5]}]) is not None
     assert read_listed_scalars([METRIC, METRIC | {"jobID": "not an ID"}]) is None
+
+
+@pytest.mark.parametrize(
+    "ids",
+    [
+        [IDS[0] + "\n" + IDS[1], ""],
+        [IDS[0] + "\n" + IDS[1]],
+        [IDS[0][:-1], IDS[1] + "0"],
+        ["", IDS[0]],
+    ],
+)
+def test_ids_checked_together_are_each_checked(ids: list[str]) -> None:
+    items = [METRIC | {"metricID": ids[0], "dataIDs": ids[1:]}]
+    assert read_listed_scalars(items) is None

@@ -37,6 +37,10 @@ __all__ = ["ListedScalars", "read_listed_scalars"]
 _ID: Final = re.compile(
     r"[0-9a-fA-F]{8}-[0-9a-fA-F]{4}-[0-9a-fA-F]{4}-[0-9a-fA-F]{4}-[0-9a-fA-F]{12}"
 ).fullmatch
+_IDS: Final = re.compile(
+    r"[0-9a-fA-F]{8}-[0-9a-fA-F]{4}-[0-9a-fA-F]{4}-[0-9a-fA-F]{4}-[0-9a-fA-F]{12}"
+    r"(?:\n[0-9a-fA-F]{8}-[0-9a-fA-F]{4}-[0-9a-fA-F]{4}-[0-9a-fA-F]{4}-[0-9a-fA-F]{12})*"
+).fullmatch
 _SCALAR: Final = ApiMetricType.SCALAR.value
 _NO_STATUS: Final = ApiMetricStatus.NO_STATUS_REPORTED.value
 _JOB: Final = MetricOwner.JOB
@@ -72,14 +76,16 @@ def read_listed_scalars(items: list[Any]) -> ListedScalars | None:
     statuses: list[str] = []
     owner_ids: set[str] = set()  # the job and batch IDs, checked once a listing
     timestamp = ""  # the last item's, checked: a listing's items were created together
+    ids: list[str] = []  # the metric and data IDs, checked at once
     for item in items:
         if type(item) is not dict:
             return None
         get = item.get
         # The model's checks, each field for the shapes it reads as they are.
         metric_id = get("metricID")
-        if type(metric_id) is not str or _ID(metric_id) is None:
+        if type(metric_id) is not str:
             return None
+        ids.append(metric_id)
         kind = get("type")
         if type(kind) is not str and kind is not None:
             return None
@@ -96,8 +102,9 @@ def read_listed_scalars(items: list[Any]) -> ListedScalars | None:
         data_ids = get("dataIDs")
         if type(data_ids) is list:
             for data_id in data_ids:
-                if type(data_id) is not str or _ID(data_id) is None:
+                if type(data_id) is not str:
                     return None
+            ids += data_ids
         elif data_ids is not None:
             return None
         event_metric = get("eventMetric")
@@ -137,4 +144,9 @@ def read_listed_scalars(items: list[Any]) -> ListedScalars | None:
                 return None  # its number is in its message
             names.append(name)
             values[name] = (value, unit or "")
+    if ids:
+        # One look at them all: each between two line breaks of its own.
+        joined = "\n".join(ids)
+        if joined.count("\n") != len(ids) - 1 or _IDS(joined) is None:
+            return None
     return ListedScalars(values, names, statuses)
