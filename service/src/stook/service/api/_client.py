@@ -344,6 +344,15 @@ class ApiClient:
         path = f"/projects/{_id(project_id)}/batches/{_id(batch_id)}/metricsData"
         return self._list(path, "batchMetricsData", _BATCH_DATA)
 
+    def list_job_metric_items(
+        self, project_id: IdLike, batch_id: IdLike, job_id: IdLike
+    ) -> AsyncIterator[dict[str, Any]]:
+        """`list_job_metrics`' items unread, JSON objects as the API wrote them: for a caller
+        that reads a few fields of each (report mode). `ApiMetric.from_json(item,
+        owner=MetricOwner.JOB)` reads one as `list_job_metrics` does, errors included."""
+        path = f"/projects/{_id(project_id)}/batches/{_id(batch_id)}/jobs/{_id(job_id)}/metrics"
+        return self.paginate(path, "metrics")
+
     async def get_report(self, project_id: IdLike, report_id: IdLike) -> Report:
         document = await self.get_json(f"/projects/{_id(project_id)}/reports/{_id(report_id)}")
         return Report.from_json(document)

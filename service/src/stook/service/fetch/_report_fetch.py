@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import asyncio
 import dataclasses
-import operator
 import time
 import uuid
 from collections import Counter
@@ -36,16 +35,17 @@ from stook.service.api import (
     ApiClient,
     ApiError,
     ApiMetric,
-    ApiMetricStatus,
     AuthError,
     Batch,
     Job,
+    MetricOwner,
     NotFoundError,
     OriginUnavailableError,
     Report,
 )
 from stook.service.fetch._batch_fetch import MissingJob
 from stook.service.fetch._collector import fewer_collections
+from stook.service.fetch._listed_scalars import ListedScalars, read_listed_scalars
 from stook.service.fetch._scalars import read_scalar_values, read_scalars
 from stook.service.fetch._summaries import read_summary
 
@@ -105,8 +105,8 @@ class _PendingBatch:
     jobs: list[JobSummary]
     remaining: int
     listed: bool = False
-    # Job metric statuses as listed (an enum member counts as its string, which it equals).
-    job_statuses: Counter[ApiMetricStatus | str] = field(default_factory=Counter)
+    # Job metric statuses as listed, as strings (counted once the batch is in).
+    job_statuses: list[str] = field(default_factory=list)
     # Per job: its scalars, (value, unit) by name, as a summary has them (made into the
     # batch's columns when it is done).
     job_values: dict[uuid.UUID, Mapping[str, tuple[float, str]]] = field(default_factory=dict)
@@ -301,12 +301,7 @@ class ReportFetcher:
         while (item := await queue.get()) is not None:
             pending, job = item
             try:
-                metrics = await _collect(
-                    self._api.list_job_metrics(self._project_id, pending.batch.batch_id, job.job_id)
-                )
-                # Listed is enough for a name: a name a job has is no typo, even when its
-                # value is absent.
-                values = await self._job_values(pending.batch, job, metrics)
+                listed = await self._job_scalars(pending.batch, job)
             except (AuthError, OriginUnavailableError):
                 raise
             except ApiError as exc:
@@ -315,11 +310,13 @@ class ReportFetcher:
                 )
                 log.warning("job metrics unavailable", job_id=str(job.job_id), reason=str(exc))
             else:
-                if metrics:
+                if listed.statuses:  # one per metric listed
                     self.outcome.jobs_with_metrics += 1
-                # Counted as listed (statuses as strings once per batch, in `_finish`).
-                pending.job_statuses.update(map(_status_of, metrics))
-                pending.job_values[job.job_id] = values
+                # Listed is enough for a name: a name a job has is no typo, even when its
+                # value is absent.
+                self.outcome.job_scalar_names.update(listed.names)
+                pending.job_statuses += listed.statuses
+                pending.job_values[job.job_id] = listed.values
             pending.remaining -= 1
             self.outcome.jobs_done += 1
             if pending.remaining == 0 and pending.listed:
@@ -327,21 +324,33 @@ class ReportFetcher:
             else:
                 self._announce()
 
-    async def _job_values(
-        self, batch: Batch, job: Job, metrics: list[ApiMetric]
-    ) -> dict[str, tuple[float, str]]:
-        """The job's scalars, (value, unit) by name, values listed as null read from their
-        messages when needed; adds the names it lists to the outcome's."""
-        return await read_scalar_values(
+    async def _job_scalars(self, batch: Batch, job: Job) -> ListedScalars:
+        """The job's metric listing as the batch's columns need it: read from its items
+        directly when they are well-formed and every scalar has its value; otherwise as
+        `ApiMetric`s, which word what is malformed, and with null values read from
+        their messages when needed."""
+        items = [
+            item
+            async for item in self._api.list_job_metric_items(
+                self._project_id, batch.batch_id, job.job_id
+            )
+        ]
+        listed = read_listed_scalars(items)
+        if listed is not None:
+            return listed
+        metrics = [ApiMetric.from_json(item, owner=MetricOwner.JOB) for item in items]
+        names: set[str] = set()
+        values = await read_scalar_values(
             self._api.storage,
             metrics,
             self._needs.wants_scalar,
-            names=self.outcome.job_scalar_names,
+            names=names,
             source=lambda: f"job {job.job_id}",
             relist=lambda: _collect(
                 self._api.list_job_metrics(self._project_id, batch.batch_id, job.job_id)
             ),
         )
+        return ListedScalars(values, list(names), [str(m.status) for m in metrics])
 
     def _finish(self, pending: _PendingBatch, on_batch: Callable[[BatchRecord], None]) -> None:
         batch = pending.batch
@@ -353,7 +362,7 @@ class ReportFetcher:
         columns = pending.columns or JobColumns.build(
             pending.jobs,
             [pending.job_values.get(j.job_id, {}) for j in pending.jobs],
-            Counter({str(status): n for status, n in pending.job_statuses.items()}),
+            Counter(pending.job_statuses),
         )
         on_batch(
             BatchRecord.with_columns(
@@ -373,9 +382,6 @@ class ReportFetcher:
     def _announce(self) -> None:
         if self._on_progress is not None:
             self._on_progress(self.outcome)
-
-
-_status_of = operator.attrgetter("status")
 
 
 async def _collect(items: AsyncIterator[_T]) -> list[_T]:

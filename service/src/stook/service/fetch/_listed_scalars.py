@@ -1,0 +1,152 @@
+"""What report mode reads of a job's metric listing, read from its JSON items directly.
+
+Report mode lists every job's metrics (thousands of listings, ~11 items each) and keeps
+only each metric's status and, for its SCALARs, name, value and unit. Reading each item
+into an `ApiMetric` first (IDs, timestamps, a frozen dataclass) was most of the client's
+own CPU per listing. Here a listing whose every item is well-formed is read in one pass:
+each item's fields are checked for the shapes the model accepts, as the model reads them
+(`stook.service.api._listing_items._metric`), but nothing is built but the scalars. A
+timestamp other than the previous item's is read with `datetime.fromisoformat`, as the model first
+reads it, and else by reading its item as the model does. A listing
+with anything else — a field of another type, an ID not written as 36 hex digits and
+hyphens, a timestamp the model refuses, a SCALAR listed with a null value (its number is
+in its message) — gives None, and the caller reads it through the model, which converts
+what it can, words the error for what it cannot, and reads null scalars' messages
+(tests/service/fetch/test_listed_scalars.py checks that both paths agree).
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+from datetime import datetime
+from typing import Any, Final
+
+from stook.service.api import (
+    ApiMetric,
+    ApiMetricStatus,
+    ApiMetricType,
+    ApiResponseError,
+    MetricOwner,
+)
+
+__all__ = ["ListedScalars", "read_listed_scalars"]
+
+# An ID as the API writes it: what the model reads without a doubt (uuid.UUID accepts
+# more, which goes the model's way).
+_ID: Final = re.compile(
+    r"[0-9a-fA-F]{8}-[0-9a-fA-F]{4}-[0-9a-fA-F]{4}-[0-9a-fA-F]{4}-[0-9a-fA-F]{12}"
+).fullmatch
+_IDS: Final = re.compile(
+    r"[0-9a-fA-F]{8}-[0-9a-fA-F]{4}-[0-9a-fA-F]{4}-[0-9a-fA-F]{4}-[0-9a-fA-F]{12}"
+    r"(?:\n[0-9a-fA-F]{8}-[0-9a-fA-F]{4}-[0-9a-fA-F]{4}-[0-9a-fA-F]{4}-[0-9a-fA-F]{12})*"
+).fullmatch
+_SCALAR: Final = ApiMetricType.SCALAR.value
+_NO_STATUS: Final = ApiMetricStatus.NO_STATUS_REPORTED.value
+_JOB: Final = MetricOwner.JOB
+
+_from_iso: Final = datetime.fromisoformat
+
+
+def _zoned(text: str) -> bool:
+    """Whether `datetime.fromisoformat` reads `text` as a time with a zone: what the model
+    reads as well (`parse_rfc3339` tries it first; it refuses a time without a zone)."""
+    try:
+        return _from_iso(text).tzinfo is not None
+    except ValueError:
+        return False
+
+
+@dataclass(frozen=True, slots=True)
+class ListedScalars:
+    """A job's metric listing as report mode reads it: each SCALAR's (value, unit) by
+    name (the last of a name wins), every named SCALAR's name, and each item's status
+    as its text (an unknown one as written; none as NO_STATUS_REPORTED)."""
+
+    values: dict[str, tuple[float, str]]
+    names: list[str]
+    statuses: list[str]
+
+
+def read_listed_scalars(items: list[Any]) -> ListedScalars | None:
+    """`items` (a job's metric listing) read in one pass, or None when any item is not
+    well-formed or is a SCALAR listed without a value: then read them as `ApiMetric`s."""
+    values: dict[str, tuple[float, str]] = {}
+    names: list[str] = []
+    statuses: list[str] = []
+    owner_ids: set[str] = set()  # the job and batch IDs, checked once a listing
+    timestamp = ""  # the last item's, checked: a listing's items were created together
+    ids: list[str] = []  # the metric and data IDs, checked at once
+    for item in items:
+        if type(item) is not dict:
+            return None
+        get = item.get
+        # The model's checks, each field for the shapes it reads as they are.
+        metric_id = get("metricID")
+        if type(metric_id) is not str:
+            return None
+        ids.append(metric_id)
+        kind = get("type")
+        if type(kind) is not str and kind is not None:
+            return None
+        status = get("status")
+        if type(status) is str:
+            statuses.append(status or _NO_STATUS)
+        elif status is None:
+            statuses.append(_NO_STATUS)
+        else:
+            return None
+        value = get("value")
+        if type(value) is not float and value is not None:
+            return None  # an integer the model converts; anything else it refuses
+        data_ids = get("dataIDs")
+        if type(data_ids) is list:
+            for data_id in data_ids:
+                if type(data_id) is not str:
+                    return None
+            ids += data_ids
+        elif data_ids is not None:
+            return None
+        event_metric = get("eventMetric")
+        if type(event_metric) is not bool and event_metric is not None:
+            return None
+        name = get("name")
+        unit = get("unit")
+        url = get("metricURL")
+        if (
+            (type(name) is not str and name is not None)
+            or (type(unit) is not str and unit is not None)
+            or (type(url) is not str and url is not None)
+        ):
+            return None
+        for owner_id in (get("jobID"), get("batchID")):
+            if type(owner_id) is str:
+                if owner_id and owner_id not in owner_ids:
+                    if _ID(owner_id) is None:
+                        return None
+                    owner_ids.add(owner_id)
+            elif owner_id is not None:
+                return None
+        created = get("creationTimestamp")
+        if type(created) is str:
+            if created and created != timestamp and not _zoned(created):
+                # Not one `datetime.fromisoformat` reads with a zone: the model decides,
+                # reading the whole item (it reads more than fromisoformat does).
+                try:
+                    ApiMetric.from_json(item, owner=_JOB)
+                except ApiResponseError:
+                    return None
+            timestamp = created
+        elif created is not None:
+            return None
+        if kind == _SCALAR and not event_metric and name:
+            if value is None:
+                return None  # its number is in its message
+            names.append(name)
+            values[name] = (value, unit or "")
+    if ids:
+        # One look at them all: each between two line breaks of its own.
+        joined = "\n".join(ids)
+        if joined.count("\n") != len(ids) - 1 or _IDS(joined) is None:
+            return None
+    return ListedScalars(values, names, statuses)
