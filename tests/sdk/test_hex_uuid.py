@@ -10,7 +10,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from stook.sdk._hex_uuid import hex_uuid
+from stook.sdk.fastpaths import hex_uuid
 
 CANONICAL = "418e78d2-c5d6-576c-af09-0f8c761e8ee8"
 

@@ -1,4 +1,4 @@
-"""Views written through a writable twin (`stook.sdk._twins`) are the dataclass's own."""
+"""Views written through a writable twin (`stook.sdk.fastpaths`) are the dataclass's own."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ import pytest
 
 from stook.proto import metrics_pb2 as pb
 from stook.sdk import MetricsDataView, SeriesKind, read_metrics_data
-from stook.sdk._twins import writable_twin
+from stook.sdk.fastpaths import writable_twin
 from tests.sdk.support import bare_data
 
 DATA_ID = uuid.UUID("418e78d2-c5d6-576c-af09-0f8c761e8ee8")

@@ -51,9 +51,8 @@ from stook.sdk._enums import (
     kind_of,
 )
 from stook.sdk._errors import MalformedError, read_error
-from stook.sdk._hex_uuid import hex_uuid
-from stook.sdk._twins import writable_twin
 from stook.sdk._views import EventView, JobMetricsView, MetricsDataView, MetricView
+from stook.sdk.fastpaths import hex_uuid, writable_twin
 
 if TYPE_CHECKING:
     from stook.sdk._series import KIND_DTYPE, STATUS_DTYPE
@@ -238,7 +237,7 @@ def _data_view(msg: pb.MetricsData, source: str) -> MetricsDataView:
         elif holds == "series_per_category":
             for series in msg.series_per_category.category_to_series.values():
                 _check_series(series, kind, msg)
-    # Written through its twin (see `_twins`): a view per downloaded series.
+    # Written through its twin (see `stook.sdk.fastpaths`): a view per downloaded series.
     view: Any = _new(_WritableDataView)
     view.id = _data_uuid(msg, msg.metrics_data_id.id.data, "id")
     view.name = msg.name

@@ -7,7 +7,7 @@ frozen ``__init__`` that sets each field through ``object.__setattr__``. That wa
 largest share of stook's own CPU per request (~15 % at 0 ms latency). Here an item whose
 every field already has the shape a well-formed answer has (by exact type) is read in one
 function and its object is written as a twin with the same slots, then given the model's
-class (see ``_writable_twin``). Anything else — a wrong
+class (see ``stook.sdk.fastpaths.writable_twin``). Anything else — a wrong
 type, an ID that is no UUID, a timestamp without a zone — returns None, and the caller
 reads the item through ``from_json``, which also words the error. Both paths give equal
 objects (tests/service/api/test_listing_items.py).
@@ -15,11 +15,11 @@ objects (tests/service/api/test_listing_items.py).
 
 from __future__ import annotations
 
-import dataclasses
 import uuid
 from collections.abc import Callable, Mapping
 from typing import Any, Final
 
+from stook.sdk.fastpaths import writable_twin
 from stook.service.api._fields import new_uuid, parse_rfc3339, parse_uuid
 from stook.service.api._models import (
     ApiMetric,
@@ -45,25 +45,9 @@ _JOB: Final = MetricOwner.JOB
 _STANDARD: Final = MetricsDataStorageType.STANDARD
 
 
-def _writable_twin(cls: type) -> type:
-    """A plain class with ``cls``'s slots: an item is written as one of these and then made
-    a ``cls`` by assigning its ``__class__`` (allowed between classes of the same layout).
-
-    Its slot writes are plain attribute stores, which the interpreter specializes; a frozen
-    dataclass's ``__init__`` goes through ``object.__setattr__`` for each field, and the
-    slots' own descriptors, called, cost a method call each. A metric item: 1.19 µs to
-    build that way, 0.47 µs this way. Equality, hashing, ``repr`` and pickling are the
-    dataclass's own: the object is a ``cls`` like any other.
-    """
-    slots = cls.__dict__["__slots__"]
-    if tuple(slots) != tuple(f.name for f in dataclasses.fields(cls)):
-        raise TypeError(f"{cls.__name__}: its slots are not its fields")
-    return type(f"_Writable{cls.__name__}", (), {"__slots__": slots})
-
-
-_WritableMetric: Final = _writable_twin(ApiMetric)
-_WritableMetricsData: Final = _writable_twin(ApiMetricsData)
-_WritableJob: Final = _writable_twin(Job)
+_WritableMetric: Final = writable_twin(ApiMetric)
+_WritableMetricsData: Final = writable_twin(ApiMetricsData)
+_WritableJob: Final = writable_twin(Job)
 _new = object.__new__
 
 

@@ -32,10 +32,10 @@ from aiohttp import hdrs
 from multidict import CIMultiDictProxy
 from yarl import URL
 
+from stook.sdk.fastpaths import writable_twin
 from stook.service.api._deadlines import Deadlines
 from stook.service.api._errors import BodyTooLargeError, IncompleteBodyError, TransportError
 from stook.service.api._limits import ConcurrencyLimit, FixedLimit
-from stook.service.api._listing_items import _writable_twin
 from stook.service.api._logging import get_logger
 from stook.service.api._redact import redact_text, redact_url
 from stook.service.api._stats import TransferStats
@@ -93,7 +93,7 @@ class Response:
         return 200 <= self.status < 300
 
 
-_WritableResponse: Final = _writable_twin(Response)
+_WritableResponse: Final = writable_twin(Response)
 _new = object.__new__
 
 
@@ -268,7 +268,7 @@ class HttpTransport:
                         assert self._body_cap is not None  # only a capped body is chunked
                         body = await self._read_capped(answer, self._body_cap)
                     _check_complete(answer, body)
-                    # Response(...), written as its writable twin (see _writable_twin):
+                    # Response(...), written as its writable twin (see stook.sdk.fastpaths):
                     # a frozen dataclass's __init__ costs four times as much.
                     written: Any = _new(_WritableResponse)
                     written.status = answer.status

@@ -11,7 +11,6 @@ in memory at once, whatever the batch size.
 from __future__ import annotations
 
 import asyncio
-import dataclasses
 import inspect
 import time
 import uuid
@@ -22,6 +21,7 @@ from typing import Any, Final
 import structlog
 
 from stook.sdk.aggregations import UNKNOWN_STATUS, JobEvent, JobRecord, Needs
+from stook.sdk.fastpaths import writable_twin
 from stook.service.api import (
     ApiClient,
     ApiError,
@@ -42,19 +42,7 @@ __all__ = ["BatchFetcher", "FetchOutcome", "InvalidDataError", "MissingJob", "On
 log = structlog.get_logger("stook.fetch")
 
 
-def _writable_twin(cls: type) -> type:
-    """A plain class with ``cls``'s slots, which are its fields: an object written as one
-    of these becomes a ``cls`` when its ``__class__`` is assigned (the layouts are the
-    same). Its slot writes are plain stores; a frozen dataclass's ``__init__`` goes
-    through ``object.__setattr__`` for each field. Equality, hashing, ``repr`` and pickling
-    are the dataclass's own. (The API layer's listing items are written the same way.)"""
-    slots = cls.__dict__["__slots__"]
-    if tuple(slots) != tuple(f.name for f in dataclasses.fields(cls)):
-        raise TypeError(f"{cls.__name__}: its slots are not its fields")
-    return type(f"_Writable{cls.__name__}", (), {"__slots__": slots})
-
-
-_WritableRecord: Final = _writable_twin(JobRecord)
+_WritableRecord: Final = writable_twin(JobRecord)
 _new = object.__new__
 
 
@@ -234,7 +222,7 @@ class BatchFetcher:
                 source=source,
             ).fetch()
         # JobRecord(...), written as a plain object with its slots and then given its class
-        # (see _writable_twin): a frozen dataclass's __init__ costs four times as much.
+        # (see stook.sdk.fastpaths): a frozen dataclass's __init__ costs four times as much.
         written: Any = _new(_WritableRecord)
         written.job_id = job.job_id
         written.conflated_status = str(job.conflated_status or UNKNOWN_STATUS)
