@@ -17,16 +17,21 @@ from stook.sdk.example import every_metric_type
 MODULES = ["stook.sdk", "stook.sdk.aggregations", "stook.service.modes", "stook.service.fetch"]
 
 
+def _printed_by(script: str) -> str:
+    """What `script` prints, run in a fresh interpreter (which must exit 0)."""
+    done = subprocess.run(
+        [sys.executable, "-c", script], capture_output=True, text=True, timeout=60
+    )
+    assert done.returncode == 0, done.stderr
+    return done.stdout
+
+
 @pytest.mark.parametrize("module", MODULES)
 def test_importing_does_not_import_polars_or_numpy(module: str) -> None:
     script = (
         f"import sys, {module}\nprint(sorted(m for m in ('polars', 'numpy') if m in sys.modules))\n"
     )
-    done = subprocess.run(
-        [sys.executable, "-c", script], capture_output=True, text=True, timeout=60
-    )
-    assert done.returncode == 0, done.stderr
-    assert done.stdout == "[]\n"
+    assert _printed_by(script) == "[]\n"
 
 
 def test_building_aggregations_lists_no_plugins_before_a_kind_needs_it() -> None:
@@ -37,11 +42,7 @@ def test_building_aggregations_lists_no_plugins_before_a_kind_needs_it() -> None
         "build_all({'pass_rate': [{}]}, section='batch')\n"
         "print('importlib.metadata' in sys.modules)\n"
     )
-    done = subprocess.run(
-        [sys.executable, "-c", script], capture_output=True, text=True, timeout=60
-    )
-    assert done.returncode == 0, done.stderr
-    assert done.stdout == "False\n"
+    assert _printed_by(script) == "False\n"
 
 
 def test_a_local_batch_run_imports_only_what_it_uses() -> None:
@@ -64,11 +65,7 @@ def test_a_local_batch_run_imports_only_what_it_uses() -> None:
         "          'tomllib')\n"
         "print(sorted(m for m in unused if m in sys.modules))\n"
     )
-    done = subprocess.run(
-        [sys.executable, "-c", script], capture_output=True, text=True, timeout=60
-    )
-    assert done.returncode == 0, done.stderr
-    assert done.stdout == "[]\n"
+    assert _printed_by(script) == "[]\n"
 
 
 def test_show_and_validate_import_neither_the_writer_nor_the_data_constructors() -> None:
@@ -81,11 +78,7 @@ def test_show_and_validate_import_neither_the_writer_nor_the_data_constructors()
         "          'stook.sdk._validate')\n"
         "print(sorted(m for m in unused if m in sys.modules))\n"
     )
-    done = subprocess.run(
-        [sys.executable, "-c", script], capture_output=True, text=True, timeout=60
-    )
-    assert done.returncode == 0, done.stderr
-    assert done.stdout == "[]\n"
+    assert _printed_by(script) == "[]\n"
 
 
 def test_previewing_imports_neither_plotly_nor_polars(tmp_path: Path) -> None:
@@ -101,11 +94,7 @@ def test_previewing_imports_neither_plotly_nor_polars(tmp_path: Path) -> None:
         f"assert render_html({str(path)!r}).startswith('<!DOCTYPE html>')\n"
         "print(sorted(m for m in ('plotly', 'polars', 'numpy') if m in sys.modules))\n"
     )
-    done = subprocess.run(
-        [sys.executable, "-c", script], capture_output=True, text=True, timeout=60
-    )
-    assert done.returncode == 0, done.stderr
-    assert done.stdout == "[]\n"
+    assert _printed_by(script) == "[]\n"
 
 
 def test_the_command_imports_structlog_without_rich_yet_rich_still_draws() -> None:
