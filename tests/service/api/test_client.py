@@ -117,17 +117,19 @@ async def test_a_jobs_listings_as_lists_read_every_page_as_its_items_do(
         answer_json({"metrics": [metric(1), metric(2)], "nextPageToken": "p2"}),
         answer_json({"metrics": [metric(2), metric(3)]}),  # a repeat, dropped
     ]
-    server.script(f"{base}/metrics", *pages, *pages)
+    server.script(f"{base}/metrics", *pages, *pages, *pages)
     server.script(f"{base}/metricsData", answer_json({"metricsData": [data(1)]}))
     async with client(server, fast_policy, page_size=2) as api:
         as_list = await api.all_job_metrics(PROJECT, BATCH, job)
         as_items = [m async for m in api.list_job_metrics(PROJECT, BATCH, job)]
+        raw_items = await api.all_job_metric_items(PROJECT, BATCH, job)
         data_list = await api.all_job_metrics_data(PROJECT, BATCH, job)
     assert as_list == as_items
     assert [m.name for m in as_list] == ["m1", "m2", "m3"]
+    assert raw_items == [metric(1), metric(2), metric(3)]
     assert [d.name for d in data_list] == ["d1"]
     hits = server.hits(f"{base}/metrics")
-    assert [hit.query.get("pageToken") for hit in hits] == [None, "p2", None, "p2"]
+    assert [hit.query.get("pageToken") for hit in hits] == [None, "p2"] * 3
 
 
 async def test_missing_next_page_token_and_missing_items_end_the_list(

@@ -26,9 +26,8 @@ class _Listings:
         self.items = items
         self.relisted = 0
 
-    async def list_job_metric_items(self, *ids: uuid.UUID) -> AsyncIterator[Any]:
-        for item in self.items:
-            yield item
+    async def all_job_metric_items(self, *ids: uuid.UUID) -> list[Any]:
+        return list(self.items)
 
     async def list_job_metrics(self, *ids: uuid.UUID) -> AsyncIterator[ApiMetric]:
         self.relisted += 1

@@ -344,14 +344,15 @@ class ApiClient:
         path = f"/projects/{_id(project_id)}/batches/{_id(batch_id)}/metricsData"
         return self._list(path, "batchMetricsData", _BATCH_DATA)
 
-    def list_job_metric_items(
+    def all_job_metric_items(
         self, project_id: IdLike, batch_id: IdLike, job_id: IdLike
-    ) -> AsyncIterator[dict[str, Any]]:
-        """`list_job_metrics`' items unread, JSON objects as the API wrote them: for a caller
-        that reads a few fields of each (report mode). `ApiMetric.from_json(item,
-        owner=MetricOwner.JOB)` reads one as `list_job_metrics` does, errors included."""
+    ) -> Awaitable[list[dict[str, Any]]]:
+        """`list_job_metrics`' items unread, as one list of JSON objects as the API wrote
+        them: for a caller that reads a few fields of each (report mode).
+        `ApiMetric.from_json(item, owner=MetricOwner.JOB)` reads one as `list_job_metrics`
+        does, errors included."""
         path = f"/projects/{_id(project_id)}/batches/{_id(batch_id)}/jobs/{_id(job_id)}/metrics"
-        return self.paginate(path, "metrics")
+        return self._all_items(path, "metrics")
 
     async def get_report(self, project_id: IdLike, report_id: IdLike) -> Report:
         document = await self.get_json(f"/projects/{_id(project_id)}/reports/{_id(report_id)}")
@@ -387,13 +388,17 @@ class ApiClient:
     async def _list_all(
         self, path: str, items_key: str, parse: Callable[[Mapping[str, Any]], _Model]
     ) -> list[_Model]:
-        """What `_list` yields, as one list: with no async generator step per item, and
-        none per page (a batch run lists two dozen items a job, on one page)."""
+        """What `_list` yields, as one list."""
+        return list(map(parse, await self._all_items(path, items_key)))
+
+    async def _all_items(self, path: str, items_key: str) -> list[dict[str, Any]]:
+        """What `paginate` yields, as one list: with no async generator step per item, and
+        none per page (a job's listing is two dozen items or fewer, on one page)."""
         paging = _Paging(self, path, items_key, None, None, None)
-        parsed: list[_Model] = []
+        items: list[dict[str, Any]] = []
         while paging.more:
-            parsed.extend(map(parse, paging.take(await self.get_json(path, paging.query))))
-        return parsed
+            items.extend(paging.take(await self.get_json(path, paging.query)))
+        return items
 
     def _url(self, path: str, params: Mapping[str, str | int] | None = None) -> URL:
         """The URL of `path` under the base URL, with `params` as its query.

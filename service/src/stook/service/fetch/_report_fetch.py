@@ -329,12 +329,7 @@ class ReportFetcher:
         directly when they are well-formed and every scalar has its value; otherwise as
         `ApiMetric`s, which word what is malformed, and with null values read from
         their messages when needed."""
-        items = [
-            item
-            async for item in self._api.list_job_metric_items(
-                self._project_id, batch.batch_id, job.job_id
-            )
-        ]
+        items = await self._api.all_job_metric_items(self._project_id, batch.batch_id, job.job_id)
         listed = read_listed_scalars(items)
         if listed is not None:
             return listed
