@@ -385,34 +385,64 @@ async def test_jobs_are_fetched_with_fewer_garbage_collections(
     assert gc.get_threshold() == before
 
 
-async def test_a_failed_metrics_listing_cancels_the_jobs_other_listings() -> None:
-    from stook.service.api import ApiResponseError
+class _ListingApi:
+    """A job's metrics and metrics-data listings, each a few loop steps long; it counts
+    the listings in flight at once, and can fail the metrics listing."""
+
+    storage = None
+
+    def __init__(self, *, metrics_fail: bool = False) -> None:
+        self.metrics_fail = metrics_fail
+        self.in_flight = 0
+        self.most_in_flight = 0
+        self.data_listings = 0
+
+    async def _listing(self) -> None:
+        self.in_flight += 1
+        self.most_in_flight = max(self.most_in_flight, self.in_flight)
+        try:
+            for _ in range(3):
+                await asyncio.sleep(0)
+        finally:
+            self.in_flight -= 1
+
+    async def all_job_metrics(self, *_ids: object) -> list[Any]:
+        from stook.service.api import ApiResponseError
+
+        await self._listing()
+        if self.metrics_fail:
+            raise ApiResponseError("the metrics listing failed")
+        return []
+
+    async def all_job_metrics_data(self, *_ids: object) -> list[Any]:
+        self.data_listings += 1
+        await self._listing()
+        return []
+
+
+async def _fetch_listed_job(api: _ListingApi) -> list[str]:
     from stook.service.api._listing_items import read_job
 
-    class Api:
-        """Lists a job's metrics with an error, and its metrics data never."""
-
-        storage = None
-        data_listing_cancelled = False
-
-        async def all_job_metrics(self, *_ids: object) -> list[Any]:
-            await asyncio.sleep(0)  # the data listing starts meanwhile
-            raise ApiResponseError("the metrics listing failed")
-
-        async def all_job_metrics_data(self, *_ids: object) -> list[Any]:
-            try:
-                await asyncio.Event().wait()
-            finally:
-                self.data_listing_cancelled = True
-            return []
-
-    api = Api()
     job = read_job({"jobID": str(uuid.uuid4())})
     needs = Needs(data=frozenset({"speeds"}))
     fetcher = BatchFetcher(cast(ApiClient, api), PROJECT, BATCH, needs, workers=1, jobs=[job])
     outcome = await fetcher.run(lambda record: None)
-    assert [m.reason for m in outcome.missing] == ["the metrics listing failed"]
-    assert api.data_listing_cancelled
+    return [m.reason for m in outcome.missing]
+
+
+async def test_a_jobs_listings_go_out_one_after_another() -> None:
+    # One request in flight per worker: the workers are as many as the concurrency bound,
+    # so listings side by side would only queue for a slot.
+    api = _ListingApi()
+    assert await _fetch_listed_job(api) == []
+    assert api.data_listings == 1
+    assert api.most_in_flight == 1
+
+
+async def test_a_failed_metrics_listing_sends_no_other_listing() -> None:
+    api = _ListingApi(metrics_fail=True)
+    assert await _fetch_listed_job(api) == ["the metrics listing failed"]
+    assert api.data_listings == 0
 
 
 async def test_a_record_is_a_job_record_like_one_made_by_its_init(
