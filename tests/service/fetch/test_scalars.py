@@ -141,6 +141,22 @@ async def test_unnamed_event_and_composite_metrics_are_not_scalars(
     assert server.seen == []
 
 
+async def test_a_listed_scalar_is_a_scalar_like_one_made_by_its_init(
+    fast_policy: RetryPolicy,
+) -> None:
+    import dataclasses
+
+    metrics = [_listed("speed", None, value=3.5, unit="m/s", status="FAIL_WARN")]
+    scalar = (await _read(fast_policy, metrics))["speed"]
+    assert type(scalar) is Scalar
+    made = dataclasses.replace(scalar)  # every field through Scalar.__init__
+    assert scalar == made == Scalar(3.5, "m/s", "FAIL_WARN")
+    assert repr(scalar) == repr(made)
+    assert hash(scalar) == hash(made)
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        scalar.value = 1.0  # type: ignore[misc]
+
+
 async def _values(
     policy: RetryPolicy, metrics: Sequence[ApiMetric], names: set[str]
 ) -> dict[str, tuple[float, str]]:

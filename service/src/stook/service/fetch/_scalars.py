@@ -12,17 +12,22 @@ from __future__ import annotations
 
 import asyncio
 from collections.abc import Awaitable, Callable, Sequence
+from typing import Any, Final
 
 import structlog
 
 from stook.sdk import read_metric
 from stook.sdk.aggregations import Scalar
+from stook.sdk.fastpaths import writable_twin
 from stook.service.api import ApiMetric, ApiMetricType, StorageClient
 from stook.service.fetch._presigned import fetch_listed
 
 __all__ = ["is_scalar", "read_scalar_values", "read_scalars"]
 
 log = structlog.get_logger("stook.fetch")
+
+_WritableScalar: Final = writable_twin(Scalar)
+_new = object.__new__
 
 Relist = Callable[[], Awaitable[Sequence[ApiMetric]]]
 
@@ -52,7 +57,15 @@ async def read_scalars(
         if not is_scalar(metric):
             continue
         if metric.value is not None:
-            found.append((metric.name, Scalar(metric.value, metric.unit or "", str(metric.status))))
+            # Scalar(...), written as its writable twin (see stook.sdk.fastpaths): a
+            # frozen dataclass's __init__ costs several times as much, for every scalar
+            # of every job.
+            written: Any = _new(_WritableScalar)
+            written.value = metric.value
+            written.unit = metric.unit or ""
+            written.status = str(metric.status)
+            written.__class__ = Scalar
+            found.append((metric.name, written))
         elif wanted(metric.name):
             found.append((metric.name, None))
             blobs.append(_from_message(storage, metric, source=source, relist=relist))
