@@ -235,7 +235,7 @@ class HttpTransport:
             raise RuntimeError(f"{self.name} transport is not open; use 'async with'")
         if not self._credentials_allowed:
             url = self._without_credentials(session, url, headers)
-        started = time.perf_counter()
+        started = time.perf_counter() if self._debug else 0.0  # only the debug line says
         await self._limiter.acquire()
         held_from = time.perf_counter()
         status: int | None = None
@@ -262,12 +262,15 @@ class HttpTransport:
                     max_redirects=_MAX_API_REDIRECTS,
                 )
                 try:
-                    if self._read_at_once(answer):
+                    # Read once for both checks: aiohttp parses the header on each read.
+                    declared = answer.content_length
+                    encoded = hdrs.CONTENT_ENCODING in answer.headers
+                    if self._read_at_once(answer, declared, encoded):
                         body = await answer.read()
                     else:
                         assert self._body_cap is not None  # only a capped body is chunked
                         body = await self._read_capped(answer, self._body_cap)
-                    _check_complete(answer, body)
+                    _check_complete(answer, body, declared, encoded)
                     # Response(...), written as its writable twin (see stook.sdk.fastpaths):
                     # a frozen dataclass's __init__ costs four times as much.
                     written: Any = _new(_WritableResponse)
@@ -324,7 +327,9 @@ class HttpTransport:
             )
         return response
 
-    def _read_at_once(self, answer: aiohttp.ClientResponse) -> bool:
+    def _read_at_once(
+        self, answer: aiohttp.ClientResponse, declared: int | None, encoded: bool
+    ) -> bool:
         """Whether the whole body may be read in one call; BodyTooLargeError if it declares
         more than the cap.
 
@@ -334,8 +339,7 @@ class HttpTransport:
         cap = self._body_cap
         if cap is None:
             return True
-        declared = answer.content_length
-        if declared is None or hdrs.CONTENT_ENCODING in answer.headers:
+        if declared is None or encoded:
             return False
         if declared > cap.max_bytes:
             answer.close()  # not worth reading: drop the connection instead
@@ -382,14 +386,16 @@ class HttpTransport:
         return url
 
 
-def _check_complete(answer: aiohttp.ClientResponse, body: bytes) -> None:
-    """IncompleteBodyError when the body is shorter than its ``Content-Length``."""
-    expected = answer.content_length
+def _check_complete(
+    answer: aiohttp.ClientResponse, body: bytes, expected: int | None, encoded: bool
+) -> None:
+    """IncompleteBodyError when the body is shorter than its ``Content-Length``
+    (`expected`); `encoded`: the answer has a ``Content-Encoding``."""
     # With Content-Encoding the header counts compressed bytes, not what read() gives.
     if (
         expected is not None
         and len(body) < expected
-        and hdrs.CONTENT_ENCODING not in answer.headers
+        and not encoded
         and answer.status not in _NO_BODY_STATUSES
     ):
         raise IncompleteBodyError(
