@@ -128,6 +128,9 @@ def run_stook(
     # before the clock starts, so this number stays the fetch alone, as before.
     importlib.import_module("polars")
     importlib.import_module("numpy")
+    # And what the run imports with them, off the loop's thread (see
+    # stook.service.fetch._decoders): numpy.ma, which polars imports lazily.
+    importlib.import_module("numpy.ma")
     doc = tomllib.loads(config_toml)
     doc.setdefault("fetch", {})["concurrency"] = concurrency
     if adaptive:
