@@ -14,7 +14,7 @@ import pytest
 
 from stook.proto import metrics_pb2 as pb
 from stook.sdk import MetricsWriter, MetricType, SeriesKind, data, parse_metric
-from stook.sdk.aggregations import JobEvent, JobRecord, Needs
+from stook.sdk.aggregations import JobEvent, JobRecord, Needs, Scalar
 from stook.service.api._client import ApiClient
 from stook.service.api._retry import RetryPolicy
 from stook.service.fetch import BatchFetcher, InvalidDataError, decode_values
@@ -141,6 +141,52 @@ async def _fetch(
     async with ApiClient(server.base_url, "secret-token", retry=policy) as api:
         await BatchFetcher(api, PROJECT, BATCH, needs, workers=workers).run(records.append)
     return records
+
+
+async def test_a_metric_listing_read_from_its_items_gives_what_its_models_give(
+    server: ScriptedServer,
+    batch: ScriptedBatch,
+    fast_policy: RetryPolicy,
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    from stook.service.fetch import _batch_fetch
+
+    batch.add_job()
+    batch.add_job(metric_overrides={"Max speed": {"status": "FAIL_WARN", "unit": "m/s"}})
+    batch.add_job(metric_overrides={"Max speed": {"eventMetric": True, "status": ""}})
+    batch.add_job(metric_overrides={"Offset over time": {"name": "", "status": "NEW_ONE"}})
+    needs = Needs(data=frozenset({"speeds"}), every_scalar=True)
+    from stook.service.fetch._listed_scalars import read_listed_scalars as read
+
+    taken: list[bool] = []
+
+    def spy(items: list[Any]) -> Any:
+        listed = read(items)
+        taken.append(listed is not None)
+        return listed
+
+    async def fetch() -> tuple[list[JobRecord], Any]:
+        records: list[JobRecord] = []
+        async with ApiClient(server.base_url, "secret-token", retry=fast_policy) as api:
+            fetcher = BatchFetcher(api, PROJECT, BATCH, needs, workers=2)
+            outcome = await fetcher.run(records.append)
+        return sorted(records, key=lambda r: r.job_id), outcome
+
+    monkeypatch.setattr(_batch_fetch, "read_listed_scalars", spy)
+    from_items, items_outcome = await fetch()
+    assert taken == [True] * 4
+    monkeypatch.setattr(_batch_fetch, "read_listed_scalars", lambda items: None)
+    from_models, models_outcome = await fetch()
+    assert len(from_items) == 4
+    for fast, slow in zip(from_items, from_models, strict=True):
+        assert fast.scalars == slow.scalars
+        assert [type(s) for s in fast.scalars.values()] == [Scalar] * len(fast.scalars)
+        assert fast.metric_statuses == slow.metric_statuses
+        assert fast.data.keys() == slow.data.keys()
+    assert items_outcome.jobs_with_metrics == models_outcome.jobs_with_metrics == 4
+    assert items_outcome.scalar_names == models_outcome.scalar_names
+    assert items_outcome.metric_names == models_outcome.metric_names
+    assert sum(bool(r.scalars) for r in from_items) == 3  # all but the event's job
 
 
 def _ids(output: pb.JobMetrics, *names: str) -> set[str]:
@@ -413,6 +459,9 @@ class _ListingApi:
         if self.metrics_fail:
             raise ApiResponseError("the metrics listing failed")
         return []
+
+    # What batch mode lists a job's metrics with when it wants no metric's blob.
+    all_job_metric_items = all_job_metrics
 
     async def all_job_metrics_data(self, *_ids: object) -> list[Any]:
         self.data_listings += 1

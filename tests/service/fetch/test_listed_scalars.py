@@ -59,6 +59,8 @@ def as_models(items: list[dict[str, Any]]) -> ListedScalars:
         {m.name: (m.value, m.unit or "") for m in scalars if m.value is not None},
         [m.name for m in scalars],
         [str(m.status) for m in metrics],
+        {m.name: str(m.status) for m in scalars},
+        [m.name for m in metrics if m.name],
     )
 
 
@@ -74,6 +76,11 @@ def agrees(items: list[dict[str, Any]]) -> bool:
     ]
     assert Counter(listed.names) == Counter(expected.names)
     assert listed.statuses == expected.statuses
+    # What batch mode reads besides (see _batch_fetch): each scalar's status, and every
+    # named metric's name.
+    assert listed.scalar_statuses == expected.scalar_statuses
+    assert all(type(status) is str for status in listed.scalar_statuses.values())
+    assert listed.metric_names == expected.metric_names
     return True
 
 
@@ -129,6 +136,14 @@ def test_the_last_scalar_of_a_name_wins_and_every_name_counts() -> None:
     assert listed.values == {"Localization error": (2.0, "km"), "Other": (3.0, "")}
     assert listed.names == ["Localization error", "Localization error", "Other"]
     assert listed.statuses == ["PASSED", "PASSED", "FAIL_BLOCK", "PASSED", "PASSED"]
+    assert listed.scalar_statuses == {"Localization error": "FAIL_BLOCK", "Other": "PASSED"}
+    assert listed.metric_names == [
+        "Localization error",
+        "Plot",
+        "Localization error",
+        "Other",
+        "Event one",
+    ]
 
 
 def test_an_empty_listing_reads_as_nothing() -> None:

@@ -48,6 +48,8 @@ async def test_a_well_formed_listing_is_read_from_its_items() -> None:
         {"Localization error": (0.25, "m"), "B": (2.0, "m")},
         ["Localization error", "B"],
         ["PASSED", "PASSED"],
+        {"Localization error": "PASSED", "B": "PASSED"},
+        ["Localization error", "B"],
     )
 
 

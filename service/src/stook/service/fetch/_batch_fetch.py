@@ -29,13 +29,15 @@ from stook.service.api import (
     ApiMetricsData,
     AuthError,
     Job,
+    MetricOwner,
     OriginUnavailableError,
 )
 from stook.service.fetch._collector import fewer_collections
 from stook.service.fetch._decoders import start_importing
 from stook.service.fetch._job_blobs import InvalidDataError, JobBlobs
 from stook.service.fetch._job_extras import ExperienceTags, job_event
-from stook.service.fetch._scalars import is_scalar, read_scalars
+from stook.service.fetch._listed_scalars import ListedScalars, read_listed_scalars
+from stook.service.fetch._scalars import is_scalar, listed_scalars, read_scalars
 
 __all__ = ["BatchFetcher", "FetchOutcome", "InvalidDataError", "MissingJob", "OnJob"]
 
@@ -181,28 +183,52 @@ class BatchFetcher:
         # for a slot (2,805 of 2,976 at 0 ms, concurrency 64) and the job needed a task:
         # a future, a wake-up and a resumption through every frame, for no more requests
         # in flight.
-        metrics = await self._list_metrics(job)
+        listed: ListedScalars | None = None
+        if needs.metrics or needs.every_metric:
+            metrics = await self._list_metrics(job)
+        else:
+            # No metric's blob is wanted: the listing is read from its JSON items, for
+            # its scalars, names and statuses only, when it is well-formed and lists every
+            # scalar's value (see _listed_scalars); else as ApiMetrics, as before.
+            items = await self._api.all_job_metric_items(
+                self._project_id, self._batch_id, job.job_id
+            )
+            listed = read_listed_scalars(items)
+            metrics = (
+                []
+                if listed is not None
+                else [ApiMetric.from_json(item, owner=MetricOwner.JOB) for item in items]
+            )
         data_items: list[ApiMetricsData] = await self._list_data(job) if wants_blobs else []
         events: tuple[JobEvent, ...] = tuple(await self._list_events(job)) if needs.events else ()
         tags: tuple[str, ...] = (
             await self._tags.of(job.experience_id) if needs.experience_tags else ()
         )
         outcome = self.outcome
-        if metrics:
-            outcome.jobs_with_metrics += 1
         # How errors and logs name the job, formatted once (UUID.__str__ is Python code).
         source = f"job {job.job_id}"
-        scalars = await read_scalars(
-            self._api.storage,
-            metrics,
-            needs.wants_scalar,
-            source=source,
-            relist=lambda: self._list_metrics(job),
-        )
-        # Listed is enough: a name the job has is no typo, even when its value is absent.
-        # Lists, not generators: these run for every job.
-        outcome.scalar_names.update([m.name for m in metrics if is_scalar(m)])
-        outcome.metric_names.update([m.name for m in metrics if m.name])
+        if listed is not None:
+            if listed.statuses:  # one per metric listed
+                outcome.jobs_with_metrics += 1
+            scalars = listed_scalars(listed.values, listed.scalar_statuses)
+            outcome.scalar_names.update(listed.names)
+            outcome.metric_names.update(listed.metric_names)
+            metric_statuses = listed.statuses
+        else:
+            if metrics:
+                outcome.jobs_with_metrics += 1
+            scalars = await read_scalars(
+                self._api.storage,
+                metrics,
+                needs.wants_scalar,
+                source=source,
+                relist=lambda: self._list_metrics(job),
+            )
+            # Listed is enough: a name the job has is no typo, even when its value is
+            # absent. Lists, not generators: these run for every job.
+            outcome.scalar_names.update([m.name for m in metrics if is_scalar(m)])
+            outcome.metric_names.update([m.name for m in metrics if m.name])
+            metric_statuses = [str(m.status) for m in metrics]
         data_names = [d.name for d in data_items if d.name]
         unnamed = len(data_items) - len(data_names)
         if unnamed:
@@ -230,7 +256,7 @@ class BatchFetcher:
         written.experience_id = job.experience_id
         written.scalars = scalars
         written.series = blobs.series if blobs is not None else {}
-        written.metric_statuses = [str(m.status) for m in metrics]
+        written.metric_statuses = metric_statuses
         written.data = blobs.data if blobs is not None else {}
         written.job_metrics = blobs.job_metrics if blobs is not None else None
         written.parameters = job.parameters

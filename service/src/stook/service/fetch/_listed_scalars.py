@@ -18,7 +18,7 @@ what it can, words the error for what it cannot, and reads null scalars' message
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from datetime import datetime
 from typing import Any, Final
 
@@ -59,13 +59,19 @@ def _zoned(text: str) -> bool:
 
 @dataclass(frozen=True, slots=True)
 class ListedScalars:
-    """A job's metric listing as report mode reads it: each SCALAR's (value, unit) by
-    name (the last of a name wins), every named SCALAR's name, and each item's status
-    as its text (an unknown one as written; none as NO_STATUS_REPORTED)."""
+    """A job's metric listing as report and batch mode read it: each SCALAR's (value,
+    unit) by name (the last of a name wins), every named SCALAR's name, and each item's
+    status as its text (an unknown one as written; none as NO_STATUS_REPORTED).
+
+    For batch mode also: each SCALAR's status by name (the last of a name wins, as for
+    its value) and every named item's name. Left empty where the listing was read as
+    `ApiMetric`s (report mode does not need them)."""
 
     values: dict[str, tuple[float, str]]
     names: list[str]
     statuses: list[str]
+    scalar_statuses: dict[str, str] = field(default_factory=dict)
+    metric_names: list[str] = field(default_factory=list)
 
 
 def read_listed_scalars(items: list[Any]) -> ListedScalars | None:
@@ -74,6 +80,8 @@ def read_listed_scalars(items: list[Any]) -> ListedScalars | None:
     values: dict[str, tuple[float, str]] = {}
     names: list[str] = []
     statuses: list[str] = []
+    scalar_statuses: dict[str, str] = {}
+    metric_names: list[str] = []
     owner_ids: set[str] = set()  # the job and batch IDs, checked once a listing
     timestamp = ""  # the last item's, checked: a listing's items were created together
     ids: list[str] = []  # the metric and data IDs, checked at once
@@ -91,11 +99,12 @@ def read_listed_scalars(items: list[Any]) -> ListedScalars | None:
             return None
         status = get("status")
         if type(status) is str:
-            statuses.append(status or _NO_STATUS)
+            status = status or _NO_STATUS
         elif status is None:
-            statuses.append(_NO_STATUS)
+            status = _NO_STATUS
         else:
             return None
+        statuses.append(status)
         value = get("value")
         if type(value) is not float and value is not None:
             return None  # an integer the model converts; anything else it refuses
@@ -139,14 +148,17 @@ def read_listed_scalars(items: list[Any]) -> ListedScalars | None:
             timestamp = created
         elif created is not None:
             return None
-        if kind == _SCALAR and not event_metric and name:
-            if value is None:
-                return None  # its number is in its message
-            names.append(name)
-            values[name] = (value, unit or "")
+        if name:
+            metric_names.append(name)
+            if kind == _SCALAR and not event_metric:
+                if value is None:
+                    return None  # its number is in its message
+                names.append(name)
+                values[name] = (value, unit or "")
+                scalar_statuses[name] = status
     if ids:
         # One look at them all: each between two line breaks of its own.
         joined = "\n".join(ids)
         if joined.count("\n") != len(ids) - 1 or _IDS(joined) is None:
             return None
-    return ListedScalars(values, names, statuses)
+    return ListedScalars(values, names, statuses, scalar_statuses, metric_names)

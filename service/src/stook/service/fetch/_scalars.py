@@ -11,7 +11,7 @@ level, never an error.
 from __future__ import annotations
 
 import asyncio
-from collections.abc import Awaitable, Callable, Sequence
+from collections.abc import Awaitable, Callable, Mapping, Sequence
 from typing import Any, Final
 
 import structlog
@@ -22,7 +22,7 @@ from stook.sdk.fastpaths import writable_twin
 from stook.service.api import ApiMetric, ApiMetricType, StorageClient
 from stook.service.fetch._presigned import fetch_listed
 
-__all__ = ["is_scalar", "read_scalar_values", "read_scalars"]
+__all__ = ["is_scalar", "listed_scalars", "read_scalar_values", "read_scalars"]
 
 log = structlog.get_logger("stook.fetch")
 
@@ -81,6 +81,22 @@ async def read_scalars(
         value = scalar if scalar is not None else next(resolved)
         if value is not None:
             scalars[name] = value
+    return scalars
+
+
+def listed_scalars(
+    values: Mapping[str, tuple[float, str]], statuses: Mapping[str, str]
+) -> dict[str, Scalar]:
+    """The scalars of a listing read from its items (`read_listed_scalars`): each
+    (value, unit) with its status, by name, as `read_scalars` gives them."""
+    scalars: dict[str, Scalar] = {}
+    for name, (value, unit) in values.items():
+        written: Any = _new(_WritableScalar)  # Scalar(...): see read_scalars
+        written.value = value
+        written.unit = unit
+        written.status = statuses[name]
+        written.__class__ = Scalar
+        scalars[name] = written
     return scalars
 
 
