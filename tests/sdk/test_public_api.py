@@ -153,6 +153,7 @@ PUBLIC_API: dict[str, list[str]] = {
     "stook.sdk.aggregations.report": [
         "BatchMetricStatusCounts",
         "ChangePointSummary",
+        "ChangePointWorker",
         "ChangePoints",
         "FlakyExperiences",
         "JobMetricStatusCounts",

@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 import ruptures
 
-from stook.sdk.aggregations.report._change_points import MIN_SEGMENT, _l2_cost
+from stook.sdk._pelt import _l2_cost
+from stook.sdk.aggregations.report._change_points import MIN_SEGMENT
 
 
 @pytest.mark.parametrize("seed", range(6))

@@ -9,12 +9,8 @@ import numpy as np
 import pytest
 import ruptures
 
-from stook.sdk.aggregations.report._change_points import (
-    _binomial_cost,
-    _l2_cost,
-    _vector_pelt,
-    penalty,
-)
+from stook.sdk._pelt import _binomial_cost, _l2_cost, _vector_pelt
+from stook.sdk.aggregations.report._change_points import penalty
 
 
 def _levels(rng: random.Random, n: int) -> np.ndarray:

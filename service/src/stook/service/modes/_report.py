@@ -10,6 +10,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+import structlog
+
 from stook.sdk import MetricStatus, MetricsWriter
 from stook.sdk.aggregations import default_report_aggregations
 from stook.service.api import ApiClient, RetryPolicy
@@ -18,12 +20,13 @@ from stook.service.modes._config import ConfigError, StookConfig
 from stook.service.modes._inputs import ReportInputs
 from stook.service.modes._pipeline import RunResult, run_pipeline
 from stook.service.modes._progress import Progress, Snapshot
-from stook.service.modes._report_imports import import_change_points_when_idle
 
 if TYPE_CHECKING:
     # The report aggregations are imported by report mode, not by every run.
     from stook.sdk.aggregations import Aggregation, Needs
-    from stook.sdk.aggregations.report import RegressionSummary
+    from stook.sdk.aggregations.report import ChangePointWorker, RegressionSummary
+
+log = structlog.get_logger("stook.report")
 
 
 @dataclass(frozen=True, slots=True)
@@ -77,6 +80,9 @@ class ReportMode:
     config: StookConfig
     aggregations: list[Aggregation[Any]] = field(init=False)
     kind: str = "report"
+    # Where the change points are searched, started once the report's batches are known
+    # (`batches_found`); None until then, and without a search.
+    change_points: ChangePointWorker | None = field(init=False, default=None)
 
     def __post_init__(self) -> None:
         self.aggregations = report_aggregations_for(self.config, str(self.inputs.access.project_id))
@@ -88,10 +94,6 @@ class ReportMode:
     def fetcher(
         self, api: ApiClient, needs: Needs, on_progress: Callable[[ReportOutcome], None]
     ) -> ReportFetcher:
-        if searches_change_points(self.config):
-            # The search imports ruptures (about a second of CPU) once every batch is in;
-            # a fetch that waits on the network has that second to spare.
-            import_change_points_when_idle()
         return ReportFetcher(
             api,
             self.inputs.access.project_id,
@@ -100,7 +102,23 @@ class ReportMode:
             workers=self.config.fetch.concurrency,
             on_progress=on_progress,
             use_summaries=self.config.report.use_summaries,
+            on_batches_found=self.batches_found,
         )
+
+    def batches_found(self, count: int) -> None:
+        """The report has `count` batches: start the change-point worker if its search
+        will run. The search imports ruptures (about a second of CPU) once every batch is
+        in; a worker process imports it on another core while the batches are fetched."""
+        if self.change_points is not None or not searches_change_points(self.config):
+            return
+        from stook.sdk.aggregations.report import ChangePointWorker
+
+        self.change_points = ChangePointWorker(on_failure=_say_worker_failed)
+        self.change_points.start(batches=count)
+
+    def close(self) -> None:
+        if self.change_points is not None:
+            self.change_points.close()
 
     def progress(self, outcome: ReportOutcome) -> Snapshot:
         listed = outcome.jobs_total is not None or outcome.batches > 0
@@ -138,6 +156,10 @@ class ReportMode:
 
         lines = [a for a in self.aggregations if isinstance(a, ScalarLines)]
         return lines[0].regressions() if lines else None
+
+
+def _say_worker_failed(reason: str) -> None:
+    log.debug("change-point worker failed; searching in this process", reason=reason)
 
 
 async def run_report(

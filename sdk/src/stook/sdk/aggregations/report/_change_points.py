@@ -34,8 +34,10 @@ import math
 import statistics
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
+from stook.sdk._pelt import search
+from stook.sdk.aggregations.report._change_point_worker import searched_in_worker
 from stook.sdk.aggregations.report._regression import RELATIVE_FLOOR
 
 if TYPE_CHECKING:
@@ -136,76 +138,12 @@ def noise_scale(values: Sequence[float]) -> float:
     return mean / _expected_trimmed_mean(m)
 
 
-def _pelt(cost: Any, signal: np.ndarray, pen: float) -> list[int]:
-    algo = _vector_pelt()(custom_cost=cost, min_size=MIN_SEGMENT, jump=1).fit(signal)
-    return [int(b) for b in algo.predict(pen=pen)[:-1]]
-
-
-@functools.cache
-def _vector_pelt() -> Any:
-    """ruptures' `Pelt` with its search loop over numpy arrays: the same partitions,
-    penalised totals and breakpoints, bit for bit.
-
-    ruptures keeps one dict per candidate start and sums it for every (start, end) pair;
-    without change points nothing is pruned, so a series of a thousand batches costs
-    half a million Python-level cost calls and dict sums (about a third of a second
-    each series). Here a cost's `errors` gives every admissible start's cost at once.
-    Those may differ from `error`'s by rounding (numpy's log against math.log; a sum
-    taken in another order), so every start within a hair of a decision — the minimum,
-    or the pruning bound — is settled with ruptures' own arithmetic: `error(start, end)
-    + pen` appended to the start's partition values and summed with Python's `sum`, as
-    `Pelt._seg` does. Only `jump=1`, `min_size=1` (what stook runs) take this path.
-    """
-    import numpy as np
-    import ruptures
-
-    class VectorPelt(ruptures.Pelt):  # type: ignore[misc]
-        def _seg(self, pen: float) -> dict[tuple[int, int], float]:
-            cost = self.cost
-            if self.jump != 1 or self.min_size != 1 or not hasattr(cost, "errors"):
-                return super()._seg(pen)  # type: ignore[no-any-return]
-            n = int(self.n_samples)
-            # Per end of a partition of signal[0:end]: its segments' values in ruptures'
-            # order (the (0, 0): 0 entry first), their Python sum, the last start.
-            values: list[tuple[float, ...]] = [(0,)]
-            totals = np.zeros(n + 1)
-            previous = [0] * (n + 1)
-            admissible = np.zeros(0, dtype=np.int64)
-
-            def settled(t: int, end: int) -> tuple[float, float]:
-                value = cost.error(t, end) + pen
-                return sum((*values[t], value)), value
-
-            for end in range(1, n + 1):
-                admissible = np.append(admissible, end - 1)
-                candidates = totals[admissible] + (cost.errors(admissible, end) + pen)
-                low = float(candidates.min())
-                # Far wider than any rounding: the partitions' totals are sums of a few
-                # hundred nonnegative terms.
-                slack = 1e-9 * (abs(low) + pen)
-                best_t, best_total, best_value = -1, 0.0, 0.0
-                for i in np.flatnonzero(candidates <= low + 2 * slack).tolist():
-                    t = int(admissible[i])
-                    total, value = settled(t, end)
-                    if best_t < 0 or total < best_total:  # the first of equals, as min()
-                        best_t, best_total, best_value = t, total, value
-                values.append((*values[best_t], best_value))
-                totals[end] = best_total
-                previous[end] = best_t
-                bound = best_total + pen
-                keep = candidates <= bound
-                for i in np.flatnonzero(np.abs(candidates - bound) <= 2 * slack).tolist():
-                    keep[i] = settled(int(admissible[i]), end)[0] <= bound
-                admissible = admissible[keep]
-            partition: dict[tuple[int, int], float] = {}
-            end = n
-            while end > 0:
-                start = previous[end]
-                partition[(start, end)] = values[end][-1]
-                end = start
-            return dict(sorted(partition.items()))
-
-    return VectorPelt
+def _pelt(kind: str, signal: np.ndarray, pen: float) -> list[int]:
+    """The breakpoints of `signal` under the cost `kind` ("l2" or "binomial") and `pen`:
+    in the change-point worker while one runs (`ChangePointWorker`; it imports ruptures
+    on another core), else here."""
+    cuts = searched_in_worker(kind, signal, pen, MIN_SEGMENT)
+    return cuts if cuts is not None else search(kind, signal, pen, MIN_SEGMENT)
 
 
 def level_shifts(
@@ -225,7 +163,7 @@ def level_shifts(
     import numpy as np
 
     signal = ((np.asarray(finite) - median) / scale).reshape(-1, 1)
-    cuts = _pelt(_l2_cost()(), signal, penalty(n, factor, series=series))
+    cuts = _pelt("l2", signal, penalty(n, factor, series=series))
     return _shifts(cuts, positions, [statistics.fmean(s) for s in _segments(finite, cuts)])
 
 
@@ -249,7 +187,7 @@ def rate_shifts(
     import numpy as np
 
     signal = np.column_stack([f, c])
-    cuts = _pelt(_binomial_cost()(), signal, penalty(n, factor, series=series))
+    cuts = _pelt("binomial", signal, penalty(n, factor, series=series))
     levels = [
         sum(fs) / sum(cs) for fs, cs in zip(_segments(f, cuts), _segments(c, cuts), strict=True)
     ]
@@ -276,81 +214,3 @@ def _segments(values: Sequence[float], cuts: Sequence[int]) -> list[Sequence[flo
 
 def _shifts(cuts: Sequence[int], positions: Sequence[int], levels: Sequence[float]) -> list[Shift]:
     return [Shift(positions[cut], levels[i], levels[i + 1]) for i, cut in enumerate(cuts)]
-
-
-def _binomial_deviance(failed: float, counted: float) -> float:
-    """-2 log likelihood of `failed` of `counted` at their own share (0 log 0 = 0)."""
-    out = 0.0
-    for k in (failed, counted - failed):
-        if k > 0:
-            out -= 2.0 * k * math.log(k / counted)
-    return out
-
-
-@functools.cache
-def _l2_cost() -> Any:
-    """ruptures' L2 cost (a segment's squared deviations from its mean) from running sums:
-    O(1) per segment where `CostL2` takes a variance over it, which made the search
-    cubic-ish in the batches (tens of seconds for a report of a thousand batches)."""
-    import numpy as np
-    from ruptures.base import BaseCost
-
-    class SummedL2Cost(BaseCost):  # type: ignore[misc]
-        model = "l2"
-        min_size = 1  # Pelt takes the larger of this and MIN_SEGMENT
-
-        def fit(self, signal: np.ndarray) -> SummedL2Cost:
-            self.signal = signal
-            column = signal[:, 0]
-            self.sums: list[float] = np.concatenate([[0.0], np.cumsum(column)]).tolist()
-            self.squares: list[float] = np.concatenate([[0.0], np.cumsum(column**2)]).tolist()
-            self.sums_array = np.asarray(self.sums)
-            self.squares_array = np.asarray(self.squares)
-            return self
-
-        def error(self, start: int, end: int) -> float:
-            total = self.sums[end] - self.sums[start]
-            squares = self.squares[end] - self.squares[start]
-            return max(0.0, squares - total * total / (end - start))
-
-        def errors(self, starts: np.ndarray, end: int) -> np.ndarray:
-            """`error(start, end)` for every start at once."""
-            total = self.sums[end] - self.sums_array[starts]
-            squares = self.squares[end] - self.squares_array[starts]
-            out: np.ndarray = np.maximum(0.0, squares - total * total / (end - starts))
-            return out
-
-    return SummedL2Cost
-
-
-@functools.cache
-def _binomial_cost() -> Any:
-    """A ruptures cost: the binomial deviance of a segment's failed and counted jobs
-    (made on first use, so that ruptures is imported only when a report needs it)."""
-    import numpy as np
-    from ruptures.base import BaseCost
-
-    class BinomialCost(BaseCost):  # type: ignore[misc]
-        model = "binomial"
-        min_size = 1  # Pelt takes the larger of this and MIN_SEGMENT
-
-        def fit(self, signal: np.ndarray) -> BinomialCost:
-            self.signal = signal
-            self.cumulative = np.vstack([np.zeros((1, 2)), np.cumsum(signal, axis=0)])
-            return self
-
-        def error(self, start: int, end: int) -> float:
-            failed, counted = self.cumulative[end] - self.cumulative[start]
-            return _binomial_deviance(float(failed), float(counted))
-
-        def errors(self, starts: np.ndarray, end: int) -> np.ndarray:
-            """`error(start, end)` for every start at once (to rounding: numpy's log)."""
-            failed = self.cumulative[end, 0] - self.cumulative[starts, 0]
-            counted = self.cumulative[end, 1] - self.cumulative[starts, 1]
-            out = np.zeros(len(starts))
-            for k in (failed, counted - failed):
-                some = k > 0
-                out[some] -= 2.0 * k[some] * np.log(k[some] / counted[some])
-            return out
-
-    return BinomialCost
