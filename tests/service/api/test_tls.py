@@ -107,28 +107,6 @@ def test_the_lean_import_hides_the_ca_paths_from_aiohttp_alone() -> None:
     assert out == [f"2 [({NOWHERE!r}, {NOWHERE!r})]", "/etc/mine.pem None"]
 
 
-def test_after_the_lean_import_stooks_context_loads_the_cas_in_a_thread() -> None:
-    # Loading the CA bundle releases the GIL: built beside the main thread's imports, the
-    # context is what transports are then handed, with the CA paths of the environment.
-    script = (
-        "import ssl, threading\n"
-        "loaded_by = []\n"
-        "load = ssl.SSLContext.set_default_verify_paths\n"
-        "def recording(self):\n"
-        "    loaded_by.append(threading.current_thread().name)\n"
-        "    return load(self)\n"
-        "ssl.SSLContext.set_default_verify_paths = recording\n"
-        "from stook.service.api import import_aiohttp_without_tls_defaults\n"
-        "from stook.service.api._tls import transport_tls\n"
-        "import_aiohttp_without_tls_defaults()\n"
-        "context = transport_tls()\n"
-        "assert transport_tls() is context\n"
-        "print(loaded_by[2:], context.cert_store_stats()['x509_ca'])\n"
-    )
-    out = _run(script, SSL_CERT_FILE=str(TLS / "ca.pem"))
-    assert out == "['stook-tls-context'] 1\n"
-
-
 def test_without_the_lean_import_transports_keep_aiohttps_default() -> None:
     script = (
         "import aiohttp\nfrom stook.service.api._tls import transport_tls\nprint(transport_tls())\n"
@@ -138,15 +116,13 @@ def test_without_the_lean_import_transports_keep_aiohttps_default() -> None:
 
 def test_stook_run_imports_aiohttp_without_its_tls_defaults(tmp_path: Path) -> None:
     # `stook run` on an empty inputs folder (test mode: no request) imports what every run
-    # imports, aiohttp included, and loads no CA certificate on the way: only the thread
-    # that builds stook's own context loads the system's.
+    # imports, aiohttp included, and loads no CA certificate on the way.
     script = (
-        "import os, ssl, threading\n"
+        "import os, ssl\n"
         "seen = []\n"
         "load = ssl.SSLContext.set_default_verify_paths\n"
         "def recording(self):\n"
-        "    if threading.current_thread() is threading.main_thread():\n"
-        "        seen.append(os.environ.get('SSL_CERT_FILE'))\n"
+        "    seen.append(os.environ.get('SSL_CERT_FILE'))\n"
         "    return load(self)\n"
         "ssl.SSLContext.set_default_verify_paths = recording\n"
         "from stook.service.cli import main\n"

@@ -8,10 +8,8 @@ through :func:`import_aiohttp_without_tls_defaults`, which points OpenSSL's defa
 paths (``SSL_CERT_FILE``, ``SSL_CERT_DIR``) at nothing for the import alone: the two
 contexts hold no CA and cost next to nothing. Every transport then brings its own context,
 :func:`transport_tls`, built as aiohttp builds its verifying one (the system's defaults,
-ALPN ``http/1.1``), once per process. It is built in a thread started right after the
-import: loading the CA bundle releases the GIL, so on a second core it is ready before
-the first transport opens, while this thread imports the rest of the run. Without that
-import (a program using stook as a library) transports keep aiohttp's own default.
+ALPN ``http/1.1``), once per process, when the first transport opens. Without that import
+(a program using stook as a library) transports keep aiohttp's own default.
 
 A request that reached aiohttp's emptied default anyway would fail certificate checks: it
 fails closed, never open.
@@ -22,8 +20,6 @@ from __future__ import annotations
 import os
 import ssl
 import sys
-import threading
-from concurrent.futures import Future
 from typing import Final, Literal
 
 __all__ = ["import_aiohttp_without_tls_defaults", "transport_tls"]
@@ -32,8 +28,8 @@ _CA_PATHS: Final = ("SSL_CERT_FILE", "SSL_CERT_DIR")
 # No such file or folder: OpenSSL skips a default CA path it cannot read, without an error.
 _NOWHERE: Final = "/nonexistent/stook-no-ca-at-aiohttp-import"
 
-# stook's own context, once aiohttp was imported without its defaults.
-_own_context: Future[ssl.SSLContext] | None = None
+_own_context_needed = False
+_context: ssl.SSLContext | None = None
 
 
 def import_aiohttp_without_tls_defaults() -> None:
@@ -56,34 +52,18 @@ def import_aiohttp_without_tls_defaults() -> None:
                 del os.environ[name]
             else:
                 os.environ[name] = value
-    # Only now, with the CA paths back: OpenSSL reads them while the context loads.
-    global _own_context
-    _own_context = _build_in_a_thread()
-
-
-def _verifying_context() -> ssl.SSLContext:
-    """As aiohttp's verifying default: the system's CA paths, ALPN http/1.1."""
-    context = ssl.create_default_context()
-    context.set_alpn_protocols(("http/1.1",))
-    return context
-
-
-def _build_in_a_thread() -> Future[ssl.SSLContext]:
-    built: Future[ssl.SSLContext] = Future()
-
-    def build() -> None:
-        try:
-            built.set_result(_verifying_context())
-        except BaseException as error:  # raised again where the context is asked for
-            built.set_exception(error)
-
-    threading.Thread(target=build, name="stook-tls-context", daemon=True).start()
-    return built
+    global _own_context_needed
+    _own_context_needed = True
 
 
 def transport_tls() -> ssl.SSLContext | Literal[True]:
     """What a transport's connector verifies TLS with: aiohttp's default (True), or, when
-    aiohttp was imported without it, stook's own verifying context (waited for)."""
-    if _own_context is None:
+    aiohttp was imported without it, stook's own verifying context."""
+    if not _own_context_needed:
         return True
-    return _own_context.result()
+    global _context
+    if _context is None:
+        context = ssl.create_default_context()  # the system's CA paths, as aiohttp's
+        context.set_alpn_protocols(("http/1.1",))
+        _context = context
+    return _context
