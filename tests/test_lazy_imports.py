@@ -112,3 +112,73 @@ def test_the_command_imports_structlog_without_rich_yet_rich_still_draws() -> No
     )
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=False)
     assert done.stdout.strip() == "ok", done.stderr
+
+
+# Imports a batch run needs only once answers arrive: the writer and its data constructors
+# (for the output), the reader, the typed metric views and protobuf (for downloaded blobs).
+AFTER_THE_FIRST_ANSWERS = (
+    "google.protobuf",
+    "stook.proto",
+    "stook.sdk._writer",
+    "stook.sdk._data",
+    "stook.sdk._reader",
+    "stook.sdk._metric_views",
+    "stook.service.fetch._job_blobs",
+)
+
+# `stook run` until a signal, then the modules of AFTER_THE_FIRST_ANSWERS it has imported.
+RUN_UNTIL_SIGNALLED = """
+import os, signal, sys
+def stop(*_):
+    print(sorted(m for m in {modules!r} if m in sys.modules), flush=True)
+    os._exit(0)
+signal.signal(signal.SIGUSR1, stop)
+from stook.service.cli import main
+main(["run", "--inputs", {inputs!r}, "--outputs", {outputs!r}])
+"""
+
+
+def test_a_batch_run_sends_its_first_request_before_the_writer_reader_or_protobuf(
+    tmp_path: Path,
+) -> None:
+    # A server that never answers: `stook run` (default config, with the batch summary) is
+    # stopped when its first request arrives, and says what it had imported by then.
+    import json
+    import os
+    import signal
+    import socket
+    import threading
+
+    with socket.create_server(("127.0.0.1", 0)) as server:
+        inputs = tmp_path / "inputs"
+        inputs.mkdir()
+        config = {
+            "authToken": "token",
+            "apiURL": f"http://127.0.0.1:{server.getsockname()[1]}",
+            "batchID": str(uuid.UUID(int=2)),
+            "projectID": str(uuid.UUID(int=1)),
+        }
+        (inputs / "batch_metrics_config.json").write_text(json.dumps(config))
+        script = RUN_UNTIL_SIGNALLED.format(
+            modules=AFTER_THE_FIRST_ANSWERS, inputs=str(inputs), outputs=str(tmp_path / "out")
+        )
+        env = {k: v for k, v in os.environ.items() if not k.startswith("STOOK_")}
+        child = subprocess.Popen(
+            [sys.executable, "-c", script],
+            stdout=subprocess.PIPE,
+            stderr=subprocess.DEVNULL,
+            text=True,
+            cwd=tmp_path,
+            env=env,
+        )
+
+        def stop_at_the_first_request() -> None:
+            connection, _ = server.accept()
+            with connection:
+                connection.recv(1)
+                child.send_signal(signal.SIGUSR1)
+
+        waiter = threading.Thread(target=stop_at_the_first_request, daemon=True)
+        waiter.start()
+        out, _ = child.communicate(timeout=120)
+    assert out == "[]\n"

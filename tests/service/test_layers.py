@@ -45,6 +45,7 @@ API_ORDER = [
     "_models",
     "_listing_items",
     "_paging",
+    "_tls",
     "_transport",
     "_gate",
     "_retry",

@@ -109,6 +109,7 @@ PUBLIC_API: dict[str, list[str]] = {
         "body_cap_mb",
         "configure_logging",
         "get_logger",
+        "import_aiohttp_without_tls_defaults",
         "redact_event",
         "redact_text",
         "redact_url",

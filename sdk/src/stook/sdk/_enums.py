@@ -1,10 +1,18 @@
-"""Python enums for the schema's enumerations, valued as the proto enums are."""
+"""Python enums for the schema's enumerations, valued as the proto enums are.
+
+The values are written out rather than read from `stook.proto`: they are the wire
+format's, fixed by the schema, and importing the generated module (protobuf with it,
+~15 ms) would make every module that names a status pay for it, `stook run` before its
+first request included. tests/sdk/test_enums.py checks every value against the schema.
+"""
 
 from __future__ import annotations
 
 import enum
+from typing import TYPE_CHECKING, cast
 
-from stook.proto import metrics_pb2 as pb
+if TYPE_CHECKING:
+    from stook.proto import metrics_pb2 as pb
 
 NANOS_PER_SECOND = 1_000_000_000
 """A schema ``Timestamp`` is seconds and nanos; series and views count UTC nanoseconds."""
@@ -13,11 +21,11 @@ NANOS_PER_SECOND = 1_000_000_000
 class MetricStatus(enum.IntEnum):
     """The status of a metric, a data point or a whole output."""
 
-    PASSED = pb.PASSED_METRIC_STATUS
-    FAIL_WARN = pb.FAIL_WARN_METRIC_STATUS
-    FAIL_BLOCK = pb.FAIL_BLOCK_METRIC_STATUS
-    NOT_APPLICABLE = pb.NOT_APPLICABLE_METRIC_STATUS
-    RAW = pb.RAW_METRIC_STATUS
+    PASSED = 1
+    FAIL_WARN = 2
+    FAIL_BLOCK = 5
+    NOT_APPLICABLE = 3
+    RAW = 4
 
     @classmethod
     def from_api(cls, text: str) -> MetricStatus:
@@ -29,26 +37,26 @@ class MetricStatus(enum.IntEnum):
 
 
 class MetricImportance(enum.IntEnum):
-    ZERO = pb.ZERO_IMPORTANCE
-    LOW = pb.LOW_IMPORTANCE
-    MEDIUM = pb.MEDIUM_IMPORTANCE
-    HIGH = pb.HIGH_IMPORTANCE
-    CRITICAL = pb.CRITICAL_IMPORTANCE
+    ZERO = 1
+    LOW = 2
+    MEDIUM = 3
+    HIGH = 4
+    CRITICAL = 5
 
 
 class MetricType(enum.IntEnum):
-    DOUBLE_SUMMARY = pb.DOUBLE_SUMMARY_METRIC_TYPE
-    DOUBLE_OVER_TIME = pb.DOUBLE_OVER_TIME_METRIC_TYPE
-    LINE_PLOT = pb.LINE_PLOT_METRIC_TYPE
-    BAR_CHART = pb.BAR_CHART_METRIC_TYPE
-    STATES_OVER_TIME = pb.STATES_OVER_TIME_METRIC_TYPE
-    HISTOGRAM = pb.HISTOGRAM_METRIC_TYPE
-    SCALAR = pb.SCALAR_METRIC_TYPE
-    PLOTLY = pb.PLOTLY_METRIC_TYPE
-    IMAGE = pb.IMAGE_METRIC_TYPE
-    BATCHWISE_BAR_CHART = pb.BATCHWISE_BAR_CHART_METRIC_TYPE
-    TEXT = pb.TEXT_METRIC_TYPE
-    IMAGE_LIST = pb.IMAGE_LIST_METRIC_TYPE
+    DOUBLE_SUMMARY = 1
+    DOUBLE_OVER_TIME = 2
+    LINE_PLOT = 3
+    BAR_CHART = 4
+    STATES_OVER_TIME = 5
+    HISTOGRAM = 6
+    SCALAR = 7
+    PLOTLY = 8
+    IMAGE = 9
+    BATCHWISE_BAR_CHART = 10
+    TEXT = 11
+    IMAGE_LIST = 12
 
 
 class SeriesKind(enum.Enum):
@@ -64,24 +72,24 @@ class SeriesKind(enum.Enum):
 
 # (kind, indexed) -> proto MetricsDataType, and back.
 _DATA_TYPES: dict[tuple[SeriesKind, bool], int] = {
-    (SeriesKind.DOUBLE, False): pb.DOUBLE_SERIES_DATA_TYPE,
-    (SeriesKind.TIMESTAMP, False): pb.TIMESTAMP_SERIES_DATA_TYPE,
-    (SeriesKind.UUID, False): pb.UUID_SERIES_DATA_TYPE,
-    (SeriesKind.STRING, False): pb.STRING_SERIES_DATA_TYPE,
-    (SeriesKind.STATUS, False): pb.METRIC_STATUS_SERIES_DATA_TYPE,
-    (SeriesKind.DOUBLE, True): pb.INDEXED_DOUBLE_SERIES_DATA_TYPE,
-    (SeriesKind.TIMESTAMP, True): pb.INDEXED_TIMESTAMP_SERIES_DATA_TYPE,
-    (SeriesKind.UUID, True): pb.INDEXED_UUID_SERIES_DATA_TYPE,
-    (SeriesKind.STRING, True): pb.INDEXED_STRING_SERIES_DATA_TYPE,
-    (SeriesKind.STATUS, True): pb.INDEXED_METRIC_STATUS_SERIES_DATA_TYPE,
-    (SeriesKind.EXTERNAL_FILE, False): pb.EXTERNAL_FILE_DATA_TYPE,
+    (SeriesKind.DOUBLE, False): 1,  # DOUBLE_SERIES_DATA_TYPE
+    (SeriesKind.TIMESTAMP, False): 2,  # TIMESTAMP_SERIES_DATA_TYPE
+    (SeriesKind.UUID, False): 3,  # UUID_SERIES_DATA_TYPE
+    (SeriesKind.STRING, False): 4,  # STRING_SERIES_DATA_TYPE
+    (SeriesKind.STATUS, False): 5,  # METRIC_STATUS_SERIES_DATA_TYPE
+    (SeriesKind.DOUBLE, True): 6,  # INDEXED_DOUBLE_SERIES_DATA_TYPE
+    (SeriesKind.TIMESTAMP, True): 7,  # INDEXED_TIMESTAMP_SERIES_DATA_TYPE
+    (SeriesKind.UUID, True): 8,  # INDEXED_UUID_SERIES_DATA_TYPE
+    (SeriesKind.STRING, True): 9,  # INDEXED_STRING_SERIES_DATA_TYPE
+    (SeriesKind.STATUS, True): 10,  # INDEXED_METRIC_STATUS_SERIES_DATA_TYPE
+    (SeriesKind.EXTERNAL_FILE, False): 11,  # EXTERNAL_FILE_DATA_TYPE
 }
 _KINDS: dict[int, tuple[SeriesKind, bool]] = {v: k for k, v in _DATA_TYPES.items()}
 
 
 def data_type_of(kind: SeriesKind, *, indexed: bool) -> pb.MetricsDataType.ValueType:
     """The proto MetricsDataType for a series kind, indexed or not."""
-    return pb.MetricsDataType.ValueType(_DATA_TYPES[(kind, indexed)])
+    return cast("pb.MetricsDataType.ValueType", _DATA_TYPES[(kind, indexed)])
 
 
 def kind_of(data_type: int) -> tuple[SeriesKind, bool]:

@@ -5,10 +5,14 @@ from __future__ import annotations
 import dataclasses
 from abc import ABC, abstractmethod
 from dataclasses import dataclass
-from typing import Generic, Self, TypeVar
+from typing import TYPE_CHECKING, Generic, Self, TypeVar
 
-from stook.sdk._writer import MetricsWriter
 from stook.sdk.aggregations._record import BatchRecord, JobRecord
+
+if TYPE_CHECKING:
+    # The writer (and protobuf with it) only once an aggregation writes its metrics:
+    # `stook run` builds its aggregations before its first request.
+    from stook.sdk._writer import MetricsWriter
 
 
 @dataclass(frozen=True, slots=True)

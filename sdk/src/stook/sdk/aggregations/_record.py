@@ -8,15 +8,16 @@ from dataclasses import dataclass, field
 from datetime import datetime
 from typing import TYPE_CHECKING, TypeVar, overload
 
-from stook.sdk._metric_views import TypedMetric
-
 if TYPE_CHECKING:
     import polars as pl
 
+    # The typed views (and protobuf with them) are imported once a job's metrics are read:
+    # `stook run` builds its aggregations, which name records, before its first request.
+    from stook.sdk._metric_views import TypedMetric
     from stook.sdk._views import JobMetricsView, MetricsDataView
     from stook.sdk.aggregations._columns import JobColumns
 
-_T = TypeVar("_T", bound=TypedMetric)
+_T = TypeVar("_T", bound="TypedMetric")
 
 #: The conflated status of a job the API listed without one. A status the platform adds
 #: later is kept under its own name; either way it is a category of its own in the charts,

@@ -6,16 +6,17 @@ import math
 from array import array
 from collections import Counter
 from dataclasses import dataclass, field
-from typing import Self
+from typing import TYPE_CHECKING, Self
 
-from stook.sdk import _data
 from stook.sdk._buckets import histogram_buckets
 from stook.sdk._errors import WriterError
-from stook.sdk._writer import MetricsWriter
 from stook.sdk.aggregations._base import Aggregation, Needs
 from stook.sdk.aggregations._record import JobRecord
 from stook.sdk.aggregations._sums import exact_mean
 from stook.sdk.aggregations._units import pick_unit
+
+if TYPE_CHECKING:
+    from stook.sdk._writer import MetricsWriter
 
 
 def auto_buckets(low: float, high: float, count: int) -> tuple[float, float, int]:
@@ -69,6 +70,8 @@ class ScalarDefaults(Aggregation[JobRecord]):
             mine.units.update(theirs.units)
 
     def finish(self, writer: MetricsWriter) -> None:
+        from stook.sdk import _data  # as the writer is: once the metrics are written
+
         for metric in sorted(self.columns):
             column = self.columns[metric]
             values = column.values

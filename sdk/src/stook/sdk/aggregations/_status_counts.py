@@ -12,12 +12,14 @@ from __future__ import annotations
 
 from collections import Counter
 from dataclasses import dataclass, field
-from typing import Self
+from typing import TYPE_CHECKING, Self
 
 from stook.sdk._enums import MetricStatus
-from stook.sdk._writer import MetricsWriter
 from stook.sdk.aggregations._base import Aggregation
 from stook.sdk.aggregations._record import JobRecord
+
+if TYPE_CHECKING:
+    from stook.sdk._writer import MetricsWriter
 
 #: The job statuses the status charts know, in the app's order; the commonest are shown
 #: even at zero, so that charts of different batches line up. Others come after, sorted.

@@ -33,7 +33,6 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Self
 
-from stook.sdk._data import strings
 from stook.sdk._errors import StookError
 from stook.sdk.aggregations._base import Aggregation, Needs
 from stook.sdk.aggregations._columns import JobColumns, ScalarColumn
@@ -447,4 +446,6 @@ class BatchSummaryWriter(Aggregation[JobRecord]):
     def finish(self, writer: MetricsWriter) -> None:
         if self.skipped is not None:
             return
+        from stook.sdk._data import strings  # as the writer is: once the metrics are written
+
         writer.add_data(strings(SUMMARY_DATA_NAME, [summary_text(self.summary())]))

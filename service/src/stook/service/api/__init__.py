@@ -80,6 +80,9 @@ if TYPE_CHECKING:
     from stook.service.api._storage import (
         StorageClient,
     )
+    from stook.service.api._tls import (
+        import_aiohttp_without_tls_defaults,
+    )
     from stook.service.api._transport import (
         BodyCap,
         HttpTransport,
@@ -143,6 +146,7 @@ else:
             "RetryPolicy": "stook.service.api._retry",
             "TransferStats": "stook.service.api._stats",
             "StorageClient": "stook.service.api._storage",
+            "import_aiohttp_without_tls_defaults": "stook.service.api._tls",
             "body_cap_mb": "stook.service.api._transport",
             "BodyCap": "stook.service.api._transport",
             "HttpTransport": "stook.service.api._transport",
@@ -203,6 +207,7 @@ __all__ = [
     "body_cap_mb",
     "configure_logging",
     "get_logger",
+    "import_aiohttp_without_tls_defaults",
     "redact_event",
     "redact_text",
     "redact_url",

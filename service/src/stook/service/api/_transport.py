@@ -39,6 +39,7 @@ from stook.service.api._limits import ConcurrencyLimit, FixedLimit
 from stook.service.api._logging import get_logger
 from stook.service.api._redact import redact_text, redact_url
 from stook.service.api._stats import TransferStats
+from stook.service.api._tls import transport_tls
 
 __all__ = [
     "USER_AGENT",
@@ -184,6 +185,9 @@ class HttpTransport:
             limit_per_host=self._concurrency,
             keepalive_timeout=_KEEPALIVE_S,
             ttl_dns_cache=_DNS_CACHE_S,
+            # aiohttp's default, or stook's own context when the `stook` command imported
+            # aiohttp without its defaults (see _tls): the same verification either way.
+            ssl=transport_tls(),
         )
         self._session = aiohttp.ClientSession(
             connector=connector,

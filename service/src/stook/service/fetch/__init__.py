@@ -13,15 +13,10 @@ from __future__ import annotations
 TYPE_CHECKING = False
 if TYPE_CHECKING:
     from stook.service.fetch._baseline_find import BaselineFound, find_baseline
-    from stook.service.fetch._batch_fetch import (
-        BatchFetcher,
-        FetchOutcome,
-        InvalidDataError,
-        MissingJob,
-    )
+    from stook.service.fetch._batch_fetch import BatchFetcher, FetchOutcome, MissingJob
     from stook.service.fetch._deadline import DeadlineReachedError, fetch_deadline
     from stook.service.fetch._directions import failure_directions
-    from stook.service.fetch._job_blobs import decode_values
+    from stook.service.fetch._job_blobs import InvalidDataError, decode_values
     from stook.service.fetch._report_fetch import (
         ReportFetcher,
         ReportNotFoundError,
@@ -39,7 +34,7 @@ else:
             "find_baseline": "stook.service.fetch._baseline_find",
             "BatchFetcher": "stook.service.fetch._batch_fetch",
             "FetchOutcome": "stook.service.fetch._batch_fetch",
-            "InvalidDataError": "stook.service.fetch._batch_fetch",
+            "InvalidDataError": "stook.service.fetch._job_blobs",
             "MissingJob": "stook.service.fetch._batch_fetch",
             "DeadlineReachedError": "stook.service.fetch._deadline",
             "fetch_deadline": "stook.service.fetch._deadline",

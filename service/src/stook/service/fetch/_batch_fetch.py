@@ -34,12 +34,11 @@ from stook.service.api import (
 )
 from stook.service.fetch._collector import fewer_collections
 from stook.service.fetch._decoders import start_importing
-from stook.service.fetch._job_blobs import InvalidDataError, JobBlobs
 from stook.service.fetch._job_extras import ExperienceTags, job_event
 from stook.service.fetch._listed_scalars import ListedScalars, read_listed_scalars
 from stook.service.fetch._scalars import is_scalar, listed_scalars, read_scalars
 
-__all__ = ["BatchFetcher", "FetchOutcome", "InvalidDataError", "MissingJob", "OnJob"]
+__all__ = ["BatchFetcher", "FetchOutcome", "MissingJob", "OnJob"]
 
 log = structlog.get_logger("stook.fetch")
 
@@ -237,6 +236,11 @@ class BatchFetcher:
         outcome.data_names.update(data_names)
         blobs = None
         if wants_blobs:
+            # Imported by the first job that has blobs, not with this module: the SDK's
+            # reader and protobuf are not needed before `stook run`'s first request, and
+            # a run that downloads no blob never imports them.
+            from stook.service.fetch._job_blobs import JobBlobs
+
             blobs = await JobBlobs(
                 self._api.storage,
                 job.job_id,

@@ -16,7 +16,6 @@ from typing import Any, Final
 
 import structlog
 
-from stook.sdk import read_metric
 from stook.sdk.aggregations import Scalar
 from stook.sdk.fastpaths import writable_twin
 from stook.service.api import ApiMetric, ApiMetricType, StorageClient
@@ -148,7 +147,10 @@ async def _from_message(
         log.debug("scalar listed without a value or a URL; absent", source=where)
         return None
     # A message that cannot be read is invalid metrics data (ReadError, exit code 4), as
-    # for a metrics-data download.
+    # for a metrics-data download. The reader (and protobuf) only for a scalar listed
+    # without its value: most runs never need them.
+    from stook.sdk import read_metric
+
     view = read_metric(payload, source=where)
     if view.value is None:
         log.debug("scalar has no value in its listing or its message; absent", source=where)

@@ -9,7 +9,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from stook.sdk import MetricStatus, MetricsWriter
+from stook.sdk import MetricStatus
 from stook.sdk.aggregations import default_batch_aggregations
 from stook.service.api import ApiClient, RetryPolicy
 from stook.service.fetch import BatchFetcher, FetchOutcome, MissingJob
@@ -19,6 +19,8 @@ from stook.service.modes._pipeline import RunResult, run_pipeline
 from stook.service.modes._progress import Progress, Snapshot
 
 if TYPE_CHECKING:
+    from stook.sdk import MetricsWriter
+
     # The baseline comparison and the summary are imported by the runs that have them.
     from stook.sdk.aggregations import (
         BaselineComparison,

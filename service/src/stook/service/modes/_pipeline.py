@@ -17,11 +17,11 @@ import uuid
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Generic, Protocol, TypeVar
+from typing import TYPE_CHECKING, Any, Generic, Protocol, TypeVar
 
 import structlog
 
-from stook.sdk import MetricStatus, MetricsWriter
+from stook.sdk import MetricStatus
 from stook.sdk.aggregations import Aggregation, Needs
 from stook.service.api import ApiClient, ApiError, RetryPolicy
 from stook.service.fetch import MissingJob, fetch_deadline
@@ -29,6 +29,10 @@ from stook.service.modes._config import FetchSettings
 from stook.service.modes._inputs import ApiAccess
 from stook.service.modes._open_api import HasTraffic, Traffic, open_api
 from stook.service.modes._progress import NoProgress, Progress, Snapshot
+
+if TYPE_CHECKING:
+    # The writer (and protobuf with it) is imported once the fetch is done: see run_pipeline.
+    from stook.sdk import MetricsWriter
 
 log = structlog.get_logger("stook.pipeline")
 
@@ -175,6 +179,10 @@ async def run_pipeline(
         )
 
         mode.check(needs, outcome)
+        # Imported here, not with this module: `stook run` sends its first request sooner
+        # without the writer's modules and protobuf, which nothing needs before the output.
+        from stook.sdk import MetricsWriter
+
         writer = MetricsWriter(mode.output_id, deterministic=True)
         missing, jobs = mode.missing(outcome)
         write_missing_jobs(writer, missing, jobs, allow_missing_jobs)

@@ -7,18 +7,22 @@ import inspect
 import uuid
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import structlog
 
-from stook.sdk import MetricsWriter
 from stook.service.modes._config import ConfigError, StookConfig
 from stook.service.modes._inputs import TestInputs
 from stook.service.modes._user_code import add_import_folders, describe_search
 
+if TYPE_CHECKING:
+    # The writer only for a test-mode run: `stook run` imports this module for
+    # UserFunctionError whatever the mode.
+    from stook.sdk import MetricsWriter
+
 log = structlog.get_logger("stook.test")
 
-TestMetricsFunction = Callable[[Path, Path, MetricsWriter], Any]
+TestMetricsFunction = Callable[[Path, Path, "MetricsWriter"], Any]
 
 
 class UserFunctionError(Exception):
@@ -51,6 +55,8 @@ def load_function(
 
 
 async def run_test_mode(inputs: TestInputs, config: StookConfig, output: Path) -> Path:
+    from stook.sdk import MetricsWriter
+
     writer = MetricsWriter(uuid.uuid4())
     if config.test_metrics is None:
         log.warning(
