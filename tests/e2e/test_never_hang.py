@@ -121,6 +121,14 @@ def test_a_token_revoked_mid_report_ends_the_run_with_exit_3(tmp_path: Path) -> 
 # ---- signals ----
 
 
+def wait_for_api_requests(emulator: Emulator, count: int, timeout: float = 60.0) -> None:
+    """Until the emulator has answered `count` API requests in all."""
+    deadline = time.monotonic() + timeout
+    while emulator.stats.requests["api"] < count:
+        assert time.monotonic() < deadline, f"{count} API requests not answered in {timeout} s"
+        time.sleep(0.01)
+
+
 def send(run: StookProcess, signum: int) -> tuple[int, float]:
     """Send `signum`; the exit status and the seconds from the signal to the exit."""
     sent = time.monotonic()
@@ -156,8 +164,12 @@ def test_a_signal_during_the_start_up_imports(
 def test_a_signal_mid_fetch(big: Emulator, tmp_path: Path, signum: int, log_format: str) -> None:
     big.write_batch_config(tmp_path / "inputs")
     run = StookProcess(tmp_path, "--log-format", log_format)
+    answered = big.stats.requests["api"]  # the emulator serves every case here
     run.wait_for_line("batch fetch starting")
-    time.sleep(0.5)  # a few hundred jobs in; the whole batch takes seconds
+    # Some jobs in, not all (the whole batch takes seconds). Counted, not slept: on a slow
+    # first run the first jobs can take longer than any fixed pause.
+    wait_for_api_requests(big, answered + 200)
+    time.sleep(0.1)  # the jobs listed are folded by now
     code, seconds = send(run, signum)
     assert code == 128 + signum, run.err
     name = signal.Signals(signum).name
