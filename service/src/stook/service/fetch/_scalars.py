@@ -56,15 +56,9 @@ async def read_scalars(
         if not is_scalar(metric):
             continue
         if metric.value is not None:
-            # Scalar(...), written as its writable twin (see stook.sdk.fastpaths): a
-            # frozen dataclass's __init__ costs several times as much, for every scalar
-            # of every job.
-            written: Any = _new(_WritableScalar)
-            written.value = metric.value
-            written.unit = metric.unit or ""
-            written.status = str(metric.status)
-            written.__class__ = Scalar
-            found.append((metric.name, written))
+            found.append(
+                (metric.name, _scalar(metric.value, metric.unit or "", str(metric.status)))
+            )
         elif wanted(metric.name):
             found.append((metric.name, None))
             blobs.append(_from_message(storage, metric, source=source, relist=relist))
@@ -88,15 +82,18 @@ def listed_scalars(
 ) -> dict[str, Scalar]:
     """The scalars of a listing read from its items (`read_listed_scalars`): each
     (value, unit) with its status, by name, as `read_scalars` gives them."""
-    scalars: dict[str, Scalar] = {}
-    for name, (value, unit) in values.items():
-        written: Any = _new(_WritableScalar)  # Scalar(...): see read_scalars
-        written.value = value
-        written.unit = unit
-        written.status = statuses[name]
-        written.__class__ = Scalar
-        scalars[name] = written
-    return scalars
+    return {name: _scalar(value, unit, statuses[name]) for name, (value, unit) in values.items()}
+
+
+def _scalar(value: float, unit: str, status: str) -> Scalar:
+    """Scalar(value, unit, status), written as its writable twin (see stook.sdk.fastpaths):
+    a frozen dataclass's __init__ costs several times as much, for every scalar of every job."""
+    written: Any = _new(_WritableScalar)
+    written.value = value
+    written.unit = unit
+    written.status = status
+    written.__class__ = Scalar
+    return written  # type: ignore[no-any-return]
 
 
 async def read_scalar_values(
