@@ -81,6 +81,26 @@ def test_show_and_validate_import_neither_the_writer_nor_the_data_constructors()
     assert _printed_by(script) == "[]\n"
 
 
+def test_show_and_validate_import_neither_pathlib_nor_the_typed_metric_views(
+    tmp_path: Path,
+) -> None:
+    # The typed metric views (fourteen dataclasses) are imported by `JobMetricsView.metric`
+    # alone, and these commands take the file's name as given: both cost milliseconds of
+    # every `stook validate`.
+    from stook.sdk import MetricsWriter
+
+    writer = MetricsWriter(uuid.UUID(int=1))
+    writer.scalar("speed", 1.0)
+    path = str(writer.write(tmp_path / "metrics.binproto"))
+    script = (
+        "import sys\nfrom stook.service.cli import run_cli\n"
+        f"codes = [run_cli(['validate', {path!r}]), run_cli(['show', {path!r}])]\n"
+        "unused = ('pathlib', 'stook.sdk._metric_views', 'importlib.metadata')\n"
+        "print(codes, sorted(m for m in unused if m in sys.modules))\n"
+    )
+    assert _printed_by(script).splitlines()[-1] == "[0, 0] []"
+
+
 def test_previewing_imports_neither_plotly_nor_polars(tmp_path: Path) -> None:
     # `stook preview` embeds plotly.js read from the plotly package's files: the Python
     # package itself (and its numpy) is never imported, nor is polars.

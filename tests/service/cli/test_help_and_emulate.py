@@ -58,6 +58,36 @@ def test_every_argument_of_every_command_says_what_it_is(name: str) -> None:
             assert "default" in (shown or ""), f"stook {name}: {action.dest} hides its default"
 
 
+@pytest.mark.parametrize("name", sorted(_commands()))
+def test_each_command_is_parsed_as_by_the_whole_command_line(
+    name: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # `stook` builds only the arguments of the command it runs: its help, and the top
+    # level's, are those of the whole command line.
+    command = [] if name == "stook" else [name]
+    with pytest.raises(SystemExit):
+        build_parser().parse_args([*command, "--help"])
+    whole = capsys.readouterr().out
+    with pytest.raises(SystemExit) as done:
+        run_cli([*command, "--help"])
+    assert done.value.code == 0
+    assert capsys.readouterr().out == whole
+
+
+def test_a_command_line_without_a_command_or_with_an_unknown_one_is_refused(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    for argv, error in (
+        ([], "the following arguments are required: COMMAND"),
+        (["valdiate", "x.binproto"], "invalid choice: 'valdiate'"),
+        (["--log-level", "info", "validate", "x.binproto"], "invalid choice: 'info'"),
+    ):
+        with pytest.raises(SystemExit) as done:
+            run_cli(argv)
+        assert done.value.code == 2
+        assert error in capsys.readouterr().err
+
+
 def test_run_help_has_the_readmes_exit_codes_and_mode_detection() -> None:
     text = _help("run")
     readme = README.read_text(encoding="utf-8")

@@ -19,15 +19,18 @@ from typing import TYPE_CHECKING, Any, Literal, TypeVar, overload
 from stook.proto import metrics_pb2 as pb
 from stook.sdk._enums import MetricImportance, MetricStatus, MetricType, SeriesKind
 from stook.sdk._errors import MalformedError, read_error
-from stook.sdk._metric_views import TypedMetric, not_found, typed_metric
 
 if TYPE_CHECKING:
     import polars as pl
 
-# polars (and numpy, through `_series`) is imported when a series or frame is first asked
-# for, not with the views: `stook show` and `stook validate` read files without it.
+    from stook.sdk._metric_views import TypedMetric
 
-_T = TypeVar("_T", bound=TypedMetric)
+# polars (and numpy, through `_series`) is imported when a series or frame is first asked
+# for, not with the views: `stook show` and `stook validate` read files without it. The
+# typed metric views (`_metric_views`: fourteen dataclasses, about a quarter of `stook
+# validate`'s instructions) are imported by `metric`, the one method that builds them.
+
+_T = TypeVar("_T", bound="TypedMetric")
 
 
 @dataclass(frozen=True, slots=True)
@@ -292,6 +295,8 @@ class JobMetricsView:
         KeyError (naming close names) when there is no such metric; `MissingDataError`
         when it references data this output does not hold.
         """
+        from stook.sdk._metric_views import not_found, typed_metric
+
         found = self.find_metric(name)
         if found is None:
             raise not_found(name, self.metric_names())

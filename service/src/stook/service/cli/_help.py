@@ -54,6 +54,53 @@ KEY=VALUE (VALUE as JSON); a later --set wins over a flag. A setting it does not
 or a value it refuses, exits 2 naming it."""
 
 
+# Each command's (help line, description, epilog), in the order `stook --help` lists them.
+COMMANDS: dict[str, tuple[str, str, str | None]] = {
+    "run": (
+        "the metrics-build entry point: detect test, batch or report mode and run it",
+        RUN_DESCRIPTION,
+        RUN_EPILOG,
+    ),
+    "demo": (
+        "run test, batch and report mode against the built-in emulator",
+        "Run test mode on the SDK's every-metric-type example, then batch and "
+        "report mode against an emulator in its own process; print what each wrote.",
+        None,
+    ),
+    "emulate": (
+        "serve the ReSim API emulator (loopback unless --host says otherwise)",
+        "Serve an emulated ReSim API and object storage: a seeded batch and "
+        "report, with the faults, rate limits and latency you ask for.",
+        EMULATE_EPILOG,
+    ),
+    "bench": (
+        "measure batch mode against the emulator and ReSim",
+        "Measure batch mode against the emulator (in its own process), a bare "
+        "aiohttp loop and ReSim's fetcher; write tables and plots (docs/benchmarks.md).",
+        None,
+    ),
+    "validate": (
+        "check a metrics.binproto against every rule",
+        "Check a metrics.binproto against every rule the platform enforces, "
+        "printing each rule broken with the metric that breaks it.",
+        INSPECT_EPILOG.format(ok="valid", invalid=", or it breaks a rule (each one printed)"),
+    ),
+    "show": (
+        "print a summary of a metrics.binproto",
+        "Print one line per metric (name, type, status, value) of a "
+        "metrics.binproto; it need not be valid to be shown.",
+        INSPECT_EPILOG.format(ok="shown", invalid=""),
+    ),
+    "preview": (
+        "draw metrics.binproto files into one self-contained HTML page",
+        "Draw one or more metrics.binproto files (test, batch or report outputs) "
+        "into one HTML page that works offline, one column per file. Exit 2 for a missing "
+        "file, 4 for one that is not JobMetrics, 5 if the page cannot be written.",
+        None,
+    ),
+}
+
+
 class HelpFormatter(argparse.HelpFormatter):
     """Descriptions and epilogs laid out by hand kept as written, one-paragraph ones
     wrapped; each option's default after its help, unless the help says it already or

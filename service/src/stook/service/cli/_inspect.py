@@ -3,8 +3,8 @@
 from __future__ import annotations
 
 import enum
+import os
 import sys
-from pathlib import Path
 from typing import TextIO
 
 from stook.sdk import (
@@ -21,20 +21,27 @@ from stook.sdk import (
 EXIT_INVALID = 4
 
 
-def _read(path: Path) -> JobMetricsView:
+# A file's name as the user gave it, or a path object; pathlib is not imported for these
+# commands.
+FileName = str | os.PathLike[str]
+
+
+def _read(path: FileName) -> JobMetricsView:
+    name = os.fspath(path)
     try:
-        payload = path.read_bytes()
+        with open(path, "rb") as file:
+            payload = file.read()
     except FileNotFoundError:
         # A file that is not there is the user's to fix (exit 2), not invalid data (4).
         from stook.service.cli._run import UsageError
 
-        raise UsageError(f"{str(path)!r}: no such file") from None
+        raise UsageError(f"{name!r}: no such file") from None
     except OSError as exc:
-        raise ReadError(f"could not read JobMetrics from {str(path)!r}: {exc.strerror}") from None
-    return read_job_metrics(payload, source=str(path))
+        raise ReadError(f"could not read JobMetrics from {name!r}: {exc.strerror}") from None
+    return read_job_metrics(payload, source=name)
 
 
-def validate_file(path: Path, out: TextIO | None = None) -> int:
+def validate_file(path: FileName, out: TextIO | None = None) -> int:
     """Print every rule the file breaks; exit 0 when there is none, 4 otherwise."""
     from stook.sdk import find_problems  # the rules: for `validate`, not `show`
 
@@ -118,7 +125,7 @@ def summary_lines(view: JobMetricsView, *, full: bool = False) -> list[str]:
 _HEADER = ("metric", "type", "status", "value")
 
 
-def show_file(path: Path, out: TextIO | None = None, *, full: bool = False) -> int:
+def show_file(path: FileName, out: TextIO | None = None, *, full: bool = False) -> int:
     stream = out or sys.stdout
     for text in summary_lines(_read(path), full=full):
         print(text, file=stream)

@@ -58,8 +58,27 @@ def version_text() -> str:
 
 
 def build_parser() -> argparse.ArgumentParser:
+    """The whole command line: every command with all its arguments."""
+    return _build_parser(None)
+
+
+def _chosen_command(argv: Sequence[str] | None) -> str:
+    """The command `argv` names: its first word that is not an option (the top level's
+    options, ``--version`` and ``--help``, take no value); "" when there is none."""
+    args = sys.argv[1:] if argv is None else argv
+    return next((a for a in args if not a.startswith("-")), "")
+
+
+def _build_parser(only: str | None) -> argparse.ArgumentParser:
+    """The command line with only command `only`'s arguments (None: every command's; ""
+    or a word that is no command: none, as argparse then prints the top level's help, its
+    version or its error).
+
+    Every command is there, so the top level's help and its errors are the same; the
+    arguments of the commands not run are left out: adding them all is about 5 % of
+    `stook validate`'s instructions.
+    """
     import argparse
-    from pathlib import Path
 
     from stook.service.cli import _help
 
@@ -73,102 +92,101 @@ def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="stook",
         description="Fast aggregation of ReSim test, batch and report metrics.",
+        formatter_class=_help.HelpFormatter,
     )
     parser.add_argument(
         "--version", action=VersionAction, nargs=0, help="print the versions and exit"
     )
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    for name, (line, description, epilog) in _help.COMMANDS.items():
+        command = sub.add_parser(
+            name,
+            help=line,
+            description=description,
+            epilog=epilog,
+            formatter_class=_help.HelpFormatter,
+        )
+        if only is None or only == name:
+            _ADD_ARGUMENTS[name](command)
+    return parser
 
-    run_p = sub.add_parser(
-        "run",
-        help="the metrics-build entry point: detect test, batch or report mode and run it",
-        description=_help.RUN_DESCRIPTION,
-        epilog=_help.RUN_EPILOG,
-    )
-    run_p.add_argument(
+
+def _add_run_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
         "--inputs",
         metavar="DIR",
         help="inputs folder (env STOOK_INPUTS; default /tmp/resim/inputs)",
     )
-    run_p.add_argument(
+    parser.add_argument(
         "--outputs",
         metavar="DIR",
         help="outputs folder (env STOOK_OUTPUTS; default /tmp/resim/outputs)",
     )
-    run_p.add_argument(
+    parser.add_argument(
         "--config",
         metavar="FILE",
         help="stook.toml (env STOOK_CONFIG; default ./stook.toml if present)",
     )
-    run_p.add_argument(
+    parser.add_argument(
         "--allow-missing-jobs",
         type=float,
         metavar="FRACTION",
         help="tolerate up to this share of jobs whose data stays unavailable "
         "(env STOOK_ALLOW_MISSING_JOBS; default 0)",
     )
-    run_p.add_argument(
+    parser.add_argument(
         "--preview",
         action="store_true",
         help="also write OUTPUTS/metrics.html, a preview of the output ([output] preview)",
     )
-    run_p.add_argument(
+    parser.add_argument(
         "--engine",
         choices=("local", "processes", "ray"),
         help="where the fetch and fold runs: this process, local worker processes or Ray "
         "(replaces [engine] kind)",
     )
-    run_p.add_argument(
+    parser.add_argument(
         "--project-id",
         metavar="UUID",
         help="project for batch configs that lack projectID (env STOOK_PROJECT_ID)",
     )
-    _add_logging(run_p)
+    _add_logging(parser)
 
-    demo_p = sub.add_parser(
-        "demo",
-        help="run test, batch and report mode against the built-in emulator",
-        description="Run test mode on the SDK's every-metric-type example, then batch and "
-        "report mode against an emulator in its own process; print what each wrote.",
-    )
-    demo_p.add_argument("--jobs", type=int, default=200, help="jobs in the emulated batch")
-    demo_p.add_argument(
+
+def _add_demo_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--jobs", type=int, default=200, help="jobs in the emulated batch")
+    parser.add_argument(
         "--output", metavar="DIR", default="demo-output", help="where to write the outputs"
     )
-    demo_p.add_argument("--seed", type=int, default=7, help="the emulated data's random seed")
-    _add_logging(demo_p, default_level="warning")
+    parser.add_argument("--seed", type=int, default=7, help="the emulated data's random seed")
+    _add_logging(parser, default_level="warning")
 
-    emulate_p = sub.add_parser(
-        "emulate",
-        help="serve the ReSim API emulator (loopback unless --host says otherwise)",
-        description="Serve an emulated ReSim API and object storage: a seeded batch and "
-        "report, with the faults, rate limits and latency you ask for.",
-        epilog=_help.EMULATE_EPILOG,
-    )
-    emulate_p.add_argument("--jobs", type=int, default=200, help="jobs per batch")
-    emulate_p.add_argument("--batches", type=int, default=12, help="batches in the report")
-    emulate_p.add_argument("--seed", type=int, default=7, help="the emulated data's random seed")
-    emulate_p.add_argument(
+
+def _add_emulate_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--jobs", type=int, default=200, help="jobs per batch")
+    parser.add_argument("--batches", type=int, default=12, help="batches in the report")
+    parser.add_argument("--seed", type=int, default=7, help="the emulated data's random seed")
+    parser.add_argument(
         "--latency-ms", type=float, default=0.0, help="added to every answer, milliseconds"
     )
-    emulate_p.add_argument(
+    parser.add_argument(
         "--api-port", type=int, default=0, help="the API's port (default 0: any free port)"
     )
-    emulate_p.add_argument(
+    parser.add_argument(
         "--storage-port",
         type=int,
         default=0,
         help="the object storage's port (default 0: any free port)",
     )
-    emulate_p.add_argument(
+    parser.add_argument(
         "--inputs",
         metavar="DIR",
         help="write batch_metrics_config.json, naming this emulator, into this inputs folder",
     )
     from stook.service.cli._emulate_flags import add_emulate_flags
 
-    add_emulate_flags(emulate_p)
-    emulate_p.add_argument(
+    add_emulate_flags(parser)
+    parser.add_argument(
         "--set",
         action="append",
         default=[],
@@ -177,66 +195,51 @@ def build_parser() -> argparse.ArgumentParser:
         "as JSON: --set spec_quirks=true --set fault_5xx=0.05 "
         """--set 'outages=[{"origin": "api", "after_s": 5, "duration_s": 8}]'""",
     )
-    _add_logging(emulate_p)
+    _add_logging(parser)
 
-    bench_p = sub.add_parser(
-        "bench",
-        help="measure batch mode against the emulator and ReSim",
-        description="Measure batch mode against the emulator (in its own process), a bare "
-        "aiohttp loop and ReSim's fetcher; write tables and plots (docs/benchmarks.md).",
-    )
-    bench_p.add_argument("--quick", action="store_true", help="small sizes; a smoke test")
-    bench_p.add_argument(
+
+def _add_bench_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--quick", action="store_true", help="small sizes; a smoke test")
+    parser.add_argument(
         "--out", metavar="DIR", default="docs/benchmarks", help="where results are written"
     )
-    bench_p.add_argument(
+    parser.add_argument(
         "--engines",
         action="store_true",
         help="only compare [engine] local, processes and ray on one batch (20,000 jobs; "
         "--quick: 2,000)",
     )
 
-    file_help = "a metrics.binproto (a JobMetrics message, from stook or ReSim's own writer)"
-    validate_p = sub.add_parser(
-        "validate",
-        help="check a metrics.binproto against every rule",
-        description="Check a metrics.binproto against every rule the platform enforces, "
-        "printing each rule broken with the metric that breaks it.",
-        epilog=_help.INSPECT_EPILOG.format(
-            ok="valid", invalid=", or it breaks a rule (each one printed)"
-        ),
-    )
-    validate_p.add_argument("file", type=Path, help=file_help)
 
-    show_p = sub.add_parser(
-        "show",
-        help="print a summary of a metrics.binproto",
-        description="Print one line per metric (name, type, status, value) of a "
-        "metrics.binproto; it need not be valid to be shown.",
-        epilog=_help.INSPECT_EPILOG.format(ok="shown", invalid=""),
-    )
-    show_p.add_argument("file", type=Path, help=file_help)
-    show_p.add_argument(
+# `validate` and `show` take the file's name as given, without pathlib (~5 % of their
+# instructions).
+_FILE_HELP = "a metrics.binproto (a JobMetrics message, from stook or ReSim's own writer)"
+
+
+def _add_validate_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("file", help=_FILE_HELP)
+
+
+def _add_show_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("file", help=_FILE_HELP)
+    parser.add_argument(
         "--full",
         action="store_true",
         help="print TEXT metrics whole, below the table, and names untruncated",
     )
 
-    preview_p = sub.add_parser(
-        "preview",
-        help="draw metrics.binproto files into one self-contained HTML page",
-        description="Draw one or more metrics.binproto files (test, batch or report outputs) "
-        "into one HTML page that works offline, one column per file. Exit 2 for a missing "
-        "file, 4 for one that is not JobMetrics, 5 if the page cannot be written.",
-    )
-    preview_p.add_argument(
+
+def _add_preview_arguments(parser: argparse.ArgumentParser) -> None:
+    from pathlib import Path
+
+    parser.add_argument(
         "files",
         type=Path,
         nargs="+",
         metavar="FILE",
         help="metrics.binproto files (JobMetrics, from stook or ReSim's own writer)",
     )
-    preview_p.add_argument(
+    parser.add_argument(
         "-o",
         "--output",
         type=Path,
@@ -244,11 +247,18 @@ def build_parser() -> argparse.ArgumentParser:
         help="where to write the page (default: FILE's name with .html beside one FILE, "
         "preview.html here for several)",
     )
-    preview_p.add_argument("--open", action="store_true", help="open the page in a browser")
-    # One look for every command's help, those added above and any added later.
-    for command in (parser, *sub.choices.values()):
-        command.formatter_class = _help.HelpFormatter
-    return parser
+    parser.add_argument("--open", action="store_true", help="open the page in a browser")
+
+
+_ADD_ARGUMENTS: dict[str, Callable[[argparse.ArgumentParser], None]] = {
+    "run": _add_run_arguments,
+    "demo": _add_demo_arguments,
+    "emulate": _add_emulate_arguments,
+    "bench": _add_bench_arguments,
+    "validate": _add_validate_arguments,
+    "show": _add_show_arguments,
+    "preview": _add_preview_arguments,
+}
 
 
 def main(argv: Sequence[str] | None = None) -> None:
@@ -401,7 +411,7 @@ def _import_structlog_without_rich() -> None:
 
 
 def _run_cli(argv: Sequence[str] | None, voice: Voice) -> int:
-    args = build_parser().parse_args(argv)
+    args = _build_parser(_chosen_command(argv)).parse_args(argv)
     if hasattr(args, "log_format"):
         _import_structlog_without_rich()
         from stook.service.api import configure_logging
