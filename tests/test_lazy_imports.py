@@ -47,7 +47,7 @@ def test_building_aggregations_lists_no_plugins_before_a_kind_needs_it() -> None
 
 def test_a_local_batch_run_imports_only_what_it_uses() -> None:
     # A batch run builds the default batch aggregations and those of its config: the report
-    # aggregations (~30 ms), the baseline comparison and its statistics are imported only
+    # aggregations (~30 ms), the baseline settings, comparison and statistics are imported only
     # by the runs that use them; the sharded engines' machinery, the report fetch and the
     # fetch library only by the runs and programs that use those; tomllib only with a file.
     script = (
@@ -62,7 +62,7 @@ def test_a_local_batch_run_imports_only_what_it_uses() -> None:
         "          'stook.sdk.stats', 'stook.sdk.aggregations._histogram',\n"
         "          'stook.service.modes._engine', 'stook.service.modes._library',\n"
         "          'stook.service.fetch._report_fetch', 'stook.service.fetch._baseline_find',\n"
-        "          'tomllib')\n"
+        "          'stook.service.modes._baseline_config', 'tomllib')\n"
         "print(sorted(m for m in unused if m in sys.modules))\n"
     )
     assert _printed_by(script) == "[]\n"
