@@ -47,7 +47,7 @@ def test_building_aggregations_lists_no_plugins_before_a_kind_needs_it() -> None
 
 def test_a_local_batch_run_imports_only_what_it_uses() -> None:
     # A batch run builds the default batch aggregations and those of its config: the report
-    # aggregations (~30 ms), the baseline comparison and its statistics are imported only
+    # aggregations (~30 ms), the baseline settings, comparison and statistics are imported only
     # by the runs that use them; the sharded engines' machinery, the report fetch and the
     # fetch library only by the runs and programs that use those; tomllib only with a file.
     script = (
@@ -62,7 +62,7 @@ def test_a_local_batch_run_imports_only_what_it_uses() -> None:
         "          'stook.sdk.stats', 'stook.sdk.aggregations._histogram',\n"
         "          'stook.service.modes._engine', 'stook.service.modes._library',\n"
         "          'stook.service.fetch._report_fetch', 'stook.service.fetch._baseline_find',\n"
-        "          'tomllib')\n"
+        "          'stook.service.modes._baseline_config', 'tomllib')\n"
         "print(sorted(m for m in unused if m in sys.modules))\n"
     )
     assert _printed_by(script) == "[]\n"
@@ -135,8 +135,10 @@ def test_the_command_imports_structlog_without_rich_yet_rich_still_draws() -> No
 
 
 # Imports a batch run needs only once answers arrive: the writer and its data constructors
-# (for the output), the reader, the typed metric views and protobuf (for downloaded blobs).
+# (for the output), the reader, the typed metric views and protobuf (for downloaded blobs);
+# tenacity only once a request fails.
 AFTER_THE_FIRST_ANSWERS = (
+    "tenacity",
     "google.protobuf",
     "stook.proto",
     "stook.sdk._writer",

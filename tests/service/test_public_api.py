@@ -289,4 +289,6 @@ def test_importing_the_service_stays_cheap(code: str) -> None:
 
 
 def test_using_a_name_imports_its_layer() -> None:
-    assert {"aiohttp", "tenacity"} <= modules_after("from stook.service import ApiClient")
+    imported = modules_after("from stook.service import ApiClient")
+    assert "aiohttp" in imported
+    assert "tenacity" not in imported  # with the first request that fails

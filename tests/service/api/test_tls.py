@@ -132,3 +132,61 @@ def test_stook_run_imports_aiohttp_without_its_tls_defaults(tmp_path: Path) -> N
         "    print('aiohttp' in __import__('sys').modules, sorted(set(seen)))\n"
     )
     assert _run(script).splitlines()[-1] == f"True [{NOWHERE!r}]"
+
+
+# GETs "hello" over plain HTTP, then twice over TLS, from a lean-imported aiohttp; prints how
+# many CA certificates the transports' context holds after each.
+CA_ON_FIRST_USE = """
+from stook.service.api import import_aiohttp_without_tls_defaults
+import_aiohttp_without_tls_defaults()
+import asyncio, ssl
+from aiohttp import web
+from yarl import URL
+from stook.service.api._tls import transport_tls
+from stook.service.api._transport import HttpTransport
+
+def cas():
+    return transport_tls().cert_store_stats()["x509_ca"]
+
+async def hello(request):
+    return web.Response(text="hello")
+
+async def get(tls):
+    app = web.Application()
+    app.router.add_get("/", hello)
+    runner = web.AppRunner(app)
+    await runner.setup()
+    server_tls = ssl.create_default_context(ssl.Purpose.CLIENT_AUTH)
+    server_tls.load_cert_chain({cert!r}, {key!r})
+    site = web.TCPSite(runner, "127.0.0.1", 0, ssl_context=server_tls if tls else None)
+    await site.start()
+    port = runner.addresses[0][1]
+    scheme = "https" if tls else "http"
+    try:
+        async with HttpTransport(name="api", concurrency=1, request_timeout=30) as http:
+            answer = await http.get(URL(f"{{scheme}}://127.0.0.1:{{port}}/"))
+            assert (answer.status, answer.body) == (200, b"hello")
+    finally:
+        await runner.cleanup()
+
+print("built", cas())
+asyncio.run(get(tls=False))
+print("http", cas())
+asyncio.run(get(tls=True))
+print("https", cas())
+asyncio.run(get(tls=True))
+print("again", cas())
+"""
+
+
+def test_the_transports_context_loads_the_ca_paths_at_its_first_tls_connection() -> None:
+    # A plain-HTTP request leaves it without a CA (a run against the emulator never loads
+    # the system's); the first TLS connection loads the environment's CA paths, once.
+    script = CA_ON_FIRST_USE.format(cert=str(TLS / "server.pem"), key=str(TLS / "server.key"))
+    out = _run(script, SSL_CERT_FILE=str(TLS / "ca.pem")).splitlines()
+    assert [line for line in out if line.split()[0] in ("built", "http", "https", "again")] == [
+        "built 0",
+        "http 0",
+        "https 1",
+        "again 1",
+    ]

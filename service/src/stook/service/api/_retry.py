@@ -23,15 +23,17 @@ import email.utils
 import time
 from collections.abc import Awaitable, Callable
 from dataclasses import dataclass
-from typing import Final
-
-from tenacity import AsyncRetrying, RetryCallState, wait_random_exponential
-from tenacity.wait import wait_base
+from typing import TYPE_CHECKING, Final
 
 from stook.service.api._errors import ApiStatusError, StorageError, TransportError
 from stook.service.api._gate import OriginGate
 from stook.service.api._redact import redact_text
 from stook.service.api._transport import is_transient_transport_failure
+
+if TYPE_CHECKING:
+    # tenacity (~24 M instructions to import) is imported by the first request that fails:
+    # most runs never retry, and none needs it before its first request.
+    from tenacity.wait import wait_base
 
 __all__ = [
     "RETRYABLE_STATUSES",
@@ -86,10 +88,14 @@ class RetryPolicy:
         """The pause before a retry when the server did not name one: full-jitter exponential."""
         if self.backoff is not None:
             return self.backoff
+        from tenacity import wait_random_exponential
+
         return wait_random_exponential(multiplier=self.initial_backoff, max=self.max_backoff)
 
     def pause(self, attempt: int) -> float:
         """The backoff after the `attempt`-th failure, outside a tenacity loop (the gate's)."""
+        from tenacity import AsyncRetrying, RetryCallState
+
         state = RetryCallState(AsyncRetrying(), None, (), {})
         state.attempt_number = attempt
         return self.backoff_wait()(state)

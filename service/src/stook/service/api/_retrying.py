@@ -6,17 +6,17 @@ never sleeps past the budget. While its origin's gate is closed it waits there w
 other requests instead of backing off alone. What to retry and how long are the policy's
 (:mod:`stook.service.api._retry`); what ends a request that stopped is one error naming
 why (:func:`_give_up`).
+
+tenacity is imported by the first request that fails (or meets a closed gate): most runs
+never retry, and importing it cost ~24 M instructions of every start-up.
 """
 
 from __future__ import annotations
 
 import enum
 from collections.abc import Awaitable, Callable
-from typing import TypeVar
+from typing import TYPE_CHECKING, TypeVar
 
-from tenacity import AsyncRetrying, RetryCallState, RetryError, retry_if_exception
-from tenacity.stop import stop_base
-from tenacity.wait import wait_base
 from yarl import URL
 
 from stook.service.api._errors import (
@@ -36,6 +36,9 @@ from stook.service.api._retry import (
     trips_gate,
 )
 from stook.service.api._stats import TransferStats
+
+if TYPE_CHECKING:
+    from tenacity import AsyncRetrying, RetryCallState
 
 __all__ = ["call_with_retries", "sent_at_once"]
 
@@ -70,8 +73,8 @@ class _Budget:
         return self.deadline - self.policy.clock()
 
 
-class _Wait(wait_base):
-    """The pause before the next attempt, never past the budget.
+class _Wait:
+    """The pause before the next attempt, never past the budget (a tenacity wait).
 
     A pause the server asked for comes first. Otherwise, while the origin's gate is closed,
     the request does not back off on its own: it waits at the gate (see run_attempt), so
@@ -94,8 +97,9 @@ class _Wait(wait_base):
         return min(self.backoff(retry_state), left)
 
 
-class _Stop(stop_base):
-    """Stop when the budget is spent, or a Retry-After cannot be honoured within it."""
+class _Stop:
+    """Stop when the budget is spent, or a Retry-After cannot be honoured within it (a
+    tenacity stop)."""
 
     def __init__(self, budget: _Budget) -> None:
         self.budget = budget
@@ -130,6 +134,8 @@ def _new_retrying(
     One per request because tenacity keeps its per-call state on the object, which
     concurrent tasks would otherwise share.
     """
+    from tenacity import AsyncRetrying, retry_if_exception
+
     redacted = redact_url(url)
     policy = budget.policy
 
@@ -262,6 +268,9 @@ async def call_with_retries(
             if gate is not None:
                 gate.answered(sent_in)
             return result
+
+    # Only a request that failed or met a closed gate gets here, and imports tenacity.
+    from tenacity import RetryError
 
     if budget is None:
         budget = _Budget(policy, policy.clock(), gate)

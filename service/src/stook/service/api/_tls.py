@@ -11,6 +11,11 @@ contexts hold no CA and cost next to nothing. Every transport then brings its ow
 ALPN ``http/1.1``), once per process, when the first transport opens. Without that import
 (a program using stook as a library) transports keep aiohttp's own default.
 
+That context loads the system's CA certificates at its first TLS connection, not when it
+is built: loading them is ~240 M instructions (a fifth of `stook run`'s start-up), which a
+run against a plain-HTTP API and storage (the emulator, a local deployment) never needs.
+An HTTPS run loads them as before, just before its first handshake.
+
 A request that reached aiohttp's emptied default anyway would fail certificate checks: it
 fails closed, never open.
 """
@@ -20,7 +25,8 @@ from __future__ import annotations
 import os
 import ssl
 import sys
-from typing import Final, Literal
+import threading
+from typing import Any, Final, Literal
 
 __all__ = ["import_aiohttp_without_tls_defaults", "transport_tls"]
 
@@ -63,7 +69,48 @@ def transport_tls() -> ssl.SSLContext | Literal[True]:
         return True
     global _context
     if _context is None:
-        context = ssl.create_default_context()  # the system's CA paths, as aiohttp's
+        context = _CaOnFirstUseContext()  # the system's CA paths, as aiohttp's
         context.set_alpn_protocols(("http/1.1",))
         _context = context
     return _context
+
+
+class _CaOnFirstUseContext(ssl.SSLContext):
+    """The client context ``ssl.create_default_context()`` makes (the same protocol,
+    checks and key log), which loads the system's CA certificates (its default verify
+    paths, read from the environment then) at its first TLS connection instead of when it
+    is made. Until then it holds no CA: nothing can be verified without that connection.
+    """
+
+    def __new__(cls) -> _CaOnFirstUseContext:
+        return super().__new__(cls, ssl.PROTOCOL_TLS_CLIENT)
+
+    def __init__(self) -> None:
+        super().__init__()
+        # What create_default_context sets beyond PROTOCOL_TLS_CLIENT's own defaults.
+        self.verify_mode = ssl.CERT_REQUIRED
+        self.check_hostname = True
+        keylog = os.environ.get("SSLKEYLOGFILE")
+        if keylog and not sys.flags.ignore_environment:
+            self.keylog_filename = keylog
+        self._ca_loaded = False
+        self._loading = threading.Lock()
+
+    def load_ca_once(self) -> None:
+        """Load the default CA paths, once (two loops' first connections may race)."""
+        if self._ca_loaded:
+            return
+        with self._loading:
+            if not self._ca_loaded:
+                self.load_default_certs()
+                self._ca_loaded = True
+
+    # Every TLS connection starts in one of these two: asyncio's (and so aiohttp's)
+    # connections in wrap_bio, blocking sockets in wrap_socket.
+    def wrap_bio(self, *args: Any, **kwargs: Any) -> ssl.SSLObject:
+        self.load_ca_once()
+        return super().wrap_bio(*args, **kwargs)
+
+    def wrap_socket(self, *args: Any, **kwargs: Any) -> ssl.SSLSocket:
+        self.load_ca_once()
+        return super().wrap_socket(*args, **kwargs)

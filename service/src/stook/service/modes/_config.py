@@ -34,7 +34,7 @@ import dataclasses
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import structlog
 
@@ -45,13 +45,12 @@ from stook.sdk.aggregations import (
     ReportAggregation,
     build_all,
 )
-from stook.service.modes._baseline_config import (
-    BaselineConfigError,
-    BaselineSettings,
-    parse_baseline,
-)
 from stook.service.modes._engine_config import EngineConfigError, EngineSettings, parse_engine
 from stook.service.modes._user_code import add_import_folders
+
+if TYPE_CHECKING:
+    # Imported by a config with a [batch.baseline] table, not by every run (~6 M).
+    from stook.service.modes._baseline_config import BaselineSettings
 
 log = structlog.get_logger("stook.config")
 
@@ -206,6 +205,8 @@ def parse(doc: Mapping[str, Any], *, source: str = "stook.toml") -> StookConfig:
 def _baseline(table: Any, source: str) -> BaselineSettings | None:
     if table is None:
         return None
+    from stook.service.modes._baseline_config import BaselineConfigError, parse_baseline
+
     try:
         return parse_baseline(table)
     except BaselineConfigError as exc:
