@@ -354,6 +354,21 @@ class ApiClient:
         path = f"/projects/{_id(project_id)}/batches/{_id(batch_id)}/jobs/{_id(job_id)}/metrics"
         return self._all_items(path, "metrics")
 
+    def all_job_metrics_data_items(
+        self, project_id: IdLike, batch_id: IdLike, job_id: IdLike
+    ) -> Awaitable[list[dict[str, Any]]]:
+        """`list_job_metrics_data`' items unread, as one list of JSON objects as the API
+        wrote them: for a caller that reads a few fields of each (batch mode).
+        `read_job_metrics_data` reads one as `list_job_metrics_data` does."""
+        path = f"/projects/{_id(project_id)}/batches/{_id(batch_id)}/jobs/{_id(job_id)}/metricsData"
+        return self._all_items(path, "metricsData")
+
+    @staticmethod
+    def read_job_metrics_data(item: Mapping[str, Any]) -> ApiMetricsData:
+        """An item of `all_job_metrics_data_items` read as `list_job_metrics_data` reads
+        it: an equal object, or the same ApiResponseError (see `ApiMetricsData.from_json`)."""
+        return _JOB_DATA(item)
+
     async def get_report(self, project_id: IdLike, report_id: IdLike) -> Report:
         document = await self.get_json(f"/projects/{_id(project_id)}/reports/{_id(report_id)}")
         return Report.from_json(document)

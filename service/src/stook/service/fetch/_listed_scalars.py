@@ -17,9 +17,7 @@ what it can, words the error for what it cannot, and reads null scalars' message
 
 from __future__ import annotations
 
-import re
 from dataclasses import dataclass, field
-from datetime import datetime
 from typing import Any, Final
 
 from stook.service.api import (
@@ -29,32 +27,13 @@ from stook.service.api import (
     ApiResponseError,
     MetricOwner,
 )
+from stook.service.fetch._listing_checks import ID_FULLMATCH, are_ids, zoned
 
 __all__ = ["ListedScalars", "read_listed_scalars"]
 
-# An ID as the API writes it: what the model reads without a doubt (uuid.UUID accepts
-# more, which goes the model's way).
-_ID: Final = re.compile(
-    r"[0-9a-fA-F]{8}-[0-9a-fA-F]{4}-[0-9a-fA-F]{4}-[0-9a-fA-F]{4}-[0-9a-fA-F]{12}"
-).fullmatch
-_IDS: Final = re.compile(
-    r"[0-9a-fA-F]{8}-[0-9a-fA-F]{4}-[0-9a-fA-F]{4}-[0-9a-fA-F]{4}-[0-9a-fA-F]{12}"
-    r"(?:\n[0-9a-fA-F]{8}-[0-9a-fA-F]{4}-[0-9a-fA-F]{4}-[0-9a-fA-F]{4}-[0-9a-fA-F]{12})*"
-).fullmatch
 _SCALAR: Final = ApiMetricType.SCALAR.value
 _NO_STATUS: Final = ApiMetricStatus.NO_STATUS_REPORTED.value
 _JOB: Final = MetricOwner.JOB
-
-_from_iso: Final = datetime.fromisoformat
-
-
-def _zoned(text: str) -> bool:
-    """Whether `datetime.fromisoformat` reads `text` as a time with a zone: what the model
-    reads as well (`parse_rfc3339` tries it first; it refuses a time without a zone)."""
-    try:
-        return _from_iso(text).tzinfo is not None
-    except ValueError:
-        return False
 
 
 @dataclass(frozen=True, slots=True)
@@ -131,14 +110,14 @@ def read_listed_scalars(items: list[Any]) -> ListedScalars | None:
         for owner_id in (get("jobID"), get("batchID")):
             if type(owner_id) is str:
                 if owner_id and owner_id not in owner_ids:
-                    if _ID(owner_id) is None:
+                    if ID_FULLMATCH(owner_id) is None:
                         return None
                     owner_ids.add(owner_id)
             elif owner_id is not None:
                 return None
         created = get("creationTimestamp")
         if type(created) is str:
-            if created and created != timestamp and not _zoned(created):
+            if created and created != timestamp and not zoned(created):
                 # Not one `datetime.fromisoformat` reads with a zone: the model decides,
                 # reading the whole item (it reads more than fromisoformat does).
                 try:
@@ -156,9 +135,6 @@ def read_listed_scalars(items: list[Any]) -> ListedScalars | None:
                 names.append(name)
                 values[name] = (value, unit or "")
                 scalar_statuses[name] = status
-    if ids:
-        # One look at them all: each between two line breaks of its own.
-        joined = "\n".join(ids)
-        if joined.count("\n") != len(ids) - 1 or _IDS(joined) is None:
-            return None
+    if not are_ids(ids):
+        return None
     return ListedScalars(values, names, statuses, scalar_statuses, metric_names)
