@@ -146,6 +146,15 @@ def test_the_last_scalar_of_a_name_wins_and_every_name_counts() -> None:
     ]
 
 
+def test_fields_left_out_read_as_null() -> None:
+    bare = {"metricID": IDS[0], "name": "Speed", "type": "SCALAR", "value": 2.0}
+    assert agrees([bare, {"metricID": IDS[5]}])
+    listed = read_listed_scalars([bare, {"metricID": IDS[5]}])
+    assert listed is not None
+    assert listed.values == {"Speed": (2.0, "")}
+    assert listed.statuses == ["NO_STATUS_REPORTED"] * 2
+
+
 def test_an_empty_listing_reads_as_nothing() -> None:
     assert read_listed_scalars([]) == ListedScalars({}, [], [])
 

@@ -31,9 +31,6 @@ _JOB: Final = MetricOwner.JOB
 # What the model reads as a STANDARD item: the member's text, or no type at all.
 _STANDARD_TYPES: Final = frozenset({"STANDARD", "", None})
 # The fields the model reads, in one call: most items have them all.
-_FIELDS: Final = itemgetter(
-    "dataID", "name", "metricsDataType", "metricsDataURL", "filename", "jobID", "creationTimestamp"
-)
 _KEYS: Final = (
     "dataID",
     "name",
@@ -43,6 +40,7 @@ _KEYS: Final = (
     "jobID",
     "creationTimestamp",
 )
+_FIELDS: Final = itemgetter(*_KEYS)
 
 
 @dataclass(frozen=True, slots=True)
@@ -70,9 +68,10 @@ def read_listed_data(items: list[Any], wanted: Collection[str]) -> ListedData | 
         if type(item) is not dict:
             return None
         try:
-            data_id, name, kind, url, filename, job_id, created = _FIELDS(item)
+            fields = _FIELDS(item)
         except KeyError:  # a field left out: read as null, as the model reads it
-            data_id, name, kind, url, filename, job_id, created = map(item.get, _KEYS)
+            fields = tuple(map(item.get, _KEYS))
+        data_id, name, kind, url, filename, job_id, created = fields
         # The model's checks, each field for the shapes it reads as they are.
         if type(data_id) is not str:
             return None

@@ -18,6 +18,7 @@ what it can, words the error for what it cannot, and reads null scalars' message
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from operator import itemgetter
 from typing import Any, Final
 
 from stook.service.api import (
@@ -34,6 +35,22 @@ __all__ = ["ListedScalars", "read_listed_scalars"]
 _SCALAR: Final = ApiMetricType.SCALAR.value
 _NO_STATUS: Final = ApiMetricStatus.NO_STATUS_REPORTED.value
 _JOB: Final = MetricOwner.JOB
+# The fields the model reads, in one call: most items have them all.
+_KEYS: Final = (
+    "metricID",
+    "type",
+    "status",
+    "value",
+    "dataIDs",
+    "eventMetric",
+    "name",
+    "unit",
+    "metricURL",
+    "jobID",
+    "batchID",
+    "creationTimestamp",
+)
+_FIELDS: Final = itemgetter(*_KEYS)
 
 
 @dataclass(frozen=True, slots=True)
@@ -67,16 +84,30 @@ def read_listed_scalars(items: list[Any]) -> ListedScalars | None:
     for item in items:
         if type(item) is not dict:
             return None
-        get = item.get
+        try:
+            fields = _FIELDS(item)
+        except KeyError:  # a field left out: read as null, as the model reads it
+            fields = tuple(map(item.get, _KEYS))
+        (
+            metric_id,
+            kind,
+            status,
+            value,
+            data_ids,
+            event_metric,
+            name,
+            unit,
+            url,
+            job_id,
+            batch_id,
+            created,
+        ) = fields
         # The model's checks, each field for the shapes it reads as they are.
-        metric_id = get("metricID")
         if type(metric_id) is not str:
             return None
         ids.append(metric_id)
-        kind = get("type")
         if type(kind) is not str and kind is not None:
             return None
-        status = get("status")
         if type(status) is str:
             status = status or _NO_STATUS
         elif status is None:
@@ -84,10 +115,8 @@ def read_listed_scalars(items: list[Any]) -> ListedScalars | None:
         else:
             return None
         statuses.append(status)
-        value = get("value")
         if type(value) is not float and value is not None:
             return None  # an integer the model converts; anything else it refuses
-        data_ids = get("dataIDs")
         if type(data_ids) is list:
             for data_id in data_ids:
                 if type(data_id) is not str:
@@ -95,19 +124,15 @@ def read_listed_scalars(items: list[Any]) -> ListedScalars | None:
             ids += data_ids
         elif data_ids is not None:
             return None
-        event_metric = get("eventMetric")
         if type(event_metric) is not bool and event_metric is not None:
             return None
-        name = get("name")
-        unit = get("unit")
-        url = get("metricURL")
         if (
             (type(name) is not str and name is not None)
             or (type(unit) is not str and unit is not None)
             or (type(url) is not str and url is not None)
         ):
             return None
-        for owner_id in (get("jobID"), get("batchID")):
+        for owner_id in (job_id, batch_id):
             if type(owner_id) is str:
                 if owner_id and owner_id not in owner_ids:
                     if ID_FULLMATCH(owner_id) is None:
@@ -115,7 +140,6 @@ def read_listed_scalars(items: list[Any]) -> ListedScalars | None:
                     owner_ids.add(owner_id)
             elif owner_id is not None:
                 return None
-        created = get("creationTimestamp")
         if type(created) is str:
             if created and created != timestamp and not zoned(created):
                 # Not one `datetime.fromisoformat` reads with a zone: the model decides,
