@@ -17,13 +17,13 @@ cannot (tests/service/fetch/test_listed_data.py checks that both paths agree).
 
 from __future__ import annotations
 
-from collections.abc import Collection
+import functools
+from collections.abc import Callable, Collection
 from dataclasses import dataclass
-from operator import itemgetter
 from typing import Any, Final
 
 from stook.service.api import ApiMetricsData, ApiResponseError, MetricOwner
-from stook.service.fetch._listing_checks import ID_FULLMATCH, are_ids, zoned
+from stook.service.fetch._listing_checks import ID_FULLMATCH, are_ids, field_reader, zoned
 
 __all__ = ["ListedData", "read_listed_data"]
 
@@ -40,7 +40,12 @@ _KEYS: Final = (
     "jobID",
     "creationTimestamp",
 )
-_FIELDS: Final = itemgetter(*_KEYS)
+
+
+@functools.cache
+def _fields() -> Callable[[dict[str, Any]], tuple[Any, ...]]:
+    """What reads `_KEYS` of an item (see `field_reader`)."""
+    return field_reader(_KEYS)
 
 
 @dataclass(frozen=True, slots=True)
@@ -64,11 +69,12 @@ def read_listed_data(items: list[Any], wanted: Collection[str]) -> ListedData | 
     owner_ids: set[str] = set()  # the job IDs, checked once a listing
     timestamp = ""  # the last item's, checked: a listing's items were created together
     ids: list[str] = []  # the data IDs, checked at once
+    fields_of = _fields()
     for item in items:
         if type(item) is not dict:
             return None
         try:
-            fields = _FIELDS(item)
+            fields = fields_of(item)
         except KeyError:  # a field left out: read as null, as the model reads it
             fields = tuple(map(item.get, _KEYS))
         data_id, name, kind, url, filename, job_id, created = fields

@@ -17,8 +17,9 @@ what it can, words the error for what it cannot, and reads null scalars' message
 
 from __future__ import annotations
 
+import functools
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from operator import itemgetter
 from typing import Any, Final
 
 from stook.service.api import (
@@ -28,7 +29,7 @@ from stook.service.api import (
     ApiResponseError,
     MetricOwner,
 )
-from stook.service.fetch._listing_checks import ID_FULLMATCH, are_ids, zoned
+from stook.service.fetch._listing_checks import ID_FULLMATCH, are_ids, field_reader, zoned
 
 __all__ = ["ListedScalars", "read_listed_scalars"]
 
@@ -50,7 +51,12 @@ _KEYS: Final = (
     "batchID",
     "creationTimestamp",
 )
-_FIELDS: Final = itemgetter(*_KEYS)
+
+
+@functools.cache
+def _fields() -> Callable[[dict[str, Any]], tuple[Any, ...]]:
+    """What reads `_KEYS` of an item (see `field_reader`)."""
+    return field_reader(_KEYS)
 
 
 @dataclass(frozen=True, slots=True)
@@ -81,11 +87,12 @@ def read_listed_scalars(items: list[Any]) -> ListedScalars | None:
     owner_ids: set[str] = set()  # the job and batch IDs, checked once a listing
     timestamp = ""  # the last item's, checked: a listing's items were created together
     ids: list[str] = []  # the metric and data IDs, checked at once
+    fields_of = _fields()
     for item in items:
         if type(item) is not dict:
             return None
         try:
-            fields = _FIELDS(item)
+            fields = fields_of(item)
         except KeyError:  # a field left out: read as null, as the model reads it
             fields = tuple(map(item.get, _KEYS))
         (

@@ -5,10 +5,12 @@ what the models read without a doubt; anything else goes the model's way."""
 from __future__ import annotations
 
 import re
+from collections.abc import Callable
 from datetime import datetime
-from typing import Final
+from operator import itemgetter
+from typing import Any, Final
 
-__all__ = ["ID_FULLMATCH", "are_ids", "zoned"]
+__all__ = ["ID_FULLMATCH", "are_ids", "field_reader", "zoned"]
 
 # An ID as the API writes it: what the model reads without a doubt (uuid.UUID accepts
 # more, which goes the model's way).
@@ -32,7 +34,8 @@ def zoned(text: str) -> bool:
 
 
 def are_ids(ids: list[str]) -> bool:
-    """Whether every one of `ids` is an ID as the API writes it (`ID_FULLMATCH`).
+    """Whether every one of `ids` is an ID as the API writes it (`ID_FULLMATCH`); False
+    when one is not a string.
 
     In a few C calls over them all, where a regular expression costs ~50 instructions a
     character (a listing's IDs were a sixth of reading it): joined by line breaks, they
@@ -42,7 +45,10 @@ def are_ids(ids: list[str]) -> bool:
     count = len(ids)
     if not count:
         return True
-    joined = "\n".join(ids)
+    try:
+        joined = "\n".join(ids)
+    except TypeError:  # one is not a string
+        return False
     if len(joined) != 37 * count - 1 or not joined.isascii():
         return False
     raw = joined.encode()
@@ -55,3 +61,20 @@ def are_ids(ids: list[str]) -> bool:
         and raw[36::37] == b"\n" * (count - 1)
         and raw.translate(None, _HEX_DIGITS) == b"----\n" * (count - 1) + b"----"
     )
+
+
+def field_reader(keys: tuple[str, ...]) -> Callable[[dict[str, Any]], tuple[Any, ...]]:
+    """The values of `keys` in an item of a listing, as a tuple, in one call (KeyError when
+    the item leaves one out).
+
+    The keys are looked up as orjson makes them: it keeps one string per short key for the
+    whole process (its key cache), so each field is found by identity, where a string of
+    the same text made elsewhere costs a comparison of the text per lookup (a sixth of
+    reading a metric listing). They are equal to `keys` whatever orjson does: only the
+    speed depends on it. Call it once the first answer has come (orjson is imported then).
+    """
+    import orjson
+
+    as_read = tuple(orjson.loads(orjson.dumps(dict.fromkeys(keys))))
+    assert as_read == keys
+    return itemgetter(*as_read)
