@@ -165,3 +165,8 @@ def test_a_repeated_timestamp_is_checked_once_and_a_bad_one_still_refused() -> N
 def test_a_job_id_checked_once_per_listing_and_another_still_checked() -> None:
     assert read_listed_data([DATA, DATA | {"dataID": IDS[5]}], WANTED) is not None
     assert read_listed_data([DATA, DATA | {"jobID": "not an ID"}], WANTED) is None
+    other = DATA | {"dataID": IDS[5], "jobID": IDS[2]}
+    assert read_listed_data([DATA, other, DATA], WANTED) is not None
+    for bad in ({"jobID": "not an ID"}, {"jobID": 3}, {"jobID": []}):
+        assert read_listed_data([DATA, other, DATA | bad], WANTED) is None
+        assert read_listed_data([DATA | bad, other, DATA], WANTED) is None

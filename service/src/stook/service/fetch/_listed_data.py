@@ -66,7 +66,9 @@ def read_listed_data(items: list[Any], wanted: Collection[str]) -> ListedData | 
     names: list[str] = []
     unnamed = 0
     found: list[dict[str, Any]] = []
-    owner_ids: set[str] = set()  # the job IDs, checked once a listing
+    # The last item's job ID, checked: a listing's items repeat it (a comparison costs
+    # less than a set's hash of a new string).
+    checked_job: object = None
     timestamp = ""  # the last item's, checked: a listing's items were created together
     ids: list[str] = []  # the data IDs, checked at once
     fields_of = _fields()
@@ -88,13 +90,13 @@ def read_listed_data(items: list[Any], wanted: Collection[str]) -> ListedData | 
             or (type(filename) is not str and filename is not None)
         ):
             return None
-        if type(job_id) is str:
-            if job_id and job_id not in owner_ids:
-                if ID_FULLMATCH(job_id) is None:
+        if job_id != checked_job:
+            if type(job_id) is str:
+                if job_id and ID_FULLMATCH(job_id) is None:
                     return None
-                owner_ids.add(job_id)
-        elif job_id is not None:
-            return None
+            elif job_id is not None:
+                return None
+            checked_job = job_id
         if type(created) is str:
             if created and created != timestamp and not zoned(created):
                 # Not one `datetime.fromisoformat` reads with a zone: the model decides,

@@ -84,7 +84,10 @@ def read_listed_scalars(items: list[Any]) -> ListedScalars | None:
     statuses: list[str] = []
     scalar_statuses: dict[str, str] = {}
     metric_names: list[str] = []
-    owner_ids: set[str] = set()  # the job and batch IDs, checked once a listing
+    # The last item's job and batch IDs, checked: a listing's items repeat them (a
+    # comparison costs less than a set's hash of a new string).
+    checked_job: object = None
+    checked_batch: object = None
     timestamp = ""  # the last item's, checked: a listing's items were created together
     ids: list[str] = []  # the metric and data IDs, checked at once
     fields_of = _fields()
@@ -139,14 +142,14 @@ def read_listed_scalars(items: list[Any]) -> ListedScalars | None:
             or (type(url) is not str and url is not None)
         ):
             return None
-        for owner_id in (job_id, batch_id):
-            if type(owner_id) is str:
-                if owner_id and owner_id not in owner_ids:
-                    if ID_FULLMATCH(owner_id) is None:
+        if job_id != checked_job or batch_id != checked_batch:
+            for owner_id in (job_id, batch_id):
+                if type(owner_id) is str:
+                    if owner_id and ID_FULLMATCH(owner_id) is None:
                         return None
-                    owner_ids.add(owner_id)
-            elif owner_id is not None:
-                return None
+                elif owner_id is not None:
+                    return None
+            checked_job, checked_batch = job_id, batch_id
         if type(created) is str:
             if created and created != timestamp and not zoned(created):
                 # Not one `datetime.fromisoformat` reads with a zone: the model decides,
