@@ -474,7 +474,9 @@ class _Paging:
         self._on_total = on_total
         self.query: dict[str, str | int] = dict(params or {})
         self.query["pageSize"] = page_size or client._page_size
-        self._guard = ListingGuard(self._listing, items_key, int(self.query["pageSize"]))
+        # Made with the first page that has a next page: a listing of one page (a job's)
+        # has nothing to compare its page with.
+        self._guard: ListingGuard | None = None
         self.more = True  # until a page without a next page token
 
     def _listing(self) -> str:
@@ -507,7 +509,13 @@ class _Paging:
         # Checked before the items are handed on: a page that proves the listing
         # endless must not feed its repeats to the caller.
         total = page.get("total")
-        items = self._guard.check(items, token or None, total)
+        guard = self._guard
+        if guard is None and token:
+            guard = self._guard = ListingGuard(
+                self._listing, items_key, int(self.query["pageSize"])
+            )
+        if guard is not None:
+            items = guard.check(items, token or None, total)
         on_total = self._on_total
         if on_total is not None and isinstance(total, int) and not isinstance(total, bool):
             on_total(total)
