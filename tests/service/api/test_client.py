@@ -136,7 +136,8 @@ async def test_a_jobs_listings_as_lists_read_every_page_as_its_items_do(
     assert [hit.query.get("pageToken") for hit in hits] == [None, "p2"] * 3
     # Each listing's first page asked for as paginate asks for it (see ApiClient._all_items).
     asked = [(hit.path, hit.query) for hit in hits]
-    assert asked[0] == asked[2] == asked[4] and asked[1] == asked[3] == asked[5]
+    assert asked[0] == asked[2] == asked[4]
+    assert asked[1] == asked[3] == asked[5]
     assert asked[0][1] == {"pageSize": "2"}
     data_hits = [(hit.path, hit.query) for hit in server.hits(f"{base}/metricsData")]
     assert data_hits == [(f"{base}/metricsData", {"pageSize": "2"})] * 3

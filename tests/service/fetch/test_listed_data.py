@@ -151,7 +151,7 @@ def test_timestamps_are_taken_as_the_model_takes_them(created: str) -> None:
 
 
 def test_a_non_object_item_goes_to_the_model() -> None:
-    assert read_listed_data([DATA, [DATA]], WANTED) is None  # type: ignore[list-item]
+    assert read_listed_data([DATA, [DATA]], WANTED) is None
 
 
 def test_a_repeated_timestamp_is_checked_once_and_a_bad_one_still_refused() -> None:
@@ -167,6 +167,7 @@ def test_a_job_id_checked_once_per_listing_and_another_still_checked() -> None:
     assert read_listed_data([DATA, DATA | {"jobID": "not an ID"}], WANTED) is None
     other = DATA | {"dataID": IDS[5], "jobID": IDS[2]}
     assert read_listed_data([DATA, other, DATA], WANTED) is not None
-    for bad in ({"jobID": "not an ID"}, {"jobID": 3}, {"jobID": []}):
+    bads: list[dict[str, Any]] = [{"jobID": "not an ID"}, {"jobID": 3}, {"jobID": []}]
+    for bad in bads:
         assert read_listed_data([DATA, other, DATA | bad], WANTED) is None
         assert read_listed_data([DATA | bad, other, DATA], WANTED) is None

@@ -218,7 +218,13 @@ def test_a_job_id_checked_once_per_listing_and_another_still_checked() -> None:
     assert read_listed_scalars([METRIC, METRIC | {"jobID": "not an ID"}]) is None
     other = METRIC | {"metricID": IDS[5], "jobID": IDS[2], "batchID": IDS[1]}
     assert read_listed_scalars([METRIC, other, METRIC]) is not None
-    for bad in ({"jobID": "not an ID"}, {"batchID": "x"}, {"batchID": 3}, {"jobID": []}):
+    bads: list[dict[str, Any]] = [
+        {"jobID": "not an ID"},
+        {"batchID": "x"},
+        {"batchID": 3},
+        {"jobID": []},
+    ]
+    for bad in bads:
         assert read_listed_scalars([METRIC, other, METRIC | bad]) is None
         assert read_listed_scalars([METRIC | bad, other, METRIC]) is None
 
