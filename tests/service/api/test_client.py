@@ -124,12 +124,23 @@ async def test_a_jobs_listings_as_lists_read_every_page_as_its_items_do(
         as_items = [m async for m in api.list_job_metrics(PROJECT, BATCH, job)]
         raw_items = await api.all_job_metric_items(PROJECT, BATCH, job)
         data_list = await api.all_job_metrics_data(PROJECT, BATCH, job)
+        raw_data = await api.all_job_metrics_data_items(PROJECT, BATCH, job)
+        data_items = [d async for d in api.list_job_metrics_data(PROJECT, BATCH, job)]
     assert as_list == as_items
     assert [m.name for m in as_list] == ["m1", "m2", "m3"]
     assert raw_items == [metric(1), metric(2), metric(3)]
     assert [d.name for d in data_list] == ["d1"]
+    assert raw_data == [data(1)]
+    assert [api.read_job_metrics_data(d) for d in raw_data] == data_list == data_items
     hits = server.hits(f"{base}/metrics")
     assert [hit.query.get("pageToken") for hit in hits] == [None, "p2"] * 3
+    # Each listing's first page asked for as paginate asks for it (see ApiClient._all_items).
+    asked = [(hit.path, hit.query) for hit in hits]
+    assert asked[0] == asked[2] == asked[4]
+    assert asked[1] == asked[3] == asked[5]
+    assert asked[0][1] == {"pageSize": "2"}
+    data_hits = [(hit.path, hit.query) for hit in server.hits(f"{base}/metricsData")]
+    assert data_hits == [(f"{base}/metricsData", {"pageSize": "2"})] * 3
 
 
 async def test_missing_next_page_token_and_missing_items_end_the_list(

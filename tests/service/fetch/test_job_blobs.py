@@ -63,6 +63,7 @@ class ScriptedBatch:
         events: Sequence[dict[str, Any]] = (),
         metric_overrides: dict[str, dict[str, Any]] | None = None,
         blob_overrides: dict[str, bytes] | None = None,
+        data_overrides: dict[str, dict[str, Any]] | None = None,
     ) -> uuid.UUID:
         job_id = uuid.UUID(output.job_id.id.data) if output is not None else uuid.uuid4()
         output = output if output is not None else _job_output(job_id)
@@ -92,13 +93,12 @@ class ScriptedBatch:
             metrics.append(item)
             self.server.script(f"/blob/{m.metric_id.id.data}", answer(body=body))
         for d in output.metrics_data:
-            listed_data.append(
-                {
-                    "dataID": d.metrics_data_id.id.data,
-                    "name": d.name,
-                    "metricsDataURL": self.server.url(f"/blob/{d.metrics_data_id.id.data}"),
-                }
-            )
+            data_item: dict[str, Any] = {
+                "dataID": d.metrics_data_id.id.data,
+                "name": d.name,
+                "metricsDataURL": self.server.url(f"/blob/{d.metrics_data_id.id.data}"),
+            }
+            listed_data.append(data_item | (data_overrides or {}).get(d.name, {}))
             self.server.script(
                 f"/blob/{d.metrics_data_id.id.data}", answer(body=d.SerializeToString())
             )
@@ -187,6 +187,73 @@ async def test_a_metric_listing_read_from_its_items_gives_what_its_models_give(
     assert items_outcome.scalar_names == models_outcome.scalar_names
     assert items_outcome.metric_names == models_outcome.metric_names
     assert sum(bool(r.scalars) for r in from_items) == 3  # all but the event's job
+
+
+async def test_a_data_listing_read_from_its_items_gives_what_its_models_give(
+    server: ScriptedServer,
+    batch: ScriptedBatch,
+    fast_policy: RetryPolicy,
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    from stook.service.fetch import _batch_fetch
+    from stook.service.fetch._listed_data import read_listed_data as read
+
+    batch.add_job()
+    batch.add_job(data_overrides={"labels": {"name": ""}, "offsets": {"filename": None}})
+    batch.add_job(data_overrides={"speeds": {"metricsDataType": "VIDEO"}})
+    batch.add_job(data_overrides={"where": {"creationTimestamp": "2025-01-18t14:03:00z"}})
+    needs = Needs(data=frozenset({"speeds", "labels", "where"}), every_scalar=True)
+
+    taken: list[bool] = []
+
+    def spy(items: list[Any], wanted: frozenset[str]) -> Any:
+        listed = read(items, wanted)
+        taken.append(listed is not None)
+        return listed
+
+    async def fetch() -> tuple[list[JobRecord], Any, list[str]]:
+        records: list[JobRecord] = []
+        server.seen.clear()
+        async with ApiClient(server.base_url, "secret-token", retry=fast_policy) as api:
+            fetcher = BatchFetcher(api, PROJECT, BATCH, needs, workers=2)
+            outcome = await fetcher.run(records.append)
+        return sorted(records, key=lambda r: r.job_id), outcome, sorted(batch.blob_paths())
+
+    monkeypatch.setattr(_batch_fetch, "read_listed_data", spy)
+    from_items, items_outcome, items_blobs = await fetch()
+    assert taken == [True] * 4
+    monkeypatch.setattr(_batch_fetch, "read_listed_data", lambda items, wanted: None)
+    from_models, models_outcome, models_blobs = await fetch()
+    assert len(from_items) == 4
+    assert items_blobs == models_blobs
+    for fast, slow in zip(from_items, from_models, strict=True):
+        assert fast.data.keys() == slow.data.keys()
+        for name, view in fast.data.items():
+            assert view.raw == slow.data[name].raw
+        assert fast.series.keys() == slow.series.keys()
+        assert fast.scalars == slow.scalars
+    assert sorted(sorted(r.data) for r in from_items) == sorted(
+        [["labels", "speeds", "where"]] * 2 + [["speeds", "where"]] + [["labels", "where"]]
+    )
+    assert items_outcome.data_names == models_outcome.data_names
+    assert items_outcome.unnamed_data == models_outcome.unnamed_data == 1
+    assert items_outcome.missing == models_outcome.missing == []
+
+
+async def test_a_malformed_data_listing_fails_its_job_as_the_model_words_it(
+    server: ScriptedServer, batch: ScriptedBatch, fast_policy: RetryPolicy
+) -> None:
+    batch.add_job()
+    bad = batch.add_job(data_overrides={"timestamps": {"jobID": "not an ID"}})
+    needs = Needs(data=frozenset({"speeds"}))
+    records: list[JobRecord] = []
+    async with ApiClient(server.base_url, "secret-token", retry=fast_policy) as api:
+        fetcher = BatchFetcher(api, PROJECT, BATCH, needs, workers=2)
+        outcome = await fetcher.run(records.append)
+    assert len(records) == 1
+    (missing,) = outcome.missing
+    assert missing.job_id == bad
+    assert "field 'jobID' is not a UUID: 'not an ID'" in missing.reason
 
 
 def _ids(output: pb.JobMetrics, *names: str) -> set[str]:
@@ -467,6 +534,10 @@ class _ListingApi:
         self.data_listings += 1
         await self._listing()
         return []
+
+    # What batch mode lists a job's metrics data with when it wants data by name only.
+    all_job_metrics_data_items = all_job_metrics_data
+    read_job_metrics_data = staticmethod(ApiClient.read_job_metrics_data)
 
 
 async def _fetch_listed_job(api: _ListingApi) -> list[str]:

@@ -146,6 +146,15 @@ def test_the_last_scalar_of_a_name_wins_and_every_name_counts() -> None:
     ]
 
 
+def test_fields_left_out_read_as_null() -> None:
+    bare = {"metricID": IDS[0], "name": "Speed", "type": "SCALAR", "value": 2.0}
+    assert agrees([bare, {"metricID": IDS[5]}])
+    listed = read_listed_scalars([bare, {"metricID": IDS[5]}])
+    assert listed is not None
+    assert listed.values == {"Speed": (2.0, "")}
+    assert listed.statuses == ["NO_STATUS_REPORTED"] * 2
+
+
 def test_an_empty_listing_reads_as_nothing() -> None:
     assert read_listed_scalars([]) == ListedScalars({}, [], [])
 
@@ -207,6 +216,17 @@ def test_a_repeated_timestamp_is_checked_once_and_a_bad_one_still_refused() -> N
 def test_a_job_id_checked_once_per_listing_and_another_still_checked() -> None:
     assert read_listed_scalars([METRIC, METRIC | {"metricID": IDS[5]}]) is not None
     assert read_listed_scalars([METRIC, METRIC | {"jobID": "not an ID"}]) is None
+    other = METRIC | {"metricID": IDS[5], "jobID": IDS[2], "batchID": IDS[1]}
+    assert read_listed_scalars([METRIC, other, METRIC]) is not None
+    bads: list[dict[str, Any]] = [
+        {"jobID": "not an ID"},
+        {"batchID": "x"},
+        {"batchID": 3},
+        {"jobID": []},
+    ]
+    for bad in bads:
+        assert read_listed_scalars([METRIC, other, METRIC | bad]) is None
+        assert read_listed_scalars([METRIC | bad, other, METRIC]) is None
 
 
 @pytest.mark.parametrize(

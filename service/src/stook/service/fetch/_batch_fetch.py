@@ -35,6 +35,7 @@ from stook.service.api import (
 from stook.service.fetch._collector import fewer_collections
 from stook.service.fetch._decoders import start_importing
 from stook.service.fetch._job_extras import ExperienceTags, job_event
+from stook.service.fetch._listed_data import read_listed_data
 from stook.service.fetch._listed_scalars import ListedScalars, read_listed_scalars
 from stook.service.fetch._scalars import is_scalar, listed_scalars, read_scalars
 
@@ -198,7 +199,31 @@ class BatchFetcher:
                 if listed is not None
                 else [ApiMetric.from_json(item, owner=MetricOwner.JOB) for item in items]
             )
-        data_items: list[ApiMetricsData] = await self._list_data(job) if wants_blobs else []
+        data_items: list[ApiMetricsData] = []
+        data_names: list[str] = []
+        unnamed = 0
+        if wants_blobs and not (needs.metrics or needs.every_metric or needs.data_with_index):
+            # Data by name only: the listing is read from its JSON items, for its names and
+            # the items the plan names, when it is well-formed (see _listed_data); else as
+            # ApiMetricsData, as before. Data asked for with its index, or a metric's,
+            # may need any item of the listing, and reads them all.
+            raw = await self._api.all_job_metrics_data_items(
+                self._project_id, self._batch_id, job.job_id
+            )
+            listed_data = read_listed_data(raw, needs.data)
+            read = self._api.read_job_metrics_data
+            if listed_data is not None:
+                data_items = list(map(read, listed_data.wanted))
+                data_names = listed_data.names
+                unnamed = listed_data.unnamed
+            else:
+                data_items = list(map(read, raw))
+                data_names = [d.name for d in data_items if d.name]
+                unnamed = len(data_items) - len(data_names)
+        elif wants_blobs:
+            data_items = await self._list_data(job)
+            data_names = [d.name for d in data_items if d.name]
+            unnamed = len(data_items) - len(data_names)
         events: tuple[JobEvent, ...] = tuple(await self._list_events(job)) if needs.events else ()
         tags: tuple[str, ...] = (
             await self._tags.of(job.experience_id) if needs.experience_tags else ()
@@ -228,8 +253,6 @@ class BatchFetcher:
             outcome.scalar_names.update([m.name for m in metrics if is_scalar(m)])
             outcome.metric_names.update([m.name for m in metrics if m.name])
             metric_statuses = [str(m.status) for m in metrics]
-        data_names = [d.name for d in data_items if d.name]
-        unnamed = len(data_items) - len(data_names)
         if unnamed:
             outcome.unnamed_data += unnamed
             log.debug("unnamed metrics data skipped", job_id=str(job.job_id), count=unnamed)

@@ -95,7 +95,40 @@ class JobBlobs:
         return bool(self._needs.metrics) or self._needs.every_metric
 
     async def fetch(self) -> JobBlobsResult:
-        named = [d for d in self._data if d.name in self._needs.data and d.is_standard]
+        needs = self._needs
+        named = [d for d in self._data if d.name in needs.data and d.is_standard]
+        metric_views: Sequence[MetricView]
+        indexed: Collection[uuid.UUID]
+        if needs.metrics or needs.every_metric or needs.data_with_index:
+            metric_views, indexed = await self._download_referenced(named)
+        else:
+            # The common plan, data by name alone: nothing else is downloaded.
+            metric_views, indexed = [], ()
+            await self._download_all(named)
+        data: dict[str, MetricsDataView] = {}
+        doubles: dict[str, MetricsDataView] = {}
+        if any(self._views[item.data_id].kind is SeriesKind.DOUBLE for item in named):
+            await decoders_ready()  # polars, imported off the loop's thread
+        for item in named:
+            view = self._views[item.data_id]
+            if item.data_id in indexed and view.index_id is not None:
+                view = view.with_index(self._views[view.index_id])
+            data[item.name] = view
+            # Per-category data keeps its categories in `data`: no single series of it.
+            # Made into polars Series only when an aggregation asks (see `SeriesByName`).
+            if view.kind is SeriesKind.DOUBLE and not view.per_category:
+                doubles[item.name] = view
+        job_metrics = None
+        if self.wants_metrics:
+            job_metrics = self._job_metrics(metric_views)
+        return JobBlobsResult(data=data, series=SeriesByName(doubles), job_metrics=job_metrics)
+
+    async def _download_referenced(
+        self, named: Sequence[ApiMetricsData]
+    ) -> tuple[list[MetricView], list[uuid.UUID]]:
+        """Download the `named` data, the wanted metrics, the data they reference and the
+        index data of both (of the named data, those in `data_with_index` only): the
+        metrics' views, and the named data to give with their index data."""
         wanted = self._wanted_metrics()
         # The data the listing says the wanted metrics reference go out with their Metric
         # blobs and the named data, in one round; what only a blob names follows.
@@ -132,23 +165,7 @@ class JobBlobs:
             }:
                 await self._download_all(self._resolve(missing, index=True))
                 pending = list(missing)
-        data: dict[str, MetricsDataView] = {}
-        doubles: dict[str, MetricsDataView] = {}
-        if any(self._views[item.data_id].kind is SeriesKind.DOUBLE for item in named):
-            await decoders_ready()  # polars, imported off the loop's thread
-        for item in named:
-            view = self._views[item.data_id]
-            if item.data_id in indexed and view.index_id is not None:
-                view = view.with_index(self._views[view.index_id])
-            data[item.name] = view
-            # Per-category data keeps its categories in `data`: no single series of it.
-            # Made into polars Series only when an aggregation asks (see `SeriesByName`).
-            if view.kind is SeriesKind.DOUBLE and not view.per_category:
-                doubles[item.name] = view
-        job_metrics = None
-        if self.wants_metrics:
-            job_metrics = self._job_metrics(metric_views)
-        return JobBlobsResult(data=data, series=SeriesByName(doubles), job_metrics=job_metrics)
+        return metric_views, indexed
 
     def _wanted_metrics(self) -> list[ApiMetric]:
         if not self.wants_metrics:

@@ -17,9 +17,9 @@ what it can, words the error for what it cannot, and reads null scalars' message
 
 from __future__ import annotations
 
-import re
+import functools
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from datetime import datetime
 from typing import Any, Final
 
 from stook.service.api import (
@@ -29,32 +29,34 @@ from stook.service.api import (
     ApiResponseError,
     MetricOwner,
 )
+from stook.service.fetch._listing_checks import ID_FULLMATCH, are_ids, field_reader, zoned
 
 __all__ = ["ListedScalars", "read_listed_scalars"]
 
-# An ID as the API writes it: what the model reads without a doubt (uuid.UUID accepts
-# more, which goes the model's way).
-_ID: Final = re.compile(
-    r"[0-9a-fA-F]{8}-[0-9a-fA-F]{4}-[0-9a-fA-F]{4}-[0-9a-fA-F]{4}-[0-9a-fA-F]{12}"
-).fullmatch
-_IDS: Final = re.compile(
-    r"[0-9a-fA-F]{8}-[0-9a-fA-F]{4}-[0-9a-fA-F]{4}-[0-9a-fA-F]{4}-[0-9a-fA-F]{12}"
-    r"(?:\n[0-9a-fA-F]{8}-[0-9a-fA-F]{4}-[0-9a-fA-F]{4}-[0-9a-fA-F]{4}-[0-9a-fA-F]{12})*"
-).fullmatch
 _SCALAR: Final = ApiMetricType.SCALAR.value
 _NO_STATUS: Final = ApiMetricStatus.NO_STATUS_REPORTED.value
 _JOB: Final = MetricOwner.JOB
+# The fields the model reads, in one call: most items have them all.
+_KEYS: Final = (
+    "metricID",
+    "type",
+    "status",
+    "value",
+    "dataIDs",
+    "eventMetric",
+    "name",
+    "unit",
+    "metricURL",
+    "jobID",
+    "batchID",
+    "creationTimestamp",
+)
 
-_from_iso: Final = datetime.fromisoformat
 
-
-def _zoned(text: str) -> bool:
-    """Whether `datetime.fromisoformat` reads `text` as a time with a zone: what the model
-    reads as well (`parse_rfc3339` tries it first; it refuses a time without a zone)."""
-    try:
-        return _from_iso(text).tzinfo is not None
-    except ValueError:
-        return False
+@functools.cache
+def _fields() -> Callable[[dict[str, Any]], tuple[Any, ...]]:
+    """What reads `_KEYS` of an item (see `field_reader`)."""
+    return field_reader(_KEYS)
 
 
 @dataclass(frozen=True, slots=True)
@@ -82,22 +84,40 @@ def read_listed_scalars(items: list[Any]) -> ListedScalars | None:
     statuses: list[str] = []
     scalar_statuses: dict[str, str] = {}
     metric_names: list[str] = []
-    owner_ids: set[str] = set()  # the job and batch IDs, checked once a listing
+    # The last item's job and batch IDs, checked: a listing's items repeat them (a
+    # comparison costs less than a set's hash of a new string).
+    checked_job: object = None
+    checked_batch: object = None
     timestamp = ""  # the last item's, checked: a listing's items were created together
     ids: list[str] = []  # the metric and data IDs, checked at once
+    fields_of = _fields()
     for item in items:
         if type(item) is not dict:
             return None
-        get = item.get
+        try:
+            fields = fields_of(item)
+        except KeyError:  # a field left out: read as null, as the model reads it
+            fields = tuple(map(item.get, _KEYS))
+        (
+            metric_id,
+            kind,
+            status,
+            value,
+            data_ids,
+            event_metric,
+            name,
+            unit,
+            url,
+            job_id,
+            batch_id,
+            created,
+        ) = fields
         # The model's checks, each field for the shapes it reads as they are.
-        metric_id = get("metricID")
         if type(metric_id) is not str:
             return None
         ids.append(metric_id)
-        kind = get("type")
         if type(kind) is not str and kind is not None:
             return None
-        status = get("status")
         if type(status) is str:
             status = status or _NO_STATUS
         elif status is None:
@@ -105,10 +125,8 @@ def read_listed_scalars(items: list[Any]) -> ListedScalars | None:
         else:
             return None
         statuses.append(status)
-        value = get("value")
         if type(value) is not float and value is not None:
             return None  # an integer the model converts; anything else it refuses
-        data_ids = get("dataIDs")
         if type(data_ids) is list:
             for data_id in data_ids:
                 if type(data_id) is not str:
@@ -116,29 +134,24 @@ def read_listed_scalars(items: list[Any]) -> ListedScalars | None:
             ids += data_ids
         elif data_ids is not None:
             return None
-        event_metric = get("eventMetric")
         if type(event_metric) is not bool and event_metric is not None:
             return None
-        name = get("name")
-        unit = get("unit")
-        url = get("metricURL")
         if (
             (type(name) is not str and name is not None)
             or (type(unit) is not str and unit is not None)
             or (type(url) is not str and url is not None)
         ):
             return None
-        for owner_id in (get("jobID"), get("batchID")):
-            if type(owner_id) is str:
-                if owner_id and owner_id not in owner_ids:
-                    if _ID(owner_id) is None:
+        if job_id != checked_job or batch_id != checked_batch:
+            for owner_id in (job_id, batch_id):
+                if type(owner_id) is str:
+                    if owner_id and ID_FULLMATCH(owner_id) is None:
                         return None
-                    owner_ids.add(owner_id)
-            elif owner_id is not None:
-                return None
-        created = get("creationTimestamp")
+                elif owner_id is not None:
+                    return None
+            checked_job, checked_batch = job_id, batch_id
         if type(created) is str:
-            if created and created != timestamp and not _zoned(created):
+            if created and created != timestamp and not zoned(created):
                 # Not one `datetime.fromisoformat` reads with a zone: the model decides,
                 # reading the whole item (it reads more than fromisoformat does).
                 try:
@@ -156,9 +169,6 @@ def read_listed_scalars(items: list[Any]) -> ListedScalars | None:
                 names.append(name)
                 values[name] = (value, unit or "")
                 scalar_statuses[name] = status
-    if ids:
-        # One look at them all: each between two line breaks of its own.
-        joined = "\n".join(ids)
-        if joined.count("\n") != len(ids) - 1 or _IDS(joined) is None:
-            return None
+    if not are_ids(ids):
+        return None
     return ListedScalars(values, names, statuses, scalar_statuses, metric_names)
