@@ -19,9 +19,11 @@ from stook.emulator._middleware import (
     admit,
     apply_fault,
     error_response,
+    json_bytes_response,
     json_response,
     record_response,
 )
+from stook.emulator._page_templates import PLACEHOLDER, PageTemplate
 from stook.emulator._paging import PagingError, paginate
 from stook.emulator._search import SearchError, parse_search
 from stook.emulator._state import EmulatorState
@@ -244,30 +246,31 @@ class _ApiRoutes:
         metrics = output.event_metrics if event_only else output.metrics
         key = f"job-{'event-' if event_only else ''}metrics:{job_id}"
         items, token, _ = self._page(request, list(metrics), key)
-        base = f"/{BUCKET}/projects/{self.ds.project_id}/batches/{batch_id}/jobs/{job_id}"
-        owner = {"jobID": str(job_id), "batchID": str(batch_id)}
-        created = job.created + timedelta(minutes=3)
-        return json_response(
-            self.quirks.page(
+        # The page is the same but for its URLs' signatures: serialized once (see
+        # _page_templates), per page of the listing.
+        query = request.query
+        page = (key, query.get("pageSize") or "", query.get("pageToken") or "")
+        template = output.listing_pages.get(page)
+        if template is None:
+            base = f"/{BUCKET}/projects/{self.ds.project_id}/batches/{batch_id}/jobs/{job_id}"
+            owner = {"jobID": str(job_id), "batchID": str(batch_id)}
+            created = job.created + timedelta(minutes=3)
+            body = self.quirks.page(
                 {
                     "metrics": [
                         self.quirks.metric(
-                            m,
-                            _json.metric(
-                                self.ds,
-                                m,
-                                self.state.presign(f"{base}/metrics/{m.id}"),
-                                created,
-                                owner,
-                            ),
-                            job,
+                            m, _json.metric(self.ds, m, PLACEHOLDER, created, owner), job
                         )
                         for m in items
                     ],
                     "nextPageToken": token,
                 }
             )
-        )
+            made = PageTemplate.of(body, [f"{base}/metrics/{m.id}" for m in items])
+            if made is None:
+                raise RuntimeError(f"{key}: a page's URLs do not fill its placeholders")
+            template = output.listing_pages[page] = made
+        return json_bytes_response(template.fill(map(self.state.presign, template.paths)))
 
     async def list_job_metrics_data(self, request: web.Request) -> web.Response:
         batch_id, job_id, output = self._job_output(request)
