@@ -98,3 +98,47 @@ async def test_listings_are_the_bytes_of_pages_built_afresh(quirks: bool) -> Non
         assert urls[0].startswith(f"{emu.storage_url}/{BUCKET}/")
         status, _ = await raw.fetch(urls[0])
         assert status == 200
+
+
+def _jobs_page_built_afresh(emu: Emulator, answer: bytes) -> bytes:
+    """A job listing page as the handler built it before it kept pages, for `answer`'s jobs."""
+    quirks, ds = emu._state.quirks, emu.dataset
+    listed = orjson.loads(answer)
+    jobs = {j.id: j for j in ds.jobs(emu.batch_id)}
+    body = {
+        "jobs": [
+            quirks.job(
+                jobs[uuid.UUID(item["jobID"])],
+                emulator_json.job(ds, jobs[uuid.UUID(item["jobID"])]),
+            )
+            for item in listed["jobs"]
+        ],
+        "nextPageToken": listed.get("nextPageToken", ""),
+        "total": listed["total"],
+    }
+    return orjson.dumps(quirks.page(body))
+
+
+@pytest.mark.parametrize("quirks", [False, True])
+async def test_job_listings_kept_are_the_bytes_of_pages_built_afresh(quirks: bool) -> None:
+    async with (
+        Emulator(SMALL.replace(spec_quirks=quirks)) as emu,
+        aiohttp.ClientSession() as session,
+    ):
+        raw = Raw(emu, session)
+        path = raw.url(f"/batches/{emu.batch_id}/jobs")
+        answers: list[bytes] = []
+        token = ""
+        for query in ({}, {}, {"pageSize": "3"}, {"pageSize": "3"}, {"pageSize": "3"}):
+            if token:
+                query["pageToken"] = token
+            async with session.get(path, params=query, headers=raw.auth) as answer:
+                assert answer.status == 200
+                answers.append(await answer.read())
+            token = (
+                orjson.loads(answers[-1]).get("nextPageToken", "") if "pageSize" in query else ""
+            )
+        assert answers[0] == answers[1]
+        assert len({*answers[2:]}) == 3  # three pages, each its own jobs
+        for served in answers:
+            assert served == _jobs_page_built_afresh(emu, served)
