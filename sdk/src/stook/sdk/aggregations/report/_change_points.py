@@ -111,7 +111,9 @@ def _half_normal_grid() -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
 
     sigma = math.sqrt(2.0)
     x = np.linspace(0.0, 14.0 * sigma, 28_001)
-    cdf = np.array([math.erf(v / (sigma * math.sqrt(2.0))) for v in x])
+    # math.erf of each point (no vector erf without scipy), divided as one array: the
+    # same values as dividing numpy scalars one by one, in a third of the time.
+    cdf = np.array(list(map(math.erf, (x / (sigma * math.sqrt(2.0))).tolist())))
     pdf = np.sqrt(2.0 / math.pi) / sigma * np.exp(-(x**2) / (2.0 * sigma**2))
     with np.errstate(divide="ignore"):
         return x, pdf, np.log(cdf), np.log1p(-np.minimum(cdf, 1.0))
