@@ -6,6 +6,7 @@ does. Metrics and metrics data are listed with presigned URLs into the storage o
 
 from __future__ import annotations
 
+import functools
 import uuid
 from collections import OrderedDict
 from datetime import datetime, timedelta
@@ -120,9 +121,14 @@ def build_api_app(state: EmulatorState) -> web.Application:
 def _uuid_arg(request: web.Request, key: str) -> uuid.UUID:
     text = request.match_info[key]
     try:
-        return uuid.UUID(text)
+        return _parse_uuid(text)
     except ValueError:
         raise ApiError(400, f"{key} {text!r} is not a valid UUID") from None
+
+
+# Every request names its project, and a job's its batch and job: parsed once each (a
+# refused text raises again, uncached).
+_parse_uuid = functools.lru_cache(maxsize=65_536)(uuid.UUID)
 
 
 class _ApiRoutes:
@@ -264,7 +270,8 @@ class _ApiRoutes:
         job = self.ds.job(batch_id, job_id)
         assert job is not None
         metrics = output.event_metrics if event_only else output.metrics
-        key = f"job-{'event-' if event_only else ''}metrics:{job_id}"
+        # The job's ID as str() writes it, remembered (UUID.__str__ is Python code).
+        key = f"job-{'event-' if event_only else ''}metrics:{_json._id(job_id)}"
         items, token, _ = self._page(request, list(metrics), key)
         # The page is the same but for its URLs' signatures: serialized once (see
         # _page_templates), per page of the listing.
