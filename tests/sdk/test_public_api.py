@@ -153,7 +153,6 @@ PUBLIC_API: dict[str, list[str]] = {
     "stook.sdk.aggregations.report": [
         "BatchMetricStatusCounts",
         "ChangePointSummary",
-        "ChangePointWorker",
         "ChangePoints",
         "FlakyExperiences",
         "JobMetricStatusCounts",

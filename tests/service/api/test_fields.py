@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import pickle
+import random
 import uuid
 
 import pytest
@@ -58,6 +59,13 @@ def test_an_id_is_written_as_str_writes_it(ident: uuid.UUID) -> None:
     assert uuid_text(ident) == str(ident)
     assert uuid_text(ident) == str(ident)  # remembered, still the same
     assert uuid_text(uuid.UUID(int=ident.int ^ 1)) == str(uuid.UUID(int=ident.int ^ 1))
+
+
+def test_ids_are_written_digit_for_digit_as_str_writes_them() -> None:
+    rng = random.Random(13)
+    for _ in range(500):
+        ident = uuid.UUID(int=rng.getrandbits(rng.choice([8, 64, 127, 128])))
+        assert uuid_text(ident) == str(ident)
 
 
 def test_a_subclass_of_uuid_is_written_its_own_way() -> None:

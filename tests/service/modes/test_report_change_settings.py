@@ -3,14 +3,13 @@ default report aggregations, and refused before any request when wrong."""
 
 from __future__ import annotations
 
-import uuid
-from typing import Any, cast
+from typing import Any
 
 import pytest
 
 from stook.sdk.aggregations.report import ChangePoints, ScalarLines, UnstableExperiences
 from stook.service.modes._config import ConfigError, ReportSettings, parse
-from stook.service.modes._report import report_aggregations_for, searches_change_points
+from stook.service.modes._report import report_aggregations_for
 
 PROJECT = "5e5e5e5e-1111-4222-8333-444444444444"
 
@@ -24,12 +23,6 @@ def test_the_defaults_search_change_points_and_rank_unstable_experiences() -> No
     assert lines.change_points is True
     assert sum(isinstance(a, ChangePoints) for a in built) == 1
     assert sum(isinstance(a, UnstableExperiences) for a in built) == 1
-
-
-def test_the_change_point_worker_starts_only_when_the_defaults_search_change_points() -> None:
-    assert searches_change_points(parse({})) is True
-    assert searches_change_points(parse({"report": {"change_points": False}})) is False
-    assert searches_change_points(parse({"report": {"defaults": False}})) is False
 
 
 def test_the_settings_are_read() -> None:
@@ -98,38 +91,3 @@ def test_report_tables_build_the_new_kinds() -> None:
     assert (changes.name, changes.penalty, changes.experiences) == ("Moves", 4.0, False)
     assert isinstance(unstable, UnstableExperiences)
     assert (unstable.top_n, unstable.metrics) == (3, ["err"])
-
-
-@pytest.mark.parametrize(("settings", "started"), [({}, [40]), ({"change_points": False}, [])])
-def test_found_batches_start_the_change_point_worker_when_the_search_will_need_it(
-    monkeypatch: pytest.MonkeyPatch, settings: dict[str, object], started: list[int]
-) -> None:
-    # `stook run` and `run_report` fetch through ReportMode.fetcher, whose fetch calls
-    # `batches_found`; the sharded engines call it once they have found the batches.
-    from stook.sdk.aggregations import Needs
-    from stook.sdk.aggregations import report as report_package
-    from stook.service.modes import _report
-    from stook.service.modes._inputs import ApiAccess, ReportInputs
-
-    calls: list[object] = []
-
-    class Worker:
-        def __init__(self, on_failure: object) -> None:
-            calls.append("made")
-
-        def start(self, *, batches: int) -> bool:
-            calls.append(batches)
-            return True
-
-        def close(self) -> None:
-            calls.append("closed")
-
-    monkeypatch.setattr(report_package, "ChangePointWorker", Worker)
-    access = ApiAccess("http://127.0.0.1:9", "token", uuid.UUID(PROJECT))
-    mode = _report.ReportMode(ReportInputs(access, uuid.uuid4()), parse({"report": settings}))
-    fetcher = mode.fetcher(cast(Any, None), Needs(), lambda outcome: None)
-    assert fetcher._on_batches_found == mode.batches_found
-    mode.batches_found(40)
-    mode.batches_found(41)  # once a run
-    mode.close()
-    assert calls == (["made", *started, "closed"] if started else [])

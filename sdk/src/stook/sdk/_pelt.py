@@ -1,11 +1,12 @@
-"""The PELT search of report change points (`_change_points`), with ruptures: a series'
-breakpoints under a cost kind and a penalty.
+"""The PELT search of report change points (`_change_points`): a series' breakpoints
+under a cost kind and a penalty, as ruptures' `Pelt` finds them, bit for bit.
 
-Apart from the report aggregations, and importing nothing of stook, so that the
-change-point worker process (`_pelt_worker`) runs this very code on the same float64
-arrays with only numpy and ruptures imported. ruptures is imported on first use: it
-imports scipy's sparse, spatial, optimize, stats and signal packages (about a second of
-CPU).
+With the settings stook searches with (`jump=1`, `min_size=1`), `Pelt` runs nothing of
+its own but the cost's `fit`, a check that the signal is not empty and a sort: the search
+itself (`_partition`) and the costs are this module's, over numpy arrays. So that search
+runs without importing ruptures, which imports scipy's sparse, spatial, optimize, stats
+and signal packages (about 1.5 s of CPU, more than a report's whole search). Other
+settings go through ruptures' own `Pelt`, imported then.
 """
 
 from __future__ import annotations
@@ -25,15 +26,20 @@ COSTS = ("l2", "binomial")
 def search(kind: str, signal: np.ndarray, pen: float, min_size: int) -> list[int]:
     """The breakpoints (segments' starts after the first) of `signal` under cost `kind`."""
     cost = _cost(kind)()
+    if min_size <= 1:  # `Pelt` takes the larger of it and the cost's, which is 1
+        return [int(b) for b in _search_without_ruptures(cost, signal, pen)[:-1]]
     algo = _vector_pelt()(custom_cost=cost, min_size=min_size, jump=1).fit(signal)
     return [int(b) for b in algo.predict(pen=pen)[:-1]]
 
 
-def prepare() -> None:
-    """Import ruptures and build the search's classes (a worker does it before any search)."""
-    _vector_pelt()
-    for kind in COSTS:
-        _cost(kind)
+def ruptures_cost(kind: str) -> Any:
+    """The cost class of `kind`, registered as ruptures' `BaseCost`: `Pelt` takes a custom
+    cost only when it is one (and else silently searches with its own "l2")."""
+    from ruptures.base import BaseCost
+
+    cost = _cost(kind)
+    BaseCost.register(cost)
+    return cost
 
 
 def _cost(kind: str) -> Any:
@@ -44,10 +50,23 @@ def _cost(kind: str) -> Any:
     raise ValueError(f"unknown cost kind {kind!r}")
 
 
-@functools.cache
-def _vector_pelt() -> Any:
-    """ruptures' `Pelt` with its search loop over numpy arrays: the same partitions,
-    penalised totals and breakpoints, bit for bit.
+def _search_without_ruptures(cost: Any, signal: np.ndarray, pen: float) -> list[int]:
+    """What `_vector_pelt()(custom_cost=cost, min_size=1, jump=1).fit(signal).predict(pen)`
+    gives, without ruptures: with those settings `Pelt` runs nothing of its own but
+    `fit` (the cost's), a check that the signal is not empty, and the sort of the
+    partition's ends."""
+    cost.fit(signal)
+    n = int(signal.shape[0])
+    if n < 1:  # what ruptures' `sanity_check` refuses for these settings
+        from ruptures.exceptions import BadSegmentationParameters
+
+        raise BadSegmentationParameters
+    return sorted(end for _, end in _partition(cost, n, pen))
+
+
+def _partition(cost: Any, n: int, pen: float) -> dict[tuple[int, int], float]:
+    """ruptures' `Pelt._seg` for `jump=1`, `min_size=1`, over numpy arrays: the same
+    partition of `n` samples, penalised values and all, bit for bit.
 
     ruptures keeps one dict per candidate start and sums it for every (start, end) pair;
     without change points nothing is pruned, so a series of a thousand batches costs
@@ -57,56 +76,67 @@ def _vector_pelt() -> Any:
     taken in another order), so every start within a hair of a decision — the minimum,
     or the pruning bound — is settled with ruptures' own arithmetic: `error(start, end)
     + pen` appended to the start's partition values and summed with Python's `sum`, as
-    `Pelt._seg` does. Only `jump=1`, `min_size=1` (what stook runs) take this path.
+    `Pelt._seg` does.
     """
     import numpy as np
+
+    # Per end of a partition of signal[0:end]: its segments' values in ruptures'
+    # order (the (0, 0): 0 entry first), their Python sum, the last start.
+    values: list[tuple[float, ...]] = [(0,)]
+    totals = np.zeros(n + 1)
+    previous = [0] * (n + 1)
+    admissible = np.zeros(0, dtype=np.int64)
+
+    def settled(t: int, end: int) -> tuple[float, float]:
+        value = cost.error(t, end) + pen
+        return sum((*values[t], value)), value
+
+    for end in range(1, n + 1):
+        admissible = np.append(admissible, end - 1)
+        candidates = totals[admissible] + (cost.errors(admissible, end) + pen)
+        low = float(candidates.min())
+        # Far wider than any rounding: the partitions' totals are sums of a few
+        # hundred nonnegative terms.
+        slack = 1e-9 * (abs(low) + pen)
+        best_t, best_total, best_value = -1, 0.0, 0.0
+        for i in np.flatnonzero(candidates <= low + 2 * slack).tolist():
+            t = int(admissible[i])
+            total, value = settled(t, end)
+            if best_t < 0 or total < best_total:  # the first of equals, as min()
+                best_t, best_total, best_value = t, total, value
+        values.append((*values[best_t], best_value))
+        totals[end] = best_total
+        previous[end] = best_t
+        bound = best_total + pen
+        keep = candidates <= bound
+        for i in np.flatnonzero(np.abs(candidates - bound) <= 2 * slack).tolist():
+            keep[i] = settled(int(admissible[i]), end)[0] <= bound
+        admissible = admissible[keep]
+    partition: dict[tuple[int, int], float] = {}
+    end = n
+    while end > 0:
+        start = previous[end]
+        partition[(start, end)] = values[end][-1]
+        end = start
+    return dict(sorted(partition.items()))
+
+
+@functools.cache
+def _vector_pelt() -> Any:
+    """ruptures' `Pelt` with `_partition` as its search for `jump=1`, `min_size=1` (what
+    stook runs), and its own for other settings; the costs are registered as ruptures'
+    `BaseCost`, which `Pelt` requires of a custom cost."""
     import ruptures
+
+    for kind in COSTS:
+        ruptures_cost(kind)
 
     class VectorPelt(ruptures.Pelt):  # type: ignore[misc]
         def _seg(self, pen: float) -> dict[tuple[int, int], float]:
             cost = self.cost
             if self.jump != 1 or self.min_size != 1 or not hasattr(cost, "errors"):
                 return super()._seg(pen)  # type: ignore[no-any-return]
-            n = int(self.n_samples)
-            # Per end of a partition of signal[0:end]: its segments' values in ruptures'
-            # order (the (0, 0): 0 entry first), their Python sum, the last start.
-            values: list[tuple[float, ...]] = [(0,)]
-            totals = np.zeros(n + 1)
-            previous = [0] * (n + 1)
-            admissible = np.zeros(0, dtype=np.int64)
-
-            def settled(t: int, end: int) -> tuple[float, float]:
-                value = cost.error(t, end) + pen
-                return sum((*values[t], value)), value
-
-            for end in range(1, n + 1):
-                admissible = np.append(admissible, end - 1)
-                candidates = totals[admissible] + (cost.errors(admissible, end) + pen)
-                low = float(candidates.min())
-                # Far wider than any rounding: the partitions' totals are sums of a few
-                # hundred nonnegative terms.
-                slack = 1e-9 * (abs(low) + pen)
-                best_t, best_total, best_value = -1, 0.0, 0.0
-                for i in np.flatnonzero(candidates <= low + 2 * slack).tolist():
-                    t = int(admissible[i])
-                    total, value = settled(t, end)
-                    if best_t < 0 or total < best_total:  # the first of equals, as min()
-                        best_t, best_total, best_value = t, total, value
-                values.append((*values[best_t], best_value))
-                totals[end] = best_total
-                previous[end] = best_t
-                bound = best_total + pen
-                keep = candidates <= bound
-                for i in np.flatnonzero(np.abs(candidates - bound) <= 2 * slack).tolist():
-                    keep[i] = settled(int(admissible[i]), end)[0] <= bound
-                admissible = admissible[keep]
-            partition: dict[tuple[int, int], float] = {}
-            end = n
-            while end > 0:
-                start = previous[end]
-                partition[(start, end)] = values[end][-1]
-                end = start
-            return dict(sorted(partition.items()))
+            return _partition(cost, int(self.n_samples), pen)
 
     return VectorPelt
 
@@ -126,9 +156,8 @@ def _l2_cost() -> Any:
     O(1) per segment where `CostL2` takes a variance over it, which made the search
     cubic-ish in the batches (tens of seconds for a report of a thousand batches)."""
     import numpy as np
-    from ruptures.base import BaseCost
 
-    class SummedL2Cost(BaseCost):  # type: ignore[misc]
+    class SummedL2Cost:
         model = "l2"
         min_size = 1  # Pelt takes the larger of this and its own min_size
 
@@ -161,9 +190,8 @@ def _binomial_cost() -> Any:
     """A ruptures cost: the binomial deviance of a segment's failed and counted jobs
     (made on first use, so that ruptures is imported only when a report needs it)."""
     import numpy as np
-    from ruptures.base import BaseCost
 
-    class BinomialCost(BaseCost):  # type: ignore[misc]
+    class BinomialCost:
         model = "binomial"
         min_size = 1  # Pelt takes the larger of this and its own min_size
 

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 import ruptures
 
-from stook.sdk._pelt import _l2_cost
+from stook.sdk._pelt import _l2_cost, ruptures_cost
 from stook.sdk.aggregations.report._change_points import MIN_SEGMENT
 
 
@@ -30,6 +30,6 @@ def test_same_costs_and_breakpoints_as_ruptures_l2(seed: int) -> None:
     pen = 3.0 * np.log(n) + 8
     found = [
         ruptures.Pelt(custom_cost=cost, min_size=MIN_SEGMENT, jump=1).fit(signal).predict(pen=pen)
-        for cost in (_l2_cost()(), ruptures.costs.CostL2())
+        for cost in (ruptures_cost("l2")(), ruptures.costs.CostL2())
     ]
     assert found[0] == found[1]

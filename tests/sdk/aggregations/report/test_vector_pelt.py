@@ -1,15 +1,18 @@
 """The change-point search's PELT over numpy arrays: ruptures' own `Pelt` partitions,
-penalised totals and breakpoints, bit for bit, on both costs."""
+penalised totals and breakpoints, bit for bit, on both costs; and the search as stook
+runs it, the same breakpoints without importing ruptures."""
 
 from __future__ import annotations
 
 import random
+import subprocess
+import sys
 
 import numpy as np
 import pytest
 import ruptures
 
-from stook.sdk._pelt import _binomial_cost, _l2_cost, _vector_pelt
+from stook.sdk._pelt import _vector_pelt, ruptures_cost, search
 from stook.sdk.aggregations.report._change_points import penalty
 
 
@@ -40,7 +43,7 @@ def test_same_partition_as_ruptures_pelt(seed: int) -> None:
     n = rng.choice([6, 7, 12, 40, 150])
     kind = seed % 2
     signal = _levels(rng, n) if kind == 0 else _rates(rng, n)
-    cost = (_l2_cost() if kind == 0 else _binomial_cost())()
+    cost = ruptures_cost("l2" if kind == 0 else "binomial")()
     pen = rng.choice([penalty(n), 0.5, 2.0, 30.0])
     theirs = ruptures.Pelt(custom_cost=cost, min_size=1, jump=1).fit(signal)._seg(pen)
     ours = _vector_pelt()(custom_cost=cost, min_size=1, jump=1).fit(signal)._seg(pen)
@@ -49,7 +52,7 @@ def test_same_partition_as_ruptures_pelt(seed: int) -> None:
 
 def test_a_constant_series_ties_everywhere_and_still_agrees() -> None:
     signal = np.zeros((30, 1))
-    cost = _l2_cost()()
+    cost = ruptures_cost("l2")()
     theirs = ruptures.Pelt(custom_cost=cost, min_size=1, jump=1).fit(signal).predict(pen=0.0)
     ours = _vector_pelt()(custom_cost=cost, min_size=1, jump=1).fit(signal).predict(pen=0.0)
     assert ours == theirs
@@ -58,7 +61,47 @@ def test_a_constant_series_ties_everywhere_and_still_agrees() -> None:
 def test_other_settings_take_ruptures_own_search() -> None:
     signal = _levels(random.Random(1), 60)
     for jump, min_size in ((5, 1), (1, 3)):
-        cost = _l2_cost()()
+        cost = ruptures_cost("l2")()
         theirs = ruptures.Pelt(custom_cost=cost, min_size=min_size, jump=jump).fit(signal)
         ours = _vector_pelt()(custom_cost=cost, min_size=min_size, jump=jump).fit(signal)
         assert ours.predict(pen=4.0) == theirs.predict(pen=4.0)
+
+
+@pytest.mark.parametrize("seed", range(60))
+def test_the_search_finds_ruptures_own_breakpoints(seed: int) -> None:
+    rng = random.Random(seed)
+    n = rng.choice([6, 7, 12, 40, 150])
+    kind = ("l2", "binomial")[seed % 2]
+    signal = _levels(rng, n) if kind == "l2" else _rates(rng, n)
+    pen = rng.choice([penalty(n), 0.5, 2.0, 30.0])
+    pelt = ruptures.Pelt(custom_cost=ruptures_cost(kind)(), min_size=1, jump=1)
+    assert search(kind, signal, pen, 1) == pelt.fit(signal).predict(pen=pen)[:-1]
+
+
+def test_a_longer_least_segment_takes_ruptures_own_search() -> None:
+    signal = _levels(random.Random(3), 60)
+    pelt = ruptures.Pelt(custom_cost=ruptures_cost("l2")(), min_size=3, jump=1)
+    assert search("l2", signal, 4.0, 3) == pelt.fit(signal).predict(pen=4.0)[:-1]
+
+
+def test_registered_costs_are_rupturess_base_cost() -> None:
+    # ruptures' Pelt searches with its own "l2" when a custom cost is not a BaseCost.
+    for kind in ("l2", "binomial"):
+        assert isinstance(ruptures_cost(kind)(), ruptures.base.BaseCost)
+
+
+def test_the_search_imports_neither_ruptures_nor_scipy() -> None:
+    script = (
+        "import sys\n"
+        "import numpy as np\n"
+        "from stook.sdk._pelt import search\n"
+        "levels = np.asarray([0.0] * 10 + [5.0] * 10).reshape(-1, 1)\n"
+        "rates = np.column_stack([[0.0] * 10 + [9.0] * 10, [10.0] * 20])\n"
+        "print(search('l2', levels, 10.0, 1), search('binomial', rates, 10.0, 1))\n"
+        "print(sorted(m for m in ('ruptures', 'scipy') if m in sys.modules))\n"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", script], capture_output=True, text=True, timeout=60
+    )
+    assert done.returncode == 0, done.stderr
+    assert done.stdout == "[10] [10]\n[]\n"

@@ -126,10 +126,8 @@ class ReportFetcher:
         on_progress: Callable[[ReportOutcome], None] | None = None,
         use_summaries: bool = True,
         batches: tuple[Report, list[Batch]] | None = None,
-        on_batches_found: Callable[[int], None] | None = None,
     ) -> None:
         self._api = api
-        self._on_batches_found = on_batches_found
         self._given = batches
         self._use_summaries = use_summaries
         self._project_id = project_id
@@ -160,8 +158,6 @@ class ReportFetcher:
     async def _run(self, on_batch: Callable[[BatchRecord], None]) -> ReportOutcome:
         # A shard of the report (batches found elsewhere) is given them; a whole run finds them.
         report, batches = self._given or await self.find_batches()
-        if self._on_batches_found is not None:
-            self._on_batches_found(len(batches))
         self.outcome.report = report
         self.outcome.batches = len(batches)
         totals = [b.total_jobs for b in batches]

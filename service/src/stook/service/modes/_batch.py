@@ -123,9 +123,6 @@ class BatchMode:
     def missing(self, outcome: FetchOutcome) -> tuple[list[MissingJob], int]:
         return outcome.missing, outcome.jobs_listed
 
-    def close(self) -> None:
-        pass  # a batch run holds nothing beyond its fetch
-
     def check(self, needs: Needs, outcome: FetchOutcome) -> None:
         check_names(needs, outcome, self.config.source)
 

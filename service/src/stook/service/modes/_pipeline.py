@@ -105,11 +105,6 @@ class Mode(Protocol[_R, _O]):
         """What the output says before the aggregations' metrics."""
         ...
 
-    def close(self) -> None:
-        """Release what the run held (report mode: its change-point worker), once the
-        output is written or the run failed."""
-        ...
-
 
 @dataclass(frozen=True, slots=True)
 class RunResult(HasTraffic, Generic[_O]):
@@ -170,38 +165,35 @@ async def run_pipeline(
 
     `fetch` is the fetch-and-fold step (default: `fetch_here`, in this process).
     """
-    try:
-        started = asyncio.get_running_loop().time()
-        needs = needs_of(mode.aggregations)
-        step: FetchStep = fetch or fetch_here
-        outcome, traffic = await step(
-            FetchRun(mode, needs, access, settings, retry, progress or NoProgress(), started)
-        )
+    started = asyncio.get_running_loop().time()
+    needs = needs_of(mode.aggregations)
+    step: FetchStep = fetch or fetch_here
+    outcome, traffic = await step(
+        FetchRun(mode, needs, access, settings, retry, progress or NoProgress(), started)
+    )
 
-        mode.check(needs, outcome)
-        # Imported here, not with this module: `stook run` sends its first request sooner
-        # without the writer's modules and protobuf, which nothing needs before the output.
-        from stook.sdk import MetricsWriter
+    mode.check(needs, outcome)
+    # Imported here, not with this module: `stook run` sends its first request sooner
+    # without the writer's modules and protobuf, which nothing needs before the output.
+    from stook.sdk import MetricsWriter
 
-        writer = MetricsWriter(mode.output_id, deterministic=True)
-        missing, jobs = mode.missing(outcome)
-        write_missing_jobs(writer, missing, jobs, allow_missing_jobs)
-        mode.preface(writer, outcome)
-        for aggregation in mode.aggregations:
-            aggregation.finish(writer)
-        output = writer.write(outputs_dir / OUTPUT_NAME)
-        return RunResult(
-            kind=mode.kind,
-            output=output,
-            outcome=outcome,
-            metrics_written=[m.name for m in writer.metrics],
-            status=writer.status,
-            traffic=traffic,
-            counts=mode.counts(outcome),
-            seconds=asyncio.get_running_loop().time() - started,
-        )
-    finally:
-        mode.close()
+    writer = MetricsWriter(mode.output_id, deterministic=True)
+    missing, jobs = mode.missing(outcome)
+    write_missing_jobs(writer, missing, jobs, allow_missing_jobs)
+    mode.preface(writer, outcome)
+    for aggregation in mode.aggregations:
+        aggregation.finish(writer)
+    output = writer.write(outputs_dir / OUTPUT_NAME)
+    return RunResult(
+        kind=mode.kind,
+        output=output,
+        outcome=outcome,
+        metrics_written=[m.name for m in writer.metrics],
+        status=writer.status,
+        traffic=traffic,
+        counts=mode.counts(outcome),
+        seconds=asyncio.get_running_loop().time() - started,
+    )
 
 
 async def fetch_here(run: FetchRun[_R, _O]) -> tuple[_O, Traffic]:

@@ -24,7 +24,7 @@ from stook.service.modes._progress import Progress, Snapshot
 if TYPE_CHECKING:
     # The report aggregations are imported by report mode, not by every run.
     from stook.sdk.aggregations import Aggregation, Needs
-    from stook.sdk.aggregations.report import ChangePointWorker, RegressionSummary
+    from stook.sdk.aggregations.report import RegressionSummary
 
 log = structlog.get_logger("stook.report")
 
@@ -53,11 +53,6 @@ def report_aggregations_for(config: StookConfig, project_id: str) -> list[Aggreg
     return defaults + config.report_aggregations()
 
 
-def searches_change_points(config: StookConfig) -> bool:
-    """Whether the default report aggregations search change points (with ruptures)."""
-    return config.report.defaults and config.report.change_points
-
-
 def check_job_metric_names(config: StookConfig, outcome: ReportOutcome) -> None:
     wanted = config.report.job_metrics
     if not wanted or outcome.jobs_with_metrics == 0:
@@ -80,9 +75,6 @@ class ReportMode:
     config: StookConfig
     aggregations: list[Aggregation[Any]] = field(init=False)
     kind: str = "report"
-    # Where the change points are searched, started once the report's batches are known
-    # (`batches_found`); None until then, and without a search.
-    change_points: ChangePointWorker | None = field(init=False, default=None)
 
     def __post_init__(self) -> None:
         self.aggregations = report_aggregations_for(self.config, str(self.inputs.access.project_id))
@@ -102,23 +94,7 @@ class ReportMode:
             workers=self.config.fetch.concurrency,
             on_progress=on_progress,
             use_summaries=self.config.report.use_summaries,
-            on_batches_found=self.batches_found,
         )
-
-    def batches_found(self, count: int) -> None:
-        """The report has `count` batches: start the change-point worker if its search
-        will run. The search imports ruptures (about a second of CPU) once every batch is
-        in; a worker process imports it on another core while the batches are fetched."""
-        if self.change_points is not None or not searches_change_points(self.config):
-            return
-        from stook.sdk.aggregations.report import ChangePointWorker
-
-        self.change_points = ChangePointWorker(on_failure=_say_worker_failed)
-        self.change_points.start(batches=count)
-
-    def close(self) -> None:
-        if self.change_points is not None:
-            self.change_points.close()
 
     def progress(self, outcome: ReportOutcome) -> Snapshot:
         listed = outcome.jobs_total is not None or outcome.batches > 0
@@ -156,10 +132,6 @@ class ReportMode:
 
         lines = [a for a in self.aggregations if isinstance(a, ScalarLines)]
         return lines[0].regressions() if lines else None
-
-
-def _say_worker_failed(reason: str) -> None:
-    log.debug("change-point worker failed; searching in this process", reason=reason)
 
 
 async def run_report(

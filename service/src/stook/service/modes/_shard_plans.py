@@ -133,7 +133,6 @@ class ReportPlan:
         inputs = self.mode.inputs
         finder = ReportFetcher(api, inputs.access.project_id, inputs.report_id, Needs())
         report, batches = await finder.find_batches()
-        self.mode.batches_found(len(batches))
         self._report = report
         outcome = self.outcome
         outcome.report = report

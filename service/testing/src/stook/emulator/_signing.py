@@ -11,12 +11,16 @@ class UrlSigner:
     """Signs and checks URLs like S3's query-string authentication (simplified)."""
 
     def __init__(self, secret: bytes, lifetime_s: float) -> None:
-        self._secret = secret
+        self._keyed = hmac.new(secret, digestmod=hashlib.sha256)
         self.lifetime_s = lifetime_s
 
     def _signature(self, path: str, issued: str, expires: str) -> str:
-        message = f"GET\n{path}\n{issued}\n{expires}".encode()
-        return hmac.new(self._secret, message, hashlib.sha256).hexdigest()
+        # A copy of the keyed HMAC: the same digest as `hmac.new(secret, message, sha256)`
+        # without OpenSSL setting up the key and digest again (every listed metric and
+        # data file is signed, at every listing: that set-up was a tenth of the CPU).
+        mac = self._keyed.copy()
+        mac.update(f"GET\n{path}\n{issued}\n{expires}".encode())
+        return mac.hexdigest()
 
     def sign(self, base_url: str, path: str, now: float) -> str:
         # Milliseconds and a decimal lifetime let tests use sub-second expiry.

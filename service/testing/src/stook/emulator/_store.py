@@ -23,6 +23,7 @@ from stook.emulator._generate import (
     generate_batch,
     generate_job,
 )
+from stook.emulator._page_templates import PageTemplate
 from stook.emulator._summaries import add_summary
 from stook.emulator._world import JobSpec, World
 from stook.proto import metrics_pb2 as pb
@@ -81,6 +82,11 @@ class MetricsOutput:
     _metric_index: dict[uuid.UUID, StoredMetric] = field(repr=False)
     _data_index: dict[uuid.UUID, StoredData] = field(repr=False)
     events: tuple[StoredEvent, ...] = ()
+    # The API's pages of this output's metric listings, serialized once (by the handler's
+    # key: which listing, which page), kept as long as the output is.
+    listing_pages: dict[tuple[str, ...], PageTemplate] = field(
+        default_factory=dict, repr=False, compare=False
+    )
 
     @property
     def event_metrics(self) -> tuple[StoredMetric, ...]:

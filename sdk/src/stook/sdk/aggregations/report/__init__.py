@@ -3,7 +3,6 @@
 Each folds in one `BatchRecord` at a time, like batch aggregations fold in jobs.
 """
 
-from stook.sdk.aggregations.report._change_point_worker import ChangePointWorker
 from stook.sdk.aggregations.report._change_report import ChangePoints, ChangePointSummary
 from stook.sdk.aggregations.report._experiences import FlakyExperiences, MostFailedExperiences
 from stook.sdk.aggregations.report._job_distributions import JobScalarDistributions
@@ -19,7 +18,6 @@ from stook.sdk.aggregations.report._unstable import UnstableExperiences
 __all__ = [
     "BatchMetricStatusCounts",
     "ChangePointSummary",
-    "ChangePointWorker",
     "ChangePoints",
     "FlakyExperiences",
     "JobMetricStatusCounts",

@@ -1,4 +1,4 @@
-"""Where did a series' level move? Penalised change points (PELT, from `ruptures`).
+"""Where did a series' level move? Penalised change points (PELT, as `ruptures` runs it).
 
 Two kinds of series, one penalty:
 
@@ -37,7 +37,6 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from stook.sdk._pelt import search
-from stook.sdk.aggregations.report._change_point_worker import searched_in_worker
 from stook.sdk.aggregations.report._regression import RELATIVE_FLOOR
 
 if TYPE_CHECKING:
@@ -112,7 +111,9 @@ def _half_normal_grid() -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
 
     sigma = math.sqrt(2.0)
     x = np.linspace(0.0, 14.0 * sigma, 28_001)
-    cdf = np.array([math.erf(v / (sigma * math.sqrt(2.0))) for v in x])
+    # math.erf of each point (no vector erf without scipy), divided as one array: the
+    # same values as dividing numpy scalars one by one, in a third of the time.
+    cdf = np.array(list(map(math.erf, (x / (sigma * math.sqrt(2.0))).tolist())))
     pdf = np.sqrt(2.0 / math.pi) / sigma * np.exp(-(x**2) / (2.0 * sigma**2))
     with np.errstate(divide="ignore"):
         return x, pdf, np.log(cdf), np.log1p(-np.minimum(cdf, 1.0))
@@ -138,14 +139,6 @@ def noise_scale(values: Sequence[float]) -> float:
     return mean / _expected_trimmed_mean(m)
 
 
-def _pelt(kind: str, signal: np.ndarray, pen: float) -> list[int]:
-    """The breakpoints of `signal` under the cost `kind` ("l2" or "binomial") and `pen`:
-    in the change-point worker while one runs (`ChangePointWorker`; it imports ruptures
-    on another core), else here."""
-    cuts = searched_in_worker(kind, signal, pen, MIN_SEGMENT)
-    return cuts if cuts is not None else search(kind, signal, pen, MIN_SEGMENT)
-
-
 def level_shifts(
     values: Sequence[float], *, factor: float = DEFAULT_PENALTY, series: int = 1
 ) -> list[Shift]:
@@ -163,7 +156,7 @@ def level_shifts(
     import numpy as np
 
     signal = ((np.asarray(finite) - median) / scale).reshape(-1, 1)
-    cuts = _pelt("l2", signal, penalty(n, factor, series=series))
+    cuts = search("l2", signal, penalty(n, factor, series=series), MIN_SEGMENT)
     return _shifts(cuts, positions, [statistics.fmean(s) for s in _segments(finite, cuts)])
 
 
@@ -187,7 +180,7 @@ def rate_shifts(
     import numpy as np
 
     signal = np.column_stack([f, c])
-    cuts = _pelt("binomial", signal, penalty(n, factor, series=series))
+    cuts = search("binomial", signal, penalty(n, factor, series=series), MIN_SEGMENT)
     levels = [
         sum(fs) / sum(cs) for fs, cs in zip(_segments(f, cuts), _segments(c, cuts), strict=True)
     ]
