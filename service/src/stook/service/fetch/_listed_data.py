@@ -22,12 +22,18 @@ from collections.abc import Callable, Collection
 from dataclasses import dataclass
 from typing import Any, Final
 
-from stook.service.api import ApiMetricsData, ApiResponseError, MetricOwner
-from stook.service.fetch._listing_checks import ID_FULLMATCH, are_ids, field_reader, zoned
+from stook.service.api import ApiMetricsData, MetricOwner
+from stook.service.fetch._listing_checks import (
+    are_ids,
+    field_reader,
+    is_owner_id,
+    model_reads_time,
+)
 
 __all__ = ["ListedData", "read_listed_data"]
 
-_JOB: Final = MetricOwner.JOB
+# The model reading a whole item, for a creation time fromisoformat does not read.
+_read: Final = functools.partial(ApiMetricsData.from_json, owner=MetricOwner.JOB)
 # What the model reads as a STANDARD item: the member's text, or no type at all.
 _STANDARD_TYPES: Final = frozenset({"STANDARD", "", None})
 # The fields the model reads, in one call: most items have them all.
@@ -91,20 +97,12 @@ def read_listed_data(items: list[Any], wanted: Collection[str]) -> ListedData | 
         ):
             return None
         if job_id != checked_job:
-            if type(job_id) is str:
-                if job_id and ID_FULLMATCH(job_id) is None:
-                    return None
-            elif job_id is not None:
+            if not is_owner_id(job_id):
                 return None
             checked_job = job_id
         if type(created) is str:
-            if created and created != timestamp and not zoned(created):
-                # Not one `datetime.fromisoformat` reads with a zone: the model decides,
-                # reading the whole item (it reads more than fromisoformat does).
-                try:
-                    ApiMetricsData.from_json(item, owner=_JOB)
-                except ApiResponseError:
-                    return None
+            if created and created != timestamp and not model_reads_time(created, item, _read):
+                return None
             timestamp = created
         elif created is not None:
             return None

@@ -26,16 +26,21 @@ from stook.service.api import (
     ApiMetric,
     ApiMetricStatus,
     ApiMetricType,
-    ApiResponseError,
     MetricOwner,
 )
-from stook.service.fetch._listing_checks import ID_FULLMATCH, are_ids, field_reader, zoned
+from stook.service.fetch._listing_checks import (
+    are_ids,
+    field_reader,
+    is_owner_id,
+    model_reads_time,
+)
 
 __all__ = ["ListedScalars", "read_listed_scalars"]
 
 _SCALAR: Final = ApiMetricType.SCALAR.value
 _NO_STATUS: Final = ApiMetricStatus.NO_STATUS_REPORTED.value
-_JOB: Final = MetricOwner.JOB
+# The model reading a whole item, for a creation time fromisoformat does not read.
+_read: Final = functools.partial(ApiMetric.from_json, owner=MetricOwner.JOB)
 # The fields the model reads, in one call: most items have them all.
 _KEYS: Final = (
     "metricID",
@@ -143,21 +148,12 @@ def read_listed_scalars(items: list[Any]) -> ListedScalars | None:
         ):
             return None
         if job_id != checked_job or batch_id != checked_batch:
-            for owner_id in (job_id, batch_id):
-                if type(owner_id) is str:
-                    if owner_id and ID_FULLMATCH(owner_id) is None:
-                        return None
-                elif owner_id is not None:
-                    return None
+            if not (is_owner_id(job_id) and is_owner_id(batch_id)):
+                return None
             checked_job, checked_batch = job_id, batch_id
         if type(created) is str:
-            if created and created != timestamp and not zoned(created):
-                # Not one `datetime.fromisoformat` reads with a zone: the model decides,
-                # reading the whole item (it reads more than fromisoformat does).
-                try:
-                    ApiMetric.from_json(item, owner=_JOB)
-                except ApiResponseError:
-                    return None
+            if created and created != timestamp and not model_reads_time(created, item, _read):
+                return None
             timestamp = created
         elif created is not None:
             return None

@@ -10,7 +10,9 @@ from datetime import datetime
 from operator import itemgetter
 from typing import Any, Final
 
-__all__ = ["ID_FULLMATCH", "are_ids", "field_reader", "zoned"]
+from stook.service.api import ApiResponseError
+
+__all__ = ["ID_FULLMATCH", "are_ids", "field_reader", "is_owner_id", "model_reads_time", "zoned"]
 
 # An ID as the API writes it: what the model reads without a doubt (uuid.UUID accepts
 # more, which goes the model's way).
@@ -31,6 +33,27 @@ def zoned(text: str) -> bool:
         return _from_iso(text).tzinfo is not None
     except ValueError:
         return False
+
+
+def is_owner_id(value: object) -> bool:
+    """Whether the model reads `value` as an item's owner ID: none, empty, or an ID as the
+    API writes it (`ID_FULLMATCH`)."""
+    if type(value) is str:
+        return not value or ID_FULLMATCH(value) is not None
+    return value is None
+
+
+def model_reads_time(text: str, item: dict[str, Any], read: Callable[[Any], object]) -> bool:
+    """Whether the model reads `text`, `item`'s creation time: one `datetime.fromisoformat`
+    reads with a zone or, failing that, whatever `read` (the model reading the whole item:
+    it reads more than fromisoformat does) accepts."""
+    if zoned(text):
+        return True
+    try:
+        read(item)
+    except ApiResponseError:
+        return False
+    return True
 
 
 def are_ids(ids: list[str]) -> bool:
