@@ -198,3 +198,26 @@ def compare_report_whole_process(
         result["resim_median_s"] = round(statistics.median(runs["resim"]), 3)
         result["speedup"] = round(result["resim_median_s"] / result["stook_median_s"], 1)
     return result
+
+
+REPORT_SPEEDUP_TARGET: Final = 10.0  # issue 13: report mode against ReSim's default report
+
+
+def report_target(runs: list[dict[str, Any]]) -> dict[str, Any]:
+    """The report-mode target from `compare_report_with_resim` runs: their median speedup
+    (no target where ReSim's report could not be run)."""
+    speedups = sorted(r["speedup"] for r in runs if "speedup" in r)
+    if not speedups:
+        return {}
+    first = runs[0]
+    median = statistics.median(speedups)
+    return {
+        "report_vs_resim": {
+            "at": f"{first['batches']} batches x {first['jobs_per_batch']} jobs, "
+            f"{first['latency_ms']:g} ms, median of {len(speedups)}",
+            "measured": round(median, 1),
+            "by_run": [round(s, 1) for s in speedups],
+            "target": f">= {REPORT_SPEEDUP_TARGET:g}",
+            "met": median >= REPORT_SPEEDUP_TARGET,
+        }
+    }
