@@ -19,15 +19,13 @@ Doubles per second = `doubles` (in extra_info) x the benchmark's operations per 
 
 from __future__ import annotations
 
-import math
-import random
 import uuid
 from collections.abc import Callable
 from typing import Any
 
 import pytest
 
-from stook.sdk import MetricsWriter, data
+from stook.bench._decode import job_payloads
 from stook.sdk._reader import read_metrics_data
 from stook.sdk.aggregations import JobRecord, MergedHistogram, Scalar, SeriesByName, WeightedMean
 
@@ -36,14 +34,8 @@ SHAPES = {"job-sized": (100, 300), "long-job": (100, 3_000), "large": (1, 300_00
 
 
 def payloads(count: int, length: int) -> list[bytes]:
-    rng = random.Random(7)
-    out = []
-    for i in range(count):
-        writer = MetricsWriter(uuid.UUID(int=i + 1), deterministic=True)
-        values = [max(0.0, 18 + 6 * math.sin(k / 15) + rng.random()) for k in range(length)]
-        writer.add_data(data.doubles("speeds", values, unit="m/s"))
-        out.append(writer.to_proto().metrics_data[0].SerializeToString())
-    return out
+    # The same payloads `stook bench` times (its `decode_reduce` target).
+    return job_payloads(count, length)
 
 
 def histogram(counts_mode: bool) -> MergedHistogram:
