@@ -143,6 +143,41 @@ async def test_a_jobs_listings_as_lists_read_every_page_as_its_items_do(
     assert data_hits == [(f"{base}/metricsData", {"pageSize": "2"})] * 3
 
 
+@pytest.mark.parametrize(
+    "page",
+    [
+        {},
+        {"metrics": None, "nextPageToken": ""},
+        {"metrics": [], "nextPageToken": None},
+        {"metrics": [{"metricID": "a"}, {"name": "b"}], "total": 2},
+        {"metrics": [{"metricID": "a"}], "nextPageToken": 0},
+        {"metrics": "many"},
+        {"metrics": {"metricID": "a"}},
+        {"metrics": [{"metricID": "a"}, ["b"]]},
+        {"metrics": [{"metricID": "a"}, None]},
+        {"metrics": [{"metricID": "a"}], "nextPageToken": 7},
+    ],
+)
+async def test_a_one_page_listing_as_a_list_reads_as_paginate_reads_it(
+    server: ScriptedServer, fast_policy: RetryPolicy, page: dict[str, Any]
+) -> None:
+    """`_all_items` hands on a listing's only page without the paging state: the same
+    items, or the same error, as paginate's."""
+    job = uuid.UUID(int=7)
+    path = f"/projects/{PROJECT}/batches/{BATCH}/jobs/{job}/metrics"
+    server.script(f"/v1{path}", answer_json(page), answer_json(page))
+    async with client(server, fast_policy) as api:
+        try:
+            expected: object = [item async for item in api.paginate(path, "metrics")]
+        except ApiResponseError as exc:
+            expected = str(exc)
+        try:
+            got: object = await api.all_job_metric_items(PROJECT, BATCH, job)
+        except ApiResponseError as exc:
+            got = str(exc)
+    assert got == expected
+
+
 async def test_missing_next_page_token_and_missing_items_end_the_list(
     server: ScriptedServer, fast_policy: RetryPolicy
 ) -> None:

@@ -416,15 +416,24 @@ class ApiClient:
         none per page (a job's listing is two dozen items or fewer, on one page).
 
         `path` starts with "/" and holds literal segments and `_id`s only."""
-        paging = _Paging(self, path, items_key, None, None, None)
         # The first page's URL written out: `path` is made of literal segments and `_id`s,
         # so it needs no quoting, and the first page's query is always the same; `_url`
         # would check and build both for every job's listings (half of their own CPU).
         url = URL(self._base_text + path + self._first_page_query, encoded=True)
-        items: list[dict[str, Any]] = []
-        while paging.more:
-            items.extend(paging.take(await self._get_document(url)))
-            url = self._url(path, paging.query)
+        page = await self._get_document(url)
+        items = page.get(items_key)
+        if type(items) is list and not page.get("nextPageToken"):
+            # The only page, of objects (a job's listing, as a rule): what `take` would
+            # hand on, without the paging state it keeps for further pages.
+            for item in items:
+                if type(item) is not dict:
+                    break
+            else:
+                return items
+        paging = _Paging(self, path, items_key, None, None, None)
+        items = paging.take(page)
+        while paging.more:  # the next page's URL only when there is one (a job's: none)
+            items = items + paging.take(await self._get_document(self._url(path, paging.query)))
         return items
 
     def _url(self, path: str, params: Mapping[str, str | int] | None = None) -> URL:
