@@ -115,6 +115,7 @@ def test_items_read_as_the_model_reads_them(change: dict[str, Any]) -> None:
         {"creationTimestamp": None},
         {"jobID": ""},
         {"batchID": None},
+        {"jobID": IDS[3].upper(), "batchID": IDS[4]},
         {"projectID": None, "orgID": 3},  # fields the model does not read
     ],
 )
@@ -181,6 +182,9 @@ def test_a_malformed_item_goes_to_the_model_which_words_the_error(
         {"metricID": "{" + IDS[0] + "}"},
         {"metricID": IDS[0].replace("-", "")},
         {"dataIDs": ["urn:uuid:" + IDS[1]]},
+        # Owner IDs are checked with the listing's other IDs (see is_owner_id).
+        {"jobID": "{" + IDS[0] + "}"},
+        {"batchID": IDS[0].replace("-", "")},
     ],
 )
 def test_ids_the_model_accepts_besides_go_its_way(change: dict[str, Any]) -> None:

@@ -76,7 +76,7 @@ def read_listed_data(items: list[Any], wanted: Collection[str]) -> ListedData | 
     # less than a set's hash of a new string).
     checked_job: object = None
     timestamp = ""  # the last item's, checked: a listing's items were created together
-    ids: list[str] = []  # the data IDs, checked at once
+    ids: list[str] = []  # the data and owner IDs, checked at once
     fields_of = _fields()
     for item in items:
         if type(item) is not dict:
@@ -97,7 +97,7 @@ def read_listed_data(items: list[Any], wanted: Collection[str]) -> ListedData | 
         ):
             return None
         if job_id != checked_job:
-            if not is_owner_id(job_id):
+            if not is_owner_id(job_id, ids):
                 return None
             checked_job = job_id
         if type(created) is str:

@@ -94,7 +94,7 @@ def read_listed_scalars(items: list[Any]) -> ListedScalars | None:
     checked_job: object = None
     checked_batch: object = None
     timestamp = ""  # the last item's, checked: a listing's items were created together
-    ids: list[str] = []  # the metric and data IDs, checked at once
+    ids: list[str] = []  # the metric, data and owner IDs, checked at once
     fields_of = _fields()
     for item in items:
         if type(item) is not dict:
@@ -148,7 +148,7 @@ def read_listed_scalars(items: list[Any]) -> ListedScalars | None:
         ):
             return None
         if job_id != checked_job or batch_id != checked_batch:
-            if not (is_owner_id(job_id) and is_owner_id(batch_id)):
+            if not (is_owner_id(job_id, ids) and is_owner_id(batch_id, ids)):
                 return None
             checked_job, checked_batch = job_id, batch_id
         if type(created) is str:
