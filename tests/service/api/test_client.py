@@ -178,6 +178,30 @@ async def test_a_one_page_listing_as_a_list_reads_as_paginate_reads_it(
     assert got == expected
 
 
+async def test_a_jobs_listings_name_its_own_batch_whatever_came_before(
+    server: ScriptedServer, fast_policy: RetryPolicy
+) -> None:
+    """The batch's part of a job's path is remembered (`_job_path`), never for another."""
+    other_batch, job = uuid.UUID(int=8), uuid.UUID(int=7)
+    asked = [
+        (PROJECT, BATCH),
+        (str(PROJECT), BATCH),
+        (PROJECT, other_batch),
+        (PROJECT, str(other_batch).upper()),
+        (PROJECT, BATCH),
+    ]
+    for batch in (BATCH, other_batch):
+        path = f"/v1/projects/{PROJECT}/batches/{batch}/jobs/{job}/metrics"
+        server.script(path, *[answer_json({"metrics": []})] * 3)
+    async with client(server, fast_policy) as api:
+        for project_id, batch_id in asked:
+            assert await api.all_job_metric_items(project_id, batch_id, job) == []
+        with pytest.raises(ValueError, match="not a UUID"):
+            await api.all_job_metric_items(PROJECT, "no batch", job)
+    assert len(server.hits(f"/v1/projects/{PROJECT}/batches/{BATCH}/jobs/{job}/metrics")) == 3
+    assert len(server.hits(f"/v1/projects/{PROJECT}/batches/{other_batch}/jobs/{job}/metrics")) == 2
+
+
 async def test_missing_next_page_token_and_missing_items_end_the_list(
     server: ScriptedServer, fast_policy: RetryPolicy
 ) -> None:

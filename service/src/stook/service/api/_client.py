@@ -134,6 +134,8 @@ class ApiClient:
         self._page_size = page_size
         # What `_url` makes of a listing's first page's query ({"pageSize": page_size}).
         self._first_page_query = f"?pageSize={page_size}"
+        # The last batch whose jobs' paths were made, by its IDs' identity (see _job_path).
+        self._batch_path: tuple[IdLike, IdLike, str] | None = None
         # Shared by every API request: when the API fails, they wait together.
         self.gate = new_gate("the API", self._policy)
         if concurrency < 1:
@@ -288,35 +290,35 @@ class ApiClient:
         self, project_id: IdLike, batch_id: IdLike, job_id: IdLike
     ) -> AsyncIterator[ApiMetric]:
         """The metrics a job's metrics build produced."""
-        path = f"/projects/{_id(project_id)}/batches/{_id(batch_id)}/jobs/{_id(job_id)}/metrics"
+        path = self._job_path(project_id, batch_id, job_id) + "/metrics"
         return self._list(path, "metrics", _JOB_METRIC)
 
     def list_job_metrics_data(
         self, project_id: IdLike, batch_id: IdLike, job_id: IdLike
     ) -> AsyncIterator[ApiMetricsData]:
         """The metrics-data files of a job (all storage types; filter on ``is_standard``)."""
-        path = f"/projects/{_id(project_id)}/batches/{_id(batch_id)}/jobs/{_id(job_id)}/metricsData"
+        path = self._job_path(project_id, batch_id, job_id) + "/metricsData"
         return self._list(path, "metricsData", _JOB_DATA)
 
     def all_job_metrics(
         self, project_id: IdLike, batch_id: IdLike, job_id: IdLike
     ) -> Awaitable[list[ApiMetric]]:
         """`list_job_metrics` as one list, for less CPU than collecting its items."""
-        path = f"/projects/{_id(project_id)}/batches/{_id(batch_id)}/jobs/{_id(job_id)}/metrics"
+        path = self._job_path(project_id, batch_id, job_id) + "/metrics"
         return self._list_all(path, "metrics", _JOB_METRIC)
 
     def all_job_metrics_data(
         self, project_id: IdLike, batch_id: IdLike, job_id: IdLike
     ) -> Awaitable[list[ApiMetricsData]]:
         """`list_job_metrics_data` as one list, for less CPU than collecting its items."""
-        path = f"/projects/{_id(project_id)}/batches/{_id(batch_id)}/jobs/{_id(job_id)}/metricsData"
+        path = self._job_path(project_id, batch_id, job_id) + "/metricsData"
         return self._list_all(path, "metricsData", _JOB_DATA)
 
     def list_job_events(
         self, project_id: IdLike, batch_id: IdLike, job_id: IdLike
     ) -> AsyncIterator[JobEventListing]:
         """The events a job's metrics build recorded (without their data)."""
-        path = f"/projects/{_id(project_id)}/batches/{_id(batch_id)}/jobs/{_id(job_id)}/events"
+        path = self._job_path(project_id, batch_id, job_id) + "/events"
         return self._list(path, "events", JobEventListing.from_json)
 
     def list_experience_tags(
@@ -356,7 +358,7 @@ class ApiClient:
         them: for a caller that reads a few fields of each (report mode).
         `ApiMetric.from_json(item, owner=MetricOwner.JOB)` reads one as `list_job_metrics`
         does, errors included."""
-        path = f"/projects/{_id(project_id)}/batches/{_id(batch_id)}/jobs/{_id(job_id)}/metrics"
+        path = self._job_path(project_id, batch_id, job_id) + "/metrics"
         return self._all_items(path, "metrics")
 
     def all_job_metrics_data_items(
@@ -365,7 +367,7 @@ class ApiClient:
         """`list_job_metrics_data`' items unread, as one list of JSON objects as the API
         wrote them: for a caller that reads a few fields of each (batch mode).
         `read_job_metrics_data` reads one as `list_job_metrics_data` does."""
-        path = f"/projects/{_id(project_id)}/batches/{_id(batch_id)}/jobs/{_id(job_id)}/metricsData"
+        path = self._job_path(project_id, batch_id, job_id) + "/metricsData"
         return self._all_items(path, "metricsData")
 
     @staticmethod
@@ -435,6 +437,16 @@ class ApiClient:
         while paging.more:  # the next page's URL only when there is one (a job's: none)
             items = items + paging.take(await self._get_document(self._url(path, paging.query)))
         return items
+
+    def _job_path(self, project_id: IdLike, batch_id: IdLike, job_id: IdLike) -> str:
+        """`/projects/{project}/batches/{batch}/jobs/{job}`, the batch's part remembered:
+        a batch run lists two listings of each of its jobs, and formatting the same two
+        IDs for each cost more than the job's."""
+        batch = self._batch_path
+        if batch is None or batch[0] is not project_id or batch[1] is not batch_id:
+            prefix = f"/projects/{_id(project_id)}/batches/{_id(batch_id)}/jobs/"
+            batch = self._batch_path = (project_id, batch_id, prefix)
+        return batch[2] + _id(job_id)
 
     def _url(self, path: str, params: Mapping[str, str | int] | None = None) -> URL:
         """The URL of `path` under the base URL, with `params` as its query.

@@ -54,7 +54,9 @@ def _fields() -> Callable[[dict[str, Any]], tuple[Any, ...]]:
     return field_reader(_KEYS)
 
 
-@dataclass(frozen=True, slots=True)
+# Not frozen: one per job, and a frozen dataclass's __init__ costs three times the plain
+# one (each field set through object.__setattr__). Nobody changes one.
+@dataclass(slots=True)
 class ListedData:
     """A job's metrics-data listing as batch mode reads it: every named item's name (in
     listing order), how many items have no name, and the STANDARD items whose name is

@@ -64,7 +64,9 @@ def _fields() -> Callable[[dict[str, Any]], tuple[Any, ...]]:
     return field_reader(_KEYS)
 
 
-@dataclass(frozen=True, slots=True)
+# Not frozen: a frozen dataclass sets each field through object.__setattr__, three times
+# the cost of the plain __init__, for one of these per job. Nobody changes one.
+@dataclass(slots=True)
 class ListedScalars:
     """A job's metric listing as report and batch mode read it: each SCALAR's (value,
     unit) by name (the last of a name wins), every named SCALAR's name, and each item's
