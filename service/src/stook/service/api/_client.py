@@ -7,11 +7,12 @@ token cannot follow a presigned URL (or a redirect from one) to another host.
 
 from __future__ import annotations
 
+import functools
 import json
 import re
 import uuid
 from collections.abc import AsyncIterator, Awaitable, Callable, Mapping
-from types import TracebackType
+from types import ModuleType, TracebackType
 from typing import Any, Final, Self, TypeVar
 
 from aiohttp import hdrs
@@ -216,8 +217,18 @@ class ApiClient:
         """GET ``path`` (relative to the base URL) and return its JSON object."""
         return await self._get_document(self._url(path, params))
 
-    async def _get_document(self, url: URL) -> dict[str, Any]:
+    def _get_document(self, url: URL) -> Awaitable[dict[str, Any]]:
         """GET `url` and return its JSON object."""
+        return self._get(url)
+
+    async def _get(self, url: URL, listing: tuple[str, str] | None = None) -> Any:
+        """GET `url` and return its JSON object (`_get_document`); with `listing` (its path
+        and items key), that listing's items, from this first page on (`_all_items`).
+
+        One coroutine for both: a job's listing is one page, and a coroutine fewer between
+        the worker and the transport saves a frame's resumption at every step of its
+        request.
+        """
         # The first attempt in this frame (see sent_at_once); the rest, if any, retried.
         gate = self.gate
         first: tuple[Exception, int] | None = None
@@ -251,7 +262,19 @@ class ApiClient:
             raise ApiResponseError(
                 f"GET {redact_url(url)}: expected a JSON object, got {type(document).__name__}"
             )
-        return document
+        if listing is None:
+            return document
+        path, items_key = listing
+        items = document.get(items_key)
+        if type(items) is list and not document.get("nextPageToken"):
+            # The only page, of objects (a job's listing, as a rule): what `take` would
+            # hand on, without the paging state it keeps for further pages.
+            for item in items:
+                if type(item) is not dict:
+                    break
+            else:
+                return items
+        return await self._rest_of_listing(path, items_key, document)
 
     async def paginate(
         self,
@@ -413,25 +436,22 @@ class ApiClient:
         """What `_list` yields, as one list."""
         return list(map(parse, await self._all_items(path, items_key)))
 
-    async def _all_items(self, path: str, items_key: str) -> list[dict[str, Any]]:
+    def _all_items(self, path: str, items_key: str) -> Awaitable[list[dict[str, Any]]]:
         """What `paginate` yields, as one list: with no async generator step per item, and
-        none per page (a job's listing is two dozen items or fewer, on one page).
+        none per page (a job's listing is two dozen items or fewer, on one page), in
+        `_get`'s coroutine.
 
         `path` starts with "/" and holds literal segments and `_id`s only."""
         # The first page's URL written out: `path` is made of literal segments and `_id`s,
         # so it needs no quoting, and the first page's query is always the same; `_url`
         # would check and build both for every job's listings (half of their own CPU).
         url = URL(self._base_text + path + self._first_page_query, encoded=True)
-        page = await self._get_document(url)
-        items = page.get(items_key)
-        if type(items) is list and not page.get("nextPageToken"):
-            # The only page, of objects (a job's listing, as a rule): what `take` would
-            # hand on, without the paging state it keeps for further pages.
-            for item in items:
-                if type(item) is not dict:
-                    break
-            else:
-                return items
+        return self._get(url, (path, items_key))
+
+    async def _rest_of_listing(
+        self, path: str, items_key: str, page: dict[str, Any]
+    ) -> list[dict[str, Any]]:
+        """A listing's items from its first `page` on, every page's (see `_all_items`)."""
         paging = _Paging(self, path, items_key, None, None, None)
         items = paging.take(page)
         while paging.more:  # the next page's URL only when there is one (a job's: none)
@@ -572,12 +592,20 @@ def _loads(body: bytes) -> Any:
     difference remains: an integer past 64 bits comes as the nearest double, as from most
     JSON parsers (RFC 8259 calls such numbers not interoperable); no API field holds one.
     """
-    import orjson  # not before the first answer: start-up
-
+    orjson = _orjson()
     try:
         return orjson.loads(body)
     except orjson.JSONDecodeError:
         return json.loads(body)
+
+
+@functools.cache
+def _orjson() -> ModuleType:
+    """orjson, imported with the first answer, not with this module (start-up), and then
+    remembered: an import statement runs importlib's checks on every answer."""
+    import orjson
+
+    return orjson
 
 
 def _id(value: IdLike) -> str:
