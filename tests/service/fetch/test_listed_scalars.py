@@ -24,6 +24,10 @@ MALFORMED: list[dict[str, Any]] = [
     {"value": [1.5]},
     {"dataIDs": ["nope"]},
     {"dataIDs": [3]},
+    # Not strings: checked by are_ids with the other IDs.
+    {"dataIDs": [None]},
+    {"dataIDs": [IDS[1], [IDS[2]]]},
+    {"metricID": [IDS[0]]},
     {"dataIDs": "nope"},
     {"dataIDs": {}},
     {"dataIDs": 0},

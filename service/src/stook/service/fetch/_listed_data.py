@@ -88,9 +88,8 @@ def read_listed_data(items: list[Any], wanted: Collection[str]) -> ListedData | 
         except KeyError:  # a field left out: read as null, as the model reads it
             fields = tuple(map(item.get, _KEYS))
         data_id, name, kind, url, filename, job_id, created = fields
-        # The model's checks, each field for the shapes it reads as they are.
-        if type(data_id) is not str:
-            return None
+        # The model's checks, each field for the shapes it reads as they are. The IDs are
+        # checked at the end, all at once, their types too (`are_ids`).
         ids.append(data_id)
         if (
             (type(kind) is not str and kind is not None)

@@ -119,9 +119,8 @@ def read_listed_scalars(items: list[Any]) -> ListedScalars | None:
             batch_id,
             created,
         ) = fields
-        # The model's checks, each field for the shapes it reads as they are.
-        if type(metric_id) is not str:
-            return None
+        # The model's checks, each field for the shapes it reads as they are. The IDs are
+        # checked at the end, all at once, their types too (`are_ids`).
         ids.append(metric_id)
         if type(kind) is not str and kind is not None:
             return None
@@ -135,9 +134,6 @@ def read_listed_scalars(items: list[Any]) -> ListedScalars | None:
         if type(value) is not float and value is not None:
             return None  # an integer the model converts; anything else it refuses
         if type(data_ids) is list:
-            for data_id in data_ids:
-                if type(data_id) is not str:
-                    return None
             ids += data_ids
         elif data_ids is not None:
             return None
