@@ -15,7 +15,7 @@ from multidict import CIMultiDict, CIMultiDictProxy
 from tenacity import wait_none
 from yarl import URL
 
-from stook.service.api._client import ApiClient
+from stook.service.api._client import ApiClient, IdLike
 from stook.service.api._errors import (
     ApiResponseError,
     ApiStatusError,
@@ -183,7 +183,7 @@ async def test_a_jobs_listings_name_its_own_batch_whatever_came_before(
 ) -> None:
     """The batch's part of a job's path is remembered (`_job_path`), never for another."""
     other_batch, job = uuid.UUID(int=8), uuid.UUID(int=7)
-    asked = [
+    asked: list[tuple[IdLike, IdLike]] = [
         (PROJECT, BATCH),
         (str(PROJECT), BATCH),
         (PROJECT, other_batch),
