@@ -15,7 +15,7 @@ from multidict import CIMultiDict, CIMultiDictProxy
 from tenacity import wait_none
 from yarl import URL
 
-from stook.service.api._client import ApiClient
+from stook.service.api._client import ApiClient, IdLike
 from stook.service.api._errors import (
     ApiResponseError,
     ApiStatusError,
@@ -141,6 +141,65 @@ async def test_a_jobs_listings_as_lists_read_every_page_as_its_items_do(
     assert asked[0][1] == {"pageSize": "2"}
     data_hits = [(hit.path, hit.query) for hit in server.hits(f"{base}/metricsData")]
     assert data_hits == [(f"{base}/metricsData", {"pageSize": "2"})] * 3
+
+
+@pytest.mark.parametrize(
+    "page",
+    [
+        {},
+        {"metrics": None, "nextPageToken": ""},
+        {"metrics": [], "nextPageToken": None},
+        {"metrics": [{"metricID": "a"}, {"name": "b"}], "total": 2},
+        {"metrics": [{"metricID": "a"}], "nextPageToken": 0},
+        {"metrics": "many"},
+        {"metrics": {"metricID": "a"}},
+        {"metrics": [{"metricID": "a"}, ["b"]]},
+        {"metrics": [{"metricID": "a"}, None]},
+        {"metrics": [{"metricID": "a"}], "nextPageToken": 7},
+    ],
+)
+async def test_a_one_page_listing_as_a_list_reads_as_paginate_reads_it(
+    server: ScriptedServer, fast_policy: RetryPolicy, page: dict[str, Any]
+) -> None:
+    """`_all_items` hands on a listing's only page without the paging state: the same
+    items, or the same error, as paginate's."""
+    job = uuid.UUID(int=7)
+    path = f"/projects/{PROJECT}/batches/{BATCH}/jobs/{job}/metrics"
+    server.script(f"/v1{path}", answer_json(page), answer_json(page))
+    async with client(server, fast_policy) as api:
+        try:
+            expected: object = [item async for item in api.paginate(path, "metrics")]
+        except ApiResponseError as exc:
+            expected = str(exc)
+        try:
+            got: object = await api.all_job_metric_items(PROJECT, BATCH, job)
+        except ApiResponseError as exc:
+            got = str(exc)
+    assert got == expected
+
+
+async def test_a_jobs_listings_name_its_own_batch_whatever_came_before(
+    server: ScriptedServer, fast_policy: RetryPolicy
+) -> None:
+    """The batch's part of a job's path is remembered (`_job_path`), never for another."""
+    other_batch, job = uuid.UUID(int=8), uuid.UUID(int=7)
+    asked: list[tuple[IdLike, IdLike]] = [
+        (PROJECT, BATCH),
+        (str(PROJECT), BATCH),
+        (PROJECT, other_batch),
+        (PROJECT, str(other_batch).upper()),
+        (PROJECT, BATCH),
+    ]
+    for batch in (BATCH, other_batch):
+        path = f"/v1/projects/{PROJECT}/batches/{batch}/jobs/{job}/metrics"
+        server.script(path, *[answer_json({"metrics": []})] * 3)
+    async with client(server, fast_policy) as api:
+        for project_id, batch_id in asked:
+            assert await api.all_job_metric_items(project_id, batch_id, job) == []
+        with pytest.raises(ValueError, match="not a UUID"):
+            await api.all_job_metric_items(PROJECT, "no batch", job)
+    assert len(server.hits(f"/v1/projects/{PROJECT}/batches/{BATCH}/jobs/{job}/metrics")) == 3
+    assert len(server.hits(f"/v1/projects/{PROJECT}/batches/{other_batch}/jobs/{job}/metrics")) == 2
 
 
 async def test_missing_next_page_token_and_missing_items_end_the_list(

@@ -21,6 +21,7 @@ MALFORMED: list[dict[str, Any]] = [
     {"dataID": ""},
     {"dataID": None},
     {"dataID": 3},
+    {"dataID": [IDS[0]]},
     {"name": 3},
     {"name": ["speeds"]},
     {"metricsDataType": 3},

@@ -24,6 +24,10 @@ MALFORMED: list[dict[str, Any]] = [
     {"value": [1.5]},
     {"dataIDs": ["nope"]},
     {"dataIDs": [3]},
+    # Not strings: checked by are_ids with the other IDs.
+    {"dataIDs": [None]},
+    {"dataIDs": [IDS[1], [IDS[2]]]},
+    {"metricID": [IDS[0]]},
     {"dataIDs": "nope"},
     {"dataIDs": {}},
     {"dataIDs": 0},
@@ -115,6 +119,7 @@ def test_items_read_as_the_model_reads_them(change: dict[str, Any]) -> None:
         {"creationTimestamp": None},
         {"jobID": ""},
         {"batchID": None},
+        {"jobID": IDS[3].upper(), "batchID": IDS[4]},
         {"projectID": None, "orgID": 3},  # fields the model does not read
     ],
 )
@@ -181,6 +186,9 @@ def test_a_malformed_item_goes_to_the_model_which_words_the_error(
         {"metricID": "{" + IDS[0] + "}"},
         {"metricID": IDS[0].replace("-", "")},
         {"dataIDs": ["urn:uuid:" + IDS[1]]},
+        # Owner IDs are checked with the listing's other IDs (see is_owner_id).
+        {"jobID": "{" + IDS[0] + "}"},
+        {"batchID": IDS[0].replace("-", "")},
     ],
 )
 def test_ids_the_model_accepts_besides_go_its_way(change: dict[str, Any]) -> None:

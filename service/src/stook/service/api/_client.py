@@ -7,11 +7,12 @@ token cannot follow a presigned URL (or a redirect from one) to another host.
 
 from __future__ import annotations
 
+import functools
 import json
 import re
 import uuid
 from collections.abc import AsyncIterator, Awaitable, Callable, Mapping
-from types import TracebackType
+from types import ModuleType, TracebackType
 from typing import Any, Final, Self, TypeVar
 
 from aiohttp import hdrs
@@ -134,6 +135,8 @@ class ApiClient:
         self._page_size = page_size
         # What `_url` makes of a listing's first page's query ({"pageSize": page_size}).
         self._first_page_query = f"?pageSize={page_size}"
+        # The last batch whose jobs' paths were made, by its IDs' identity (see _job_path).
+        self._batch_path: tuple[IdLike, IdLike, str] | None = None
         # Shared by every API request: when the API fails, they wait together.
         self.gate = new_gate("the API", self._policy)
         if concurrency < 1:
@@ -214,8 +217,18 @@ class ApiClient:
         """GET ``path`` (relative to the base URL) and return its JSON object."""
         return await self._get_document(self._url(path, params))
 
-    async def _get_document(self, url: URL) -> dict[str, Any]:
+    def _get_document(self, url: URL) -> Awaitable[dict[str, Any]]:
         """GET `url` and return its JSON object."""
+        return self._get(url)
+
+    async def _get(self, url: URL, listing: tuple[str, str] | None = None) -> Any:
+        """GET `url` and return its JSON object (`_get_document`); with `listing` (its path
+        and items key), that listing's items, from this first page on (`_all_items`).
+
+        One coroutine for both: a job's listing is one page, and a coroutine fewer between
+        the worker and the transport saves a frame's resumption at every step of its
+        request.
+        """
         # The first attempt in this frame (see sent_at_once); the rest, if any, retried.
         gate = self.gate
         first: tuple[Exception, int] | None = None
@@ -249,7 +262,19 @@ class ApiClient:
             raise ApiResponseError(
                 f"GET {redact_url(url)}: expected a JSON object, got {type(document).__name__}"
             )
-        return document
+        if listing is None:
+            return document
+        path, items_key = listing
+        items = document.get(items_key)
+        if type(items) is list and not document.get("nextPageToken"):
+            # The only page, of objects (a job's listing, as a rule): what `take` would
+            # hand on, without the paging state it keeps for further pages.
+            for item in items:
+                if type(item) is not dict:
+                    break
+            else:
+                return items
+        return await self._rest_of_listing(path, items_key, document)
 
     async def paginate(
         self,
@@ -288,35 +313,35 @@ class ApiClient:
         self, project_id: IdLike, batch_id: IdLike, job_id: IdLike
     ) -> AsyncIterator[ApiMetric]:
         """The metrics a job's metrics build produced."""
-        path = f"/projects/{_id(project_id)}/batches/{_id(batch_id)}/jobs/{_id(job_id)}/metrics"
+        path = self._job_path(project_id, batch_id, job_id) + "/metrics"
         return self._list(path, "metrics", _JOB_METRIC)
 
     def list_job_metrics_data(
         self, project_id: IdLike, batch_id: IdLike, job_id: IdLike
     ) -> AsyncIterator[ApiMetricsData]:
         """The metrics-data files of a job (all storage types; filter on ``is_standard``)."""
-        path = f"/projects/{_id(project_id)}/batches/{_id(batch_id)}/jobs/{_id(job_id)}/metricsData"
+        path = self._job_path(project_id, batch_id, job_id) + "/metricsData"
         return self._list(path, "metricsData", _JOB_DATA)
 
     def all_job_metrics(
         self, project_id: IdLike, batch_id: IdLike, job_id: IdLike
     ) -> Awaitable[list[ApiMetric]]:
         """`list_job_metrics` as one list, for less CPU than collecting its items."""
-        path = f"/projects/{_id(project_id)}/batches/{_id(batch_id)}/jobs/{_id(job_id)}/metrics"
+        path = self._job_path(project_id, batch_id, job_id) + "/metrics"
         return self._list_all(path, "metrics", _JOB_METRIC)
 
     def all_job_metrics_data(
         self, project_id: IdLike, batch_id: IdLike, job_id: IdLike
     ) -> Awaitable[list[ApiMetricsData]]:
         """`list_job_metrics_data` as one list, for less CPU than collecting its items."""
-        path = f"/projects/{_id(project_id)}/batches/{_id(batch_id)}/jobs/{_id(job_id)}/metricsData"
+        path = self._job_path(project_id, batch_id, job_id) + "/metricsData"
         return self._list_all(path, "metricsData", _JOB_DATA)
 
     def list_job_events(
         self, project_id: IdLike, batch_id: IdLike, job_id: IdLike
     ) -> AsyncIterator[JobEventListing]:
         """The events a job's metrics build recorded (without their data)."""
-        path = f"/projects/{_id(project_id)}/batches/{_id(batch_id)}/jobs/{_id(job_id)}/events"
+        path = self._job_path(project_id, batch_id, job_id) + "/events"
         return self._list(path, "events", JobEventListing.from_json)
 
     def list_experience_tags(
@@ -356,7 +381,7 @@ class ApiClient:
         them: for a caller that reads a few fields of each (report mode).
         `ApiMetric.from_json(item, owner=MetricOwner.JOB)` reads one as `list_job_metrics`
         does, errors included."""
-        path = f"/projects/{_id(project_id)}/batches/{_id(batch_id)}/jobs/{_id(job_id)}/metrics"
+        path = self._job_path(project_id, batch_id, job_id) + "/metrics"
         return self._all_items(path, "metrics")
 
     def all_job_metrics_data_items(
@@ -365,7 +390,7 @@ class ApiClient:
         """`list_job_metrics_data`' items unread, as one list of JSON objects as the API
         wrote them: for a caller that reads a few fields of each (batch mode).
         `read_job_metrics_data` reads one as `list_job_metrics_data` does."""
-        path = f"/projects/{_id(project_id)}/batches/{_id(batch_id)}/jobs/{_id(job_id)}/metricsData"
+        path = self._job_path(project_id, batch_id, job_id) + "/metricsData"
         return self._all_items(path, "metricsData")
 
     @staticmethod
@@ -411,21 +436,37 @@ class ApiClient:
         """What `_list` yields, as one list."""
         return list(map(parse, await self._all_items(path, items_key)))
 
-    async def _all_items(self, path: str, items_key: str) -> list[dict[str, Any]]:
+    def _all_items(self, path: str, items_key: str) -> Awaitable[list[dict[str, Any]]]:
         """What `paginate` yields, as one list: with no async generator step per item, and
-        none per page (a job's listing is two dozen items or fewer, on one page).
+        none per page (a job's listing is two dozen items or fewer, on one page), in
+        `_get`'s coroutine.
 
         `path` starts with "/" and holds literal segments and `_id`s only."""
-        paging = _Paging(self, path, items_key, None, None, None)
         # The first page's URL written out: `path` is made of literal segments and `_id`s,
         # so it needs no quoting, and the first page's query is always the same; `_url`
         # would check and build both for every job's listings (half of their own CPU).
         url = URL(self._base_text + path + self._first_page_query, encoded=True)
-        items: list[dict[str, Any]] = []
-        while paging.more:
-            items.extend(paging.take(await self._get_document(url)))
-            url = self._url(path, paging.query)
+        return self._get(url, (path, items_key))
+
+    async def _rest_of_listing(
+        self, path: str, items_key: str, page: dict[str, Any]
+    ) -> list[dict[str, Any]]:
+        """A listing's items from its first `page` on, every page's (see `_all_items`)."""
+        paging = _Paging(self, path, items_key, None, None, None)
+        items = paging.take(page)
+        while paging.more:  # the next page's URL only when there is one (a job's: none)
+            items = items + paging.take(await self._get_document(self._url(path, paging.query)))
         return items
+
+    def _job_path(self, project_id: IdLike, batch_id: IdLike, job_id: IdLike) -> str:
+        """`/projects/{project}/batches/{batch}/jobs/{job}`, the batch's part remembered:
+        a batch run lists two listings of each of its jobs, and formatting the same two
+        IDs for each cost more than the job's."""
+        batch = self._batch_path
+        if batch is None or batch[0] is not project_id or batch[1] is not batch_id:
+            prefix = f"/projects/{_id(project_id)}/batches/{_id(batch_id)}/jobs/"
+            batch = self._batch_path = (project_id, batch_id, prefix)
+        return batch[2] + _id(job_id)
 
     def _url(self, path: str, params: Mapping[str, str | int] | None = None) -> URL:
         """The URL of `path` under the base URL, with `params` as its query.
@@ -551,12 +592,20 @@ def _loads(body: bytes) -> Any:
     difference remains: an integer past 64 bits comes as the nearest double, as from most
     JSON parsers (RFC 8259 calls such numbers not interoperable); no API field holds one.
     """
-    import orjson  # not before the first answer: start-up
-
+    orjson = _orjson()
     try:
         return orjson.loads(body)
     except orjson.JSONDecodeError:
         return json.loads(body)
+
+
+@functools.cache
+def _orjson() -> ModuleType:
+    """orjson, imported with the first answer, not with this module (start-up), and then
+    remembered: an import statement runs importlib's checks on every answer."""
+    import orjson
+
+    return orjson
 
 
 def _id(value: IdLike) -> str:

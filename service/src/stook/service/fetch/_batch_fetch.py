@@ -11,12 +11,13 @@ in memory at once, whatever the batch size.
 from __future__ import annotations
 
 import asyncio
+import functools
 import inspect
 import time
 import uuid
 from collections.abc import AsyncIterator, Awaitable, Callable, Sequence
 from dataclasses import dataclass, field
-from typing import Any, Final
+from typing import TYPE_CHECKING, Any, Final
 
 import structlog
 
@@ -38,6 +39,9 @@ from stook.service.fetch._job_extras import ExperienceTags, job_event
 from stook.service.fetch._listed_data import read_listed_data
 from stook.service.fetch._listed_scalars import ListedScalars, read_listed_scalars
 from stook.service.fetch._scalars import is_scalar, listed_scalars, read_scalars
+
+if TYPE_CHECKING:
+    from stook.service.fetch._job_blobs import JobBlobs
 
 __all__ = ["BatchFetcher", "FetchOutcome", "MissingJob", "OnJob"]
 
@@ -259,12 +263,7 @@ class BatchFetcher:
         outcome.data_names.update(data_names)
         blobs = None
         if wants_blobs:
-            # Imported by the first job that has blobs, not with this module: the SDK's
-            # reader and protobuf are not needed before `stook run`'s first request, and
-            # a run that downloads no blob never imports them.
-            from stook.service.fetch._job_blobs import JobBlobs
-
-            blobs = await JobBlobs(
+            blobs = await _job_blobs()(
                 self._api.storage,
                 job.job_id,
                 needs,
@@ -304,6 +303,17 @@ class BatchFetcher:
             job_event(e)
             async for e in self._api.list_job_events(self._project_id, self._batch_id, job.job_id)
         ]
+
+
+@functools.cache
+def _job_blobs() -> type[JobBlobs]:
+    """JobBlobs, imported by the first job that has blobs, not with this module: the SDK's
+    reader and protobuf are not needed before `stook run`'s first request, and a run that
+    downloads no blob never imports them. Remembered: an import statement runs importlib's
+    checks every time (~8,000 instructions a job)."""
+    from stook.service.fetch._job_blobs import JobBlobs
+
+    return JobBlobs
 
 
 async def _given(jobs: Sequence[Job]) -> AsyncIterator[Job]:

@@ -54,7 +54,9 @@ def _fields() -> Callable[[dict[str, Any]], tuple[Any, ...]]:
     return field_reader(_KEYS)
 
 
-@dataclass(frozen=True, slots=True)
+# Not frozen: one per job, and a frozen dataclass's __init__ costs three times the plain
+# one (each field set through object.__setattr__). Nobody changes one.
+@dataclass(slots=True)
 class ListedData:
     """A job's metrics-data listing as batch mode reads it: every named item's name (in
     listing order), how many items have no name, and the STANDARD items whose name is
@@ -76,7 +78,7 @@ def read_listed_data(items: list[Any], wanted: Collection[str]) -> ListedData | 
     # less than a set's hash of a new string).
     checked_job: object = None
     timestamp = ""  # the last item's, checked: a listing's items were created together
-    ids: list[str] = []  # the data IDs, checked at once
+    ids: list[str] = []  # the data and owner IDs, checked at once
     fields_of = _fields()
     for item in items:
         if type(item) is not dict:
@@ -86,9 +88,8 @@ def read_listed_data(items: list[Any], wanted: Collection[str]) -> ListedData | 
         except KeyError:  # a field left out: read as null, as the model reads it
             fields = tuple(map(item.get, _KEYS))
         data_id, name, kind, url, filename, job_id, created = fields
-        # The model's checks, each field for the shapes it reads as they are.
-        if type(data_id) is not str:
-            return None
+        # The model's checks, each field for the shapes it reads as they are. The IDs are
+        # checked at the end, all at once, their types too (`are_ids`).
         ids.append(data_id)
         if (
             (type(kind) is not str and kind is not None)
@@ -97,7 +98,7 @@ def read_listed_data(items: list[Any], wanted: Collection[str]) -> ListedData | 
         ):
             return None
         if job_id != checked_job:
-            if not is_owner_id(job_id):
+            if not is_owner_id(job_id, ids):
                 return None
             checked_job = job_id
         if type(created) is str:

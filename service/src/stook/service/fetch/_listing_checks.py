@@ -19,8 +19,10 @@ __all__ = ["ID_FULLMATCH", "are_ids", "field_reader", "is_owner_id", "model_read
 ID_FULLMATCH: Final = re.compile(
     r"[0-9a-fA-F]{8}-[0-9a-fA-F]{4}-[0-9a-fA-F]{4}-[0-9a-fA-F]{4}-[0-9a-fA-F]{12}"
 ).fullmatch
-# What `are_ids` removes: an ID's hex digits.
-_HEX_DIGITS: Final = b"0123456789abcdefABCDEF"
+# What `are_ids` makes of an ID as the API writes it, with its line break: each hex digit
+# read as "0" (`_AS_ZERO`), any other character as itself.
+_ID_SHAPE: Final = b"00000000-0000-0000-0000-000000000000\n"
+_AS_ZERO: Final = bytes.maketrans(b"123456789abcdefABCDEF", b"0" * 21)
 
 
 _from_iso: Final = datetime.fromisoformat
@@ -35,11 +37,14 @@ def zoned(text: str) -> bool:
         return False
 
 
-def is_owner_id(value: object) -> bool:
+def is_owner_id(value: object, ids: list[str]) -> bool:
     """Whether the model reads `value` as an item's owner ID: none, empty, or an ID as the
-    API writes it (`ID_FULLMATCH`)."""
+    API writes it, which is added to `ids` for `are_ids` to check with the listing's others
+    (one regular expression cost as much as a dozen IDs checked there)."""
     if type(value) is str:
-        return not value or ID_FULLMATCH(value) is not None
+        if value:
+            ids.append(value)
+        return True
     return value is None
 
 
@@ -61,9 +66,10 @@ def are_ids(ids: list[str]) -> bool:
     when one is not a string.
 
     In a few C calls over them all, where a regular expression costs ~50 instructions a
-    character (a listing's IDs were a sixth of reading it): joined by line breaks, they
-    are 37 characters apart; the four hyphens and the line break of each sit at their
-    places, and once the hex digits are taken out nothing else is left.
+    character (a listing's IDs were a sixth of reading it): joined by line breaks, with
+    each hex digit read as "0", they are `_ID_SHAPE` as many times as there are IDs (the
+    last without its line break). One table translation and one comparison: a third
+    fewer instructions than checking each place and removing the digits.
     """
     count = len(ids)
     if not count:
@@ -74,16 +80,7 @@ def are_ids(ids: list[str]) -> bool:
         return False
     if len(joined) != 37 * count - 1 or not joined.isascii():
         return False
-    raw = joined.encode()
-    hyphens = b"-" * count
-    return (
-        raw[8::37] == hyphens
-        and raw[13::37] == hyphens
-        and raw[18::37] == hyphens
-        and raw[23::37] == hyphens
-        and raw[36::37] == b"\n" * (count - 1)
-        and raw.translate(None, _HEX_DIGITS) == b"----\n" * (count - 1) + b"----"
-    )
+    return (_ID_SHAPE * count).startswith(joined.encode().translate(_AS_ZERO))
 
 
 def field_reader(keys: tuple[str, ...]) -> Callable[[dict[str, Any]], tuple[Any, ...]]:
