@@ -567,6 +567,35 @@ async def test_storage_never_sends_the_token_even_on_the_api_host_and_after_redi
         assert hop.query["X-Amz-Signature"] == SIGNATURE  # signature reached storage intact
 
 
+async def test_storage_follows_five_redirects_and_refuses_a_sixth(
+    server: ScriptedServer, fast_policy: RetryPolicy
+) -> None:
+    # The first hop is sent in fetch_bytes' own frame, the rest by _follow: the count of
+    # hops is the same either way.
+    for hop in range(7):
+        server.script(f"/hop/{hop}", redirect(presigned(server, f"/hop/{hop + 1}")))
+    server.script("/end/5", answer(200, b"five"))
+    for hop in range(5):
+        server.script(f"/end/{hop}", redirect(presigned(server, f"/end/{hop + 1}")))
+    async with StorageClient(retry=fast_policy) as storage:
+        assert await storage.fetch_bytes(presigned(server, "/end/0")) == b"five"
+        with pytest.raises(StorageError, match="more than 5 redirects") as caught:
+            await storage.fetch_bytes(presigned(server, "/hop/0"))
+    assert caught.value.status is None
+    assert [len(server.hits(f"/hop/{hop}")) for hop in range(7)] == [1] * 6 + [0]
+
+
+async def test_storage_maps_a_refusal_after_a_redirect(
+    server: ScriptedServer, fast_policy: RetryPolicy
+) -> None:
+    server.script("/moved", redirect(presigned(server, "/gone")))
+    server.script("/gone", answer(404, b"<Error><Code>NoSuchKey</Code></Error>"))
+    async with StorageClient(retry=fast_policy) as storage:
+        with pytest.raises(StorageError, match="no such object") as caught:
+            await storage.fetch_bytes(presigned(server, "/moved"))
+    assert caught.value.status == 404
+
+
 async def test_storage_keeps_the_signed_query_byte_for_byte(
     server: ScriptedServer, fast_policy: RetryPolicy
 ) -> None:
