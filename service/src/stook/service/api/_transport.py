@@ -24,6 +24,7 @@ import logging
 import time
 from collections.abc import Mapping
 from dataclasses import dataclass, field
+from http.cookies import BaseCookie, SimpleCookie
 from types import TracebackType
 from typing import Any, Final, Protocol, Self
 
@@ -160,6 +161,7 @@ class HttpTransport:
         self._limiter: ConcurrencyLimit = limiter or FixedLimit(concurrency)
         self._session: aiohttp.ClientSession | None = None
         self._deadlines: Deadlines | None = None  # while open
+        self._loop: asyncio.AbstractEventLoop | None = None  # the loop it was opened on
         self._debug = False
         self._proxy = _env_proxy(proxy_for) if proxy_for is not None else None
         self._body_cap = body_cap
@@ -188,7 +190,8 @@ class HttpTransport:
         # logger on every call (2% of the client's CPU at 0 ms), and debug logging costs a
         # redact_url per request. The log level does not change during a run.
         self._debug = _log.is_enabled_for(logging.DEBUG)
-        self._deadlines = Deadlines(asyncio.get_running_loop(), self._timeout)
+        self._loop = asyncio.get_running_loop()
+        self._deadlines = Deadlines(self._loop, self._timeout)
         connector = aiohttp.TCPConnector(
             limit=self._concurrency,
             # No bound per host: one as large as the total could never bind first, and
@@ -217,7 +220,7 @@ class HttpTransport:
             auto_decompress=True,
             # No API or presigned storage request needs a cookie: none is kept, so none
             # can travel to another host or request.
-            cookie_jar=aiohttp.DummyCookieJar(),
+            cookie_jar=_NoCookies(),
         )
 
     async def __aexit__(
@@ -267,7 +270,7 @@ class HttpTransport:
         # TimeoutError.
         try:
             self.stats.requests += 1
-            task = asyncio.current_task()
+            task = asyncio.current_task(self._loop)  # the loop passed: one lookup fewer
             assert task is not None  # a transport is used from a task
             cancelling = task.cancelling()
             deadline = deadlines.start(task)
@@ -397,6 +400,21 @@ class HttpTransport:
             # aiohttp would turn user info into a Basic Authorization header.
             return url.with_user(None)
         return url
+
+
+class _NoCookies(aiohttp.DummyCookieJar):
+    """aiohttp's jar that keeps no cookies, handing every request one empty set.
+
+    DummyCookieJar builds a new empty SimpleCookie for each request. aiohttp only adds to
+    the set it gets when a request passes cookies of its own, and no request of a transport
+    can (`get` takes none).
+    """
+
+    def filter_cookies(self, request_url: URL) -> BaseCookie[str]:
+        return _NO_COOKIES
+
+
+_NO_COOKIES: Final[BaseCookie[str]] = SimpleCookie()
 
 
 def _check_complete(answer: aiohttp.ClientResponse, body: bytes, expected: int) -> None:
