@@ -11,6 +11,7 @@ from typing import Any
 
 import pytest
 from aiohttp import hdrs, web
+from aiohttp.test_utils import TestServer
 from multidict import CIMultiDict, CIMultiDictProxy
 from tenacity import wait_none
 from yarl import URL
@@ -567,6 +568,28 @@ async def test_storage_never_sends_the_token_even_on_the_api_host_and_after_redi
     for hop in hops:
         assert "Authorization" not in hop.headers
         assert hop.query["X-Amz-Signature"] == SIGNATURE  # signature reached storage intact
+
+
+async def test_a_transport_reads_whole_bodies_and_reuses_its_connection() -> None:
+    # The body is read from the answer's stream (not ClientResponse.read): the connection
+    # must still go back to the pool, to be used again by the next request.
+    peers: list[object] = []
+
+    async def handler(request: web.Request) -> web.Response:
+        assert request.transport is not None
+        peers.append(request.transport.get_extra_info("peername"))
+        return web.Response(body=b"x" * int(request.query["n"]))
+
+    app = web.Application()
+    app.router.add_get("/body", handler)
+    async with TestServer(app, host="127.0.0.1", port=0) as test_server:
+        url = test_server.make_url("/body")
+        async with HttpTransport(name="t", concurrency=1, request_timeout=5.0) as transport:
+            sizes = [0, 1, 100_000, 3]
+            bodies = [await transport.get(url.with_query(n=n)) for n in sizes]
+    assert [len(r.body) for r in bodies] == sizes
+    assert len(peers) == 4
+    assert len(set(peers)) == 1
 
 
 async def test_storage_follows_five_redirects_and_refuses_a_sixth(

@@ -294,7 +294,11 @@ class HttpTransport:
                         and declared <= cap.max_bytes
                         and hdrs.CONTENT_ENCODING not in answer.headers
                     ):
-                        body = await answer.read()
+                        # The stream's read, not ClientResponse.read: that wraps it in two
+                        # coroutines more, to keep the body on the answer (which the Response
+                        # keeps instead) and to return the connection (which the end of the
+                        # body does, and the release below).
+                        body = await answer.content.read()
                     else:
                         body = await self._read_capped(answer, declared, cap)
                     if declared is not None and len(body) < declared:
