@@ -27,6 +27,7 @@ from stook.service.api._errors import (
     RetriesExhaustedError,
     RetryAfterTooLongError,
     StorageError,
+    TransportError,
 )
 from stook.service.api._limits import FixedLimit
 from stook.service.api._models import ConflatedJobStatus, Job
@@ -590,6 +591,39 @@ async def test_a_transport_reads_whole_bodies_and_reuses_its_connection() -> Non
     assert [len(r.body) for r in bodies] == sizes
     assert len(peers) == 4
     assert len(set(peers)) == 1
+
+
+async def test_a_transport_reads_a_declared_length_and_no_body_where_none_may_be() -> None:
+    # Raw answers: a 304 may declare the length of a body it does not carry; a 200 that
+    # closes before its declared length is a failure that may heal, never short data.
+    answers = [
+        b"HTTP/1.1 304 Not Modified\r\nContent-Length: 10\r\n\r\n",
+        b"HTTP/1.1 200 OK\r\nContent-Length: 0\r\n\r\n",
+        b"HTTP/1.1 200 OK\r\nContent-Length: 5\r\n\r\nhello",
+        b"HTTP/1.1 200 OK\r\nContent-Length: 10\r\n\r\npar",
+    ]
+
+    async def serve(reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
+        while answers:
+            if not await reader.readuntil(b"\r\n\r\n"):
+                break
+            writer.write(answers.pop(0))
+            await writer.drain()
+            if not answers:
+                writer.close()
+
+    raw = await asyncio.start_server(serve, "127.0.0.1", 0)
+    port = raw.sockets[0].getsockname()[1]
+    url = URL(f"http://127.0.0.1:{port}/x")
+    async with raw, HttpTransport(name="t", concurrency=1, request_timeout=5.0) as transport:
+        assert [(r.status, r.body) for r in [await transport.get(url) for _ in range(3)]] == [
+            (304, b""),
+            (200, b""),
+            (200, b"hello"),
+        ]
+        with pytest.raises(TransportError) as caught:
+            await transport.get(url)
+    assert caught.value.retryable
 
 
 async def test_storage_follows_five_redirects_and_refuses_a_sixth(

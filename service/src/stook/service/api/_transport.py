@@ -287,22 +287,25 @@ class HttpTransport:
                     # Read once: aiohttp parses the header on each read.
                     declared = answer.content_length
                     cap = self._body_cap
-                    # aiohttp reads no more than a declared, unencoded length: within the
-                    # cap such a body is read at once, without a chunk loop.
-                    if cap is None or (
+                    if (
                         declared is not None
-                        and declared <= cap.max_bytes
+                        and (cap is None or declared <= cap.max_bytes)
+                        and answer.status not in _NO_BODY_STATUSES
                         and hdrs.CONTENT_ENCODING not in answer.headers
                     ):
-                        # The stream's read, not ClientResponse.read: that wraps it in two
-                        # coroutines more, to keep the body on the answer (which the Response
-                        # keeps instead) and to return the connection (which the end of the
-                        # body does, and the release below).
+                        # The length counts what the body holds, and aiohttp's parser ends
+                        # the body there: exactly that many bytes, read from the stream in
+                        # one call. Not ClientResponse.read: it reads until the end, in two
+                        # coroutines more, to keep the body on the answer (the Response
+                        # keeps it) and return the connection (the end of the body does).
+                        try:
+                            body = await answer.content.readexactly(declared)
+                        except asyncio.IncompleteReadError as short:
+                            raise _incomplete(answer, short, declared) from None
+                    elif cap is None:
                         body = await answer.content.read()
                     else:
                         body = await self._read_capped(answer, declared, cap)
-                    if declared is not None and len(body) < declared:
-                        _check_complete(answer, body, declared)
                     # Response(...), written as its writable twin (see stook.sdk.fastpaths):
                     # a frozen dataclass's __init__ costs four times as much.
                     written: Any = _new(_WritableResponse)
@@ -421,13 +424,13 @@ class _NoCookies(aiohttp.DummyCookieJar):
 _NO_COOKIES: Final[BaseCookie[str]] = SimpleCookie()
 
 
-def _check_complete(answer: aiohttp.ClientResponse, body: bytes, expected: int) -> None:
-    """IncompleteBodyError for a body shorter than its ``Content-Length`` (`expected`)."""
-    # With Content-Encoding the header counts compressed bytes, not what read() gives.
-    if hdrs.CONTENT_ENCODING not in answer.headers and answer.status not in _NO_BODY_STATUSES:
-        raise IncompleteBodyError(
-            method="GET", url=answer.url, received=len(body), expected=expected
-        )
+def _incomplete(
+    answer: aiohttp.ClientResponse, short: asyncio.IncompleteReadError, expected: int
+) -> IncompleteBodyError:
+    """A body that ended before its ``Content-Length``: an error, never short data."""
+    return IncompleteBodyError(
+        method="GET", url=answer.url, received=len(short.partial), expected=expected
+    )
 
 
 def _env_proxy(url: URL) -> URL | None:
