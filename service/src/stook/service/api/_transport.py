@@ -316,7 +316,10 @@ class HttpTransport:
                     written.__class__ = Response
                     response: Response = written
                 finally:
-                    answer.release()
+                    # An answer read to its end is closed already: aiohttp gave its
+                    # connection back as the body ended. Any other is released here.
+                    if not answer.closed:
+                        answer.release()
             except BaseException as exc:
                 # As asyncio.timeout: take back the cancellation the timer sent, and make it
                 # a TimeoutError unless the task was also cancelled from outside.
