@@ -24,7 +24,6 @@ import logging
 import time
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from http.cookies import BaseCookie, SimpleCookie
 from types import TracebackType
 from typing import Any, Final, Protocol, Self
 
@@ -220,7 +219,7 @@ class HttpTransport:
             auto_decompress=True,
             # No API or presigned storage request needs a cookie: none is kept, so none
             # can travel to another host or request.
-            cookie_jar=_NoCookies(),
+            cookie_jar=aiohttp.DummyCookieJar(),
         )
 
     async def __aexit__(
@@ -410,21 +409,6 @@ class HttpTransport:
             # aiohttp would turn user info into a Basic Authorization header.
             return url.with_user(None)
         return url
-
-
-class _NoCookies(aiohttp.DummyCookieJar):
-    """aiohttp's jar that keeps no cookies, handing every request one empty set.
-
-    DummyCookieJar builds a new empty SimpleCookie for each request. aiohttp only adds to
-    the set it gets when a request passes cookies of its own, and no request of a transport
-    can (`get` takes none).
-    """
-
-    def filter_cookies(self, request_url: URL) -> BaseCookie[str]:
-        return _NO_COOKIES
-
-
-_NO_COOKIES: Final[BaseCookie[str]] = SimpleCookie()
 
 
 def _incomplete(
