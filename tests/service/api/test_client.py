@@ -11,6 +11,7 @@ from typing import Any
 
 import pytest
 from aiohttp import hdrs, web
+from aiohttp.test_utils import TestServer
 from multidict import CIMultiDict, CIMultiDictProxy
 from tenacity import wait_none
 from yarl import URL
@@ -26,6 +27,7 @@ from stook.service.api._errors import (
     RetriesExhaustedError,
     RetryAfterTooLongError,
     StorageError,
+    TransportError,
 )
 from stook.service.api._limits import FixedLimit
 from stook.service.api._models import ConflatedJobStatus, Job
@@ -624,6 +626,90 @@ async def test_storage_never_sends_the_token_even_on_the_api_host_and_after_redi
     for hop in hops:
         assert "Authorization" not in hop.headers
         assert hop.query["X-Amz-Signature"] == SIGNATURE  # signature reached storage intact
+
+
+async def test_a_transport_reads_whole_bodies_and_reuses_its_connection() -> None:
+    # The body is read from the answer's stream (not ClientResponse.read): the connection
+    # must still go back to the pool, to be used again by the next request.
+    peers: list[object] = []
+
+    async def handler(request: web.Request) -> web.Response:
+        assert request.transport is not None
+        peers.append(request.transport.get_extra_info("peername"))
+        return web.Response(body=b"x" * int(request.query["n"]))
+
+    app = web.Application()
+    app.router.add_get("/body", handler)
+    async with TestServer(app, host="127.0.0.1", port=0) as test_server:
+        url = test_server.make_url("/body")
+        async with HttpTransport(name="t", concurrency=1, request_timeout=5.0) as transport:
+            sizes = [0, 1, 100_000, 3]
+            bodies = [await transport.get(url.with_query(n=n)) for n in sizes]
+    assert [len(r.body) for r in bodies] == sizes
+    assert len(peers) == 4
+    assert len(set(peers)) == 1
+
+
+async def test_a_transport_reads_a_declared_length_and_no_body_where_none_may_be() -> None:
+    # Raw answers: a 304 may declare the length of a body it does not carry; a 200 that
+    # closes before its declared length is a failure that may heal, never short data.
+    answers = [
+        b"HTTP/1.1 304 Not Modified\r\nContent-Length: 10\r\n\r\n",
+        b"HTTP/1.1 200 OK\r\nContent-Length: 0\r\n\r\n",
+        b"HTTP/1.1 200 OK\r\nContent-Length: 5\r\n\r\nhello",
+        b"HTTP/1.1 200 OK\r\nContent-Length: 10\r\n\r\npar",
+    ]
+
+    async def serve(reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
+        while answers:
+            if not await reader.readuntil(b"\r\n\r\n"):
+                break
+            writer.write(answers.pop(0))
+            await writer.drain()
+            if not answers:
+                writer.close()
+
+    raw = await asyncio.start_server(serve, "127.0.0.1", 0)
+    port = raw.sockets[0].getsockname()[1]
+    url = URL(f"http://127.0.0.1:{port}/x")
+    async with raw, HttpTransport(name="t", concurrency=1, request_timeout=5.0) as transport:
+        assert [(r.status, r.body) for r in [await transport.get(url) for _ in range(3)]] == [
+            (304, b""),
+            (200, b""),
+            (200, b"hello"),
+        ]
+        with pytest.raises(TransportError) as caught:
+            await transport.get(url)
+    assert caught.value.retryable
+
+
+async def test_storage_follows_five_redirects_and_refuses_a_sixth(
+    server: ScriptedServer, fast_policy: RetryPolicy
+) -> None:
+    # The first hop is sent in fetch_bytes' own frame, the rest by _follow: the count of
+    # hops is the same either way.
+    for hop in range(7):
+        server.script(f"/hop/{hop}", redirect(presigned(server, f"/hop/{hop + 1}")))
+    server.script("/end/5", answer(200, b"five"))
+    for hop in range(5):
+        server.script(f"/end/{hop}", redirect(presigned(server, f"/end/{hop + 1}")))
+    async with StorageClient(retry=fast_policy) as storage:
+        assert await storage.fetch_bytes(presigned(server, "/end/0")) == b"five"
+        with pytest.raises(StorageError, match="more than 5 redirects") as caught:
+            await storage.fetch_bytes(presigned(server, "/hop/0"))
+    assert caught.value.status is None
+    assert [len(server.hits(f"/hop/{hop}")) for hop in range(7)] == [1] * 6 + [0]
+
+
+async def test_storage_maps_a_refusal_after_a_redirect(
+    server: ScriptedServer, fast_policy: RetryPolicy
+) -> None:
+    server.script("/moved", redirect(presigned(server, "/gone")))
+    server.script("/gone", answer(404, b"<Error><Code>NoSuchKey</Code></Error>"))
+    async with StorageClient(retry=fast_policy) as storage:
+        with pytest.raises(StorageError, match="no such object") as caught:
+            await storage.fetch_bytes(presigned(server, "/moved"))
+    assert caught.value.status == 404
 
 
 async def test_storage_keeps_the_signed_query_byte_for_byte(

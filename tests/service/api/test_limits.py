@@ -87,6 +87,30 @@ async def test_fixed_limit_bounds_requests_in_flight() -> None:
     await third
 
 
+async def test_a_fixed_limit_grants_a_free_slot_without_waiting_and_refusal_changes_nothing() -> (
+    None
+):
+    limit = FixedLimit(1)
+    assert limit.try_acquire()
+    assert not limit.try_acquire()  # full
+    assert (limit.stats.in_flight, limit.stats.acquisitions, limit.stats.waits) == (1, 1, 0)
+    waiting = asyncio.ensure_future(limit.acquire())
+    await asyncio.sleep(0)
+    limit.release(200, 0.01)  # handed to the waiter
+    await waiting
+    limit.release(200, 0.01)
+    assert limit.stats.in_flight == 0
+    queued = [asyncio.ensure_future(limit.acquire()) for _ in range(2)]
+    await asyncio.sleep(0)
+    # The first took the free slot at once, the second waits for it.
+    assert limit.stats.in_flight == 1
+    assert not limit.try_acquire()
+    limit.release(200, 0.01)
+    await asyncio.gather(*queued)
+    limit.release(200, 0.01)
+    assert (limit.stats.in_flight, limit.stats.acquisitions, limit.stats.waits) == (0, 4, 2)
+
+
 async def test_a_fixed_limit_serves_waiters_in_order_and_passes_on_a_cancelled_slot() -> None:
     limit = FixedLimit(1)
     await limit.acquire()

@@ -80,7 +80,9 @@ class OriginGate:
         self._sleep = sleep
         self._trip_after = trip_after
         self._failing: set[object] = set()  # requests that failed since the last answer
-        self._closed = False
+        # A plain attribute, not a property over a `_closed` flag: every request reads it
+        # (see sent_at_once). Only the gate sets it.
+        self.is_open = True
         self._closed_at = 0.0
         self._until = 0.0
         self._failed_probes = 0
@@ -92,10 +94,6 @@ class OriginGate:
         self.origin = ""  # scheme://host[:port] of the last failure
         self._changed = asyncio.Event()
 
-    @property
-    def is_open(self) -> bool:
-        return not self._closed
-
     def answered(self, sent_in: int) -> None:
         """The origin answered (any status but a transient failure) a request sent when
         `closures` was `sent_in`: open the gate, unless the request left before it closed
@@ -105,8 +103,8 @@ class OriginGate:
         """
         if self._failing:
             self._failing.clear()
-        if self._closed and sent_in == self.closures:
-            self._closed = False
+        if not self.is_open and sent_in == self.closures:
+            self.is_open = True
             self._failed_probes = 0
             self._probing = False
             self.stats.reopened += 1
@@ -130,7 +128,7 @@ class OriginGate:
         requests with no answer between them, close the gate."""
         self.last_failure = reason
         self.origin = origin
-        if self._closed:
+        if not self.is_open:
             if not probe:
                 return  # an echo of the failure that closed it: sent before it closed
             self._failed_probes += 1
@@ -142,7 +140,7 @@ class OriginGate:
         if len(self._failing) < self._trip_after:
             return
         self._failing.clear()
-        self._closed = True
+        self.is_open = False
         self._closed_at = self._clock()
         self.closures += 1
         self._failed_probes = 0
@@ -164,7 +162,7 @@ class OriginGate:
 
     async def enter(self, deadline: float) -> Passage:
         """Wait until the gate lets this request through, or until `deadline` (clock time)."""
-        while self._closed:
+        while not self.is_open:
             now = self._clock()
             if now >= deadline:
                 return Passage.TIMED_OUT

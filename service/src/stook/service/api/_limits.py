@@ -147,10 +147,16 @@ class FixedLimit:
             peak_limit=self.limit,
         )
 
-    async def acquire(self) -> None:
+    def try_acquire(self) -> bool:
+        """Take a slot if one is free now, without a coroutine; False changes nothing."""
         if self.in_flight < self.limit and not self._waiters:
             self.in_flight += 1
             self._counts.acquisitions += 1
+            return True
+        return False
+
+    async def acquire(self) -> None:
+        if self.try_acquire():
             return
         self._counts.waits += 1
         waiter: asyncio.Future[None] = asyncio.get_running_loop().create_future()
@@ -167,8 +173,11 @@ class FixedLimit:
             raise
 
     def release(self, status: int | None, seconds: float) -> None:
-        self._hand_over()
-        if status is not None and status in THROTTLE_STATUSES:
+        if self._waiters:
+            self._hand_over()
+        else:
+            self.in_flight -= 1
+        if status in THROTTLE_STATUSES:
             counts = self._counts
             counts.throttled += 1
             now = self._clock()

@@ -102,15 +102,18 @@ class StorageClient:
         """
         # encoded=True: re-quoting would alter the signed query string and void the signature.
         target = URL(url, encoded=True)
-        if target.scheme not in ("http", "https") or not target.host:
+        if target.scheme not in ("http", "https") or not target.raw_host:
             raise StorageError("not an http(s) URL", url=url)
-        # The first attempt in this frame (see sent_at_once); the rest, if any, retried.
+        # The first attempt in this frame (see sent_at_once), and its first hop too: nearly
+        # every object is answered at once, and each coroutine layer is crossed on every
+        # resumption of the request. The rest, if any, retried.
         gate = self.gate
         first: tuple[Exception, int] | None = None
         sent_in = sent_at_once(gate)
         if sent_in is not None:
             try:
-                body = await self._fetch_once(target)
+                response = await self._transport.get(target)
+                body = response.body if response.ok else await self._follow(response, target)
             except Exception as exc:
                 first = (exc, sent_in)
             else:
@@ -127,18 +130,26 @@ class StorageClient:
         )
 
     async def _fetch_once(self, url: URL) -> bytes:
-        for _hop in range(_MAX_STORAGE_REDIRECTS + 1):
+        response = await self._transport.get(url)
+        return response.body if response.ok else await self._follow(response, url)
+
+    async def _follow(self, response: Response, url: URL) -> bytes:
+        """Where a first answer that was not a success leads: the body at the end of its
+        redirects (each hop sent through the transport, so each is checked), or the error
+        the answer stands for."""
+        for _hop in range(_MAX_STORAGE_REDIRECTS):
+            location = response.headers.get(hdrs.LOCATION)
+            if response.status not in _REDIRECT_STATUSES or not location:
+                raise _storage_error(response)
+            url = url.join(URL(location, encoded=True))
             response = await self._transport.get(url)
             if response.ok:
                 return response.body
-            location = response.headers.get(hdrs.LOCATION)
-            if response.status in _REDIRECT_STATUSES and location:
-                url = url.join(URL(location, encoded=True))
-                continue
-            raise _storage_error(response)
-        raise StorageError(
-            f"more than {_MAX_STORAGE_REDIRECTS} redirects from object storage", url=url
-        )
+        if response.status in _REDIRECT_STATUSES and response.headers.get(hdrs.LOCATION):
+            raise StorageError(
+                f"more than {_MAX_STORAGE_REDIRECTS} redirects from object storage", url=url
+            )
+        raise _storage_error(response)
 
 
 def answer_retry_after(response: Response) -> float | None:

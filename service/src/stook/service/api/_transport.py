@@ -160,9 +160,19 @@ class HttpTransport:
         self._limiter: ConcurrencyLimit = limiter or FixedLimit(concurrency)
         self._session: aiohttp.ClientSession | None = None
         self._deadlines: Deadlines | None = None  # while open
+        self._loop: asyncio.AbstractEventLoop | None = None  # the loop it was opened on
         self._debug = False
         self._proxy = _env_proxy(proxy_for) if proxy_for is not None else None
         self._body_cap = body_cap
+        # What every GET passes aiohttp, fixed per transport. Only options that differ from
+        # aiohttp's defaults: each keyword is bound again on every request.
+        self._options: dict[str, Any] = (
+            {"max_redirects": _MAX_API_REDIRECTS}
+            if follow_redirects
+            else {"allow_redirects": False}
+        )
+        # A fixed limit's free slot is taken without a coroutine (see FixedLimit.try_acquire).
+        self._fixed_limit = self._limiter if type(self._limiter) is FixedLimit else None
 
     @property
     def limiter(self) -> ConcurrencyLimit:
@@ -179,10 +189,13 @@ class HttpTransport:
         # logger on every call (2% of the client's CPU at 0 ms), and debug logging costs a
         # redact_url per request. The log level does not change during a run.
         self._debug = _log.is_enabled_for(logging.DEBUG)
-        self._deadlines = Deadlines(asyncio.get_running_loop(), self._timeout)
+        self._loop = asyncio.get_running_loop()
+        self._deadlines = Deadlines(self._loop, self._timeout)
         connector = aiohttp.TCPConnector(
             limit=self._concurrency,
-            limit_per_host=self._concurrency,
+            # No bound per host: one as large as the total could never bind first, and
+            # aiohttp would count each host's connections on every request.
+            limit_per_host=0,
             keepalive_timeout=_KEEPALIVE_S,
             ttl_dns_cache=_DNS_CACHE_S,
             # aiohttp's default, or stook's own context when the `stook` command imported
@@ -237,10 +250,16 @@ class HttpTransport:
         deadlines = self._deadlines
         if session is None or deadlines is None:
             raise RuntimeError(f"{self.name} transport is not open; use 'async with'")
-        if not self._credentials_allowed:
-            url = self._without_credentials(session, url, headers)
+        # The session's own headers were checked when the transport was built; per request
+        # only what can vary: headers passed in, and user info in the URL.
+        if not self._credentials_allowed and (
+            headers is not None or url.raw_user is not None or url.raw_password is not None
+        ):
+            url = self._without_credentials(url, headers)
         started = time.perf_counter() if self._debug else 0.0  # only the debug line says
-        await self._limiter.acquire()
+        fixed = self._fixed_limit
+        if fixed is None or not fixed.try_acquire():
+            await self._limiter.acquire()
         held_from = time.perf_counter()
         status: int | None = None
         # The per-attempt timeout, in this frame rather than a coroutine of its own (one
@@ -250,31 +269,42 @@ class HttpTransport:
         # TimeoutError.
         try:
             self.stats.requests += 1
-            task = asyncio.current_task()
+            task = asyncio.current_task(self._loop)  # the loop passed: one lookup fewer
             assert task is not None  # a transport is used from a task
             cancelling = task.cancelling()
             deadline = deadlines.start(task)
             try:
                 # Awaited, not entered: `async with` adds three coroutines a request and a
                 # layer to every resumption; leaving it only releases the answer (a GET has
-                # no body writer to wait for), as the `finally` below does.
-                answer = await session.get(
-                    url,
-                    params=params,
-                    headers=headers,
-                    allow_redirects=self._follow_redirects,
-                    max_redirects=_MAX_API_REDIRECTS,
-                )
+                # no body writer to wait for), as the `finally` below does. The clients
+                # send their queries in the URL: no params or headers to pass on.
+                if params is None and headers is None:
+                    answer = await session.get(url, **self._options)
+                else:
+                    answer = await session.get(url, params=params, headers=headers, **self._options)
                 try:
-                    # Read once for both checks: aiohttp parses the header on each read.
+                    # Read once: aiohttp parses the header on each read.
                     declared = answer.content_length
-                    encoded = hdrs.CONTENT_ENCODING in answer.headers
-                    if self._read_at_once(answer, declared, encoded):
-                        body = await answer.read()
+                    cap = self._body_cap
+                    if (
+                        declared is not None
+                        and (cap is None or declared <= cap.max_bytes)
+                        and answer.status not in _NO_BODY_STATUSES
+                        and hdrs.CONTENT_ENCODING not in answer.headers
+                    ):
+                        # The length counts what the body holds, and aiohttp's parser ends
+                        # the body there: exactly that many bytes, read from the stream in
+                        # one call. Not ClientResponse.read: it reads until the end, in two
+                        # coroutines more, to keep the body on the answer (the Response
+                        # keeps it) and return the connection (the end of the body does).
+                        try:
+                            body = await answer.content.readexactly(declared)
+                        except asyncio.IncompleteReadError as short:
+                            raise _incomplete(answer, short, declared) from None
+                    elif cap is None:
+                        body = await answer.content.read()
                     else:
-                        assert self._body_cap is not None  # only a capped body is chunked
-                        body = await self._read_capped(answer, self._body_cap)
-                    _check_complete(answer, body, declared, encoded)
+                        body = await self._read_capped(answer, declared, cap)
                     # Response(...), written as its writable twin (see stook.sdk.fastpaths):
                     # a frozen dataclass's __init__ costs four times as much.
                     written: Any = _new(_WritableResponse)
@@ -285,7 +315,10 @@ class HttpTransport:
                     written.__class__ = Response
                     response: Response = written
                 finally:
-                    answer.release()
+                    # An answer read to its end is closed already: aiohttp gave its
+                    # connection back as the body ended. Any other is released here.
+                    if not answer.closed:
+                        answer.release()
             except BaseException as exc:
                 # As asyncio.timeout: take back the cancellation the timer sent, and make it
                 # a TimeoutError unless the task was also cancelled from outside.
@@ -318,8 +351,9 @@ class HttpTransport:
         finally:
             # The outcome goes back with the slot: an adaptive limit learns from it.
             self._limiter.release(status, time.perf_counter() - held_from)
-        self.stats.statuses[response.status] += 1
-        self.stats.bytes_received += len(response.body)
+        stats = self.stats
+        stats.statuses[response.status] += 1
+        stats.bytes_received += len(response.body)
         if self._debug:
             _log.debug(
                 "http response",
@@ -331,33 +365,24 @@ class HttpTransport:
             )
         return response
 
-    def _read_at_once(
-        self, answer: aiohttp.ClientResponse, declared: int | None, encoded: bool
-    ) -> bool:
-        """Whether the whole body may be read in one call; BodyTooLargeError if it declares
-        more than the cap.
-
-        aiohttp reads no more than a declared, unencoded length, so within the cap such a
-        body is read at once, without a chunk loop (or a coroutine of its own).
-        """
-        cap = self._body_cap
-        if cap is None:
-            return True
-        if declared is None or encoded:
-            return False
-        if declared > cap.max_bytes:
-            answer.close()  # not worth reading: drop the connection instead
-            raise BodyTooLargeError(
-                method="GET", url=answer.url, cap=cap.max_bytes, setting=cap.setting
-            )
-        return True
-
-    async def _read_capped(self, answer: aiohttp.ClientResponse, cap: BodyCap) -> bytes:
-        """The whole body, or BodyTooLargeError once more than the cap has arrived.
+    async def _read_capped(
+        self, answer: aiohttp.ClientResponse, declared: int | None, cap: BodyCap
+    ) -> bytes:
+        """The whole body, or BodyTooLargeError once more than the cap has arrived (or as
+        soon as the answer declares more, when its ``Content-Length`` counts what it holds).
 
         aiohttp decompresses as it streams, so what is counted here is the decompressed
         size: a small gzip answer that inflates without end is stopped at the cap too.
         """
+        if (
+            declared is not None
+            and declared > cap.max_bytes
+            and hdrs.CONTENT_ENCODING not in answer.headers
+        ):
+            answer.close()  # not worth reading: drop the connection instead
+            raise BodyTooLargeError(
+                method="GET", url=answer.url, cap=cap.max_bytes, setting=cap.setting
+            )
         chunks: list[bytes] = []
         size = 0
         async for chunk in answer.content.iter_any():
@@ -370,41 +395,29 @@ class HttpTransport:
             chunks.append(chunk)
         return chunks[0] if len(chunks) == 1 else b"".join(chunks)
 
-    def _without_credentials(
-        self,
-        session: aiohttp.ClientSession,
-        url: URL,
-        headers: Mapping[str, str] | None,
-    ) -> URL:
+    def _without_credentials(self, url: URL, headers: Mapping[str, str] | None) -> URL:
         """Refuse, before anything is sent, a storage request that would carry credentials.
 
         This guards the one property that matters most for storage: the API token never
         leaves for another host. A violation is a programming error, so it stops the run.
         """
-        for name in _CREDENTIAL_HEADERS:
-            if name in session.headers or (headers is not None and _has_header(headers, name)):
-                raise RuntimeError(f"refusing to send {name} to object storage ({self.name})")
-        if url.user is not None or url.password is not None:
+        if headers is not None:
+            for name in _CREDENTIAL_HEADERS:
+                if _has_header(headers, name):
+                    raise RuntimeError(f"refusing to send {name} to object storage ({self.name})")
+        if url.raw_user is not None or url.raw_password is not None:
             # aiohttp would turn user info into a Basic Authorization header.
             return url.with_user(None)
         return url
 
 
-def _check_complete(
-    answer: aiohttp.ClientResponse, body: bytes, expected: int | None, encoded: bool
-) -> None:
-    """IncompleteBodyError when the body is shorter than its ``Content-Length``
-    (`expected`); `encoded`: the answer has a ``Content-Encoding``."""
-    # With Content-Encoding the header counts compressed bytes, not what read() gives.
-    if (
-        expected is not None
-        and len(body) < expected
-        and not encoded
-        and answer.status not in _NO_BODY_STATUSES
-    ):
-        raise IncompleteBodyError(
-            method="GET", url=answer.url, received=len(body), expected=expected
-        )
+def _incomplete(
+    answer: aiohttp.ClientResponse, short: asyncio.IncompleteReadError, expected: int
+) -> IncompleteBodyError:
+    """A body that ended before its ``Content-Length``: an error, never short data."""
+    return IncompleteBodyError(
+        method="GET", url=answer.url, received=len(short.partial), expected=expected
+    )
 
 
 def _env_proxy(url: URL) -> URL | None:
