@@ -19,7 +19,7 @@ from stook.sdk import (
     parse_metrics_data,
     read_metrics_data,
 )
-from stook.sdk._series import doubles_array
+from stook.sdk._series import doubles_array, packed_doubles
 from tests.sdk.support import bare_data
 
 # ---------------------------------------------------------------- a ReSim-written output
@@ -159,6 +159,7 @@ def test_doubles_array_matches_the_series_bit_for_bit(length: int) -> None:
     assert got.dtype == "float64"
     assert got.tobytes() == struct.pack(f"<{length}d", *values)
     assert got.tobytes() == view.series().to_numpy().tobytes()
+    assert bytes(packed_doubles(view.raw.series.doubles)) == got.tobytes()
 
 
 def test_doubles_array_with_unknown_fields_falls_back_to_copying() -> None:
@@ -167,3 +168,5 @@ def test_doubles_array_with_unknown_fields_falls_back_to_copying() -> None:
     d.series.doubles.MergeFromString(b"\x10\x07")
     view = read_metrics_data(d.SerializeToString())
     assert doubles_array(view.raw.series.doubles).tolist() == [float(i) for i in range(1000)]
+    packed = packed_doubles(view.raw.series.doubles)
+    assert bytes(packed) == struct.pack("<1000d", *(float(i) for i in range(1000)))

@@ -22,6 +22,9 @@ if TYPE_CHECKING:
     from stook.sdk._views import MetricsDataView
 
 
+_DOUBLE = SeriesKind.DOUBLE  # an enum member read off its class costs a lookup
+
+
 class SeriesByName(Mapping[str, "pl.Series"]):
     """Data name -> `MetricsDataView.series` of plain double data, made on first access.
 
@@ -36,7 +39,7 @@ class SeriesByName(Mapping[str, "pl.Series"]):
 
     def __init__(self, views: Mapping[str, MetricsDataView]) -> None:
         for name, view in views.items():
-            if view.kind is not SeriesKind.DOUBLE or view.per_category:
+            if view.kind is not _DOUBLE or view.per_category:
                 raise ValueError(f"metrics data {name!r} is not a plain double series")
         self._views = views
         self._made: dict[str, pl.Series] = {}
@@ -65,13 +68,26 @@ class SeriesByName(Mapping[str, "pl.Series"]):
         view = self._views.get(name)
         if view is None:
             return None
-        return _doubles_array()(view.raw.series.doubles)
+        return _series()[0](view.raw.series.doubles)
+
+    def packed_of(self, name: str) -> memoryview | None:
+        """The values of `name` as little-endian float64 bytes (None without such data),
+        bit for bit the series' values: for an aggregation that joins many jobs' values
+        into one array, rather than make an array per job."""
+        view = self._views.get(name)
+        if view is None:
+            return None
+        return _series()[1](view.raw.series.doubles)
 
 
 @cache
-def _doubles_array() -> Callable[[pb.DoubleSeries], np.ndarray[Any, np.dtype[np.float64]]]:
-    """`stook.sdk._series.doubles_array` (with numpy and polars), imported on first use:
-    an import statement per job cost ~4 % of a job's decode+fold path (callgrind)."""
-    from stook.sdk._series import doubles_array
+def _series() -> tuple[
+    Callable[[pb.DoubleSeries], np.ndarray[Any, np.dtype[np.float64]]],
+    Callable[[pb.DoubleSeries], memoryview],
+]:
+    """`stook.sdk._series.doubles_array` and `packed_doubles` (with numpy and polars),
+    imported on first use: an import statement per job cost ~4 % of a job's decode+fold
+    path (callgrind)."""
+    from stook.sdk._series import doubles_array, packed_doubles
 
-    return doubles_array
+    return doubles_array, packed_doubles
