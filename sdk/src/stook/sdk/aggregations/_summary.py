@@ -131,9 +131,7 @@ def _encode(
     # few experiences, so few bytes to make.
     experience_ids = {row[3].int: row[3] for row in jobs if row[3] is not None}
     id_bytes = {key: experience_id.bytes for key, experience_id in experience_ids.items()}
-    job_experiences = [
-        (row[1], _NO_ID if row[3] is None else id_bytes[row[3].int]) for row in jobs
-    ]
+    job_experiences = [(row[1], _NO_ID if row[3] is None else id_bytes[row[3].int]) for row in jobs]
     scalars = [row[5] for row in jobs]
     value_of, unit_of = parts
     metric_names = sorted(set().union(*scalars))
