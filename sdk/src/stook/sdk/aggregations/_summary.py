@@ -32,12 +32,14 @@ import uuid
 from collections import Counter
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
+from itertools import chain
 from typing import TYPE_CHECKING, Any, Self
 
 from stook.sdk._errors import StookError
 from stook.sdk.aggregations._base import Aggregation, Needs
 from stook.sdk.aggregations._columns import JobColumns, ScalarColumn
 from stook.sdk.aggregations._record import JobRecord, Scalar
+from stook.sdk.aggregations._status_counts import COUNT_BATCH
 
 if TYPE_CHECKING:
     import numpy as np
@@ -430,10 +432,17 @@ class BatchSummaryWriter(Aggregation[JobRecord]):
     # and a dict of pairs per job cost more than the rest of the job's fold.
     jobs: dict[uuid.UUID, _Row] = field(default_factory=dict, init=False)
     statuses: Counter[str] = field(default_factory=Counter, init=False)
+    # Jobs' metric statuses, counted COUNT_BATCH jobs at a time (see `MetricStatusCounts`).
+    waiting: list[Sequence[str]] = field(default_factory=list, init=False)
     skipped: str | None = field(default=None, init=False)
 
     def needs(self) -> Needs:
         return Needs(every_scalar=True)
+
+    def _count_waiting(self) -> None:
+        if self.waiting:
+            waiting, self.waiting = self.waiting, []
+            self.statuses.update(chain.from_iterable(waiting))
 
     def update(self, record: JobRecord) -> None:
         self.jobs[record.job_id] = (
@@ -444,9 +453,13 @@ class BatchSummaryWriter(Aggregation[JobRecord]):
             bool(record.metric_statuses),
             record.scalars,
         )
-        self.statuses.update(record.metric_statuses)
+        self.waiting.append(record.metric_statuses)
+        if len(self.waiting) >= COUNT_BATCH:
+            self._count_waiting()
 
     def merge(self, other: Self) -> None:
+        self._count_waiting()
+        other._count_waiting()
         self.jobs.update(other.jobs)
         self.statuses.update(other.statuses)
         self.skipped = self.skipped or other.skipped
@@ -455,6 +468,7 @@ class BatchSummaryWriter(Aggregation[JobRecord]):
         """What travels between processes (see `Aggregation`): the jobs in the summary's
         own layout (~20 bytes a job plus 8 and an index per scalar) rather than a row, a
         UUID and a dict of `Scalar`s per job; it decodes to equal jobs."""
+        self._count_waiting()
         state = dict(self.__dict__)
         state["jobs"] = _encode(self.jobs.values(), {}, _SCALAR_PARTS)
         return state
@@ -479,6 +493,7 @@ class BatchSummaryWriter(Aggregation[JobRecord]):
         self.skipped = reason
 
     def summary(self) -> BatchSummary:
+        self._count_waiting()
         rows = sorted(self.jobs.values(), key=lambda row: row[0].bytes)
         return BatchSummary(
             tuple(
@@ -494,5 +509,6 @@ class BatchSummaryWriter(Aggregation[JobRecord]):
         from stook.sdk._data import strings  # as the writer is: once the metrics are written
 
         # Encoded from the rows, as `summary_text(self.summary())` would: the same bytes.
+        self._count_waiting()
         payload = _encode(self.jobs.values(), self.statuses, _SCALAR_PARTS)
         writer.add_data(strings(SUMMARY_DATA_NAME, [base64.b64encode(payload).decode("ascii")]))
