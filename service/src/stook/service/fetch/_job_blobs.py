@@ -33,7 +33,7 @@ from stook.sdk import (
 from stook.sdk.aggregations import Needs, SeriesByName
 from stook.sdk.fastpaths import writable_twin
 from stook.service.api import ApiMetric, ApiMetricsData, PresignedUrlExpiredError, StorageClient
-from stook.service.fetch._decoders import decoders_ready
+from stook.service.fetch._decoders import decoders_loaded, decoders_ready
 from stook.service.fetch._presigned import fetch_listed, fetch_relisted
 
 if TYPE_CHECKING:
@@ -135,7 +135,7 @@ class JobBlobs:
                 # `SeriesByName`).
                 if not view.per_category:
                     doubles[item.name] = view
-        if has_doubles:
+        if has_doubles and not decoders_loaded():
             await decoders_ready()  # polars, imported off the loop's thread
         job_metrics = self._job_metrics(metric_views) if self.wants_metrics else None
         # JobBlobsResult(...), written through its twin (see stook.sdk.fastpaths): a frozen
