@@ -29,6 +29,7 @@ from stook.sdk.aggregations import (
     encode_summary,
     summary_from_data,
 )
+from stook.sdk.aggregations._summary import summary_text
 from stook.sdk.testing import check_merge_laws
 from tests.hypothesis_profiles import examples
 
@@ -226,3 +227,4 @@ def test_the_writer_of_many_jobs_writes_the_summary_of_them_all() -> None:
         assert summary.metric_statuses == dict(sorted(expected.items()))
         assert [j.job_id for j in summary.jobs] == [r.job_id for r in records]
         assert encode_summary(summary) == encode_summary(whole.summary())
+        assert writer.text() == summary_text(summary)  # what finish writes

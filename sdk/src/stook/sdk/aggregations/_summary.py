@@ -383,7 +383,11 @@ class _Decoder:
 def summary_text(summary: BatchSummary) -> str:
     """The summary as the one element of its STRING metrics data (base64: protobuf
     strings must be UTF-8)."""
-    return base64.b64encode(encode_summary(summary)).decode("ascii")
+    return _as_text(encode_summary(summary))
+
+
+def _as_text(payload: bytes) -> str:
+    return base64.b64encode(payload).decode("ascii")
 
 
 def summary_from_text(text: str) -> BatchSummary:
@@ -503,12 +507,14 @@ class BatchSummaryWriter(Aggregation[JobRecord]):
             dict(sorted(self.statuses.items())),
         )
 
+    def text(self) -> str:
+        """`summary_text(self.summary())`, encoded from the rows (no `SummaryJob` each)."""
+        self._count_waiting()
+        return _as_text(_encode(self.jobs.values(), self.statuses, _SCALAR_PARTS))
+
     def finish(self, writer: MetricsWriter) -> None:
         if self.skipped is not None:
             return
         from stook.sdk._data import strings  # as the writer is: once the metrics are written
 
-        # Encoded from the rows, as `summary_text(self.summary())` would: the same bytes.
-        self._count_waiting()
-        payload = _encode(self.jobs.values(), self.statuses, _SCALAR_PARTS)
-        writer.add_data(strings(SUMMARY_DATA_NAME, [base64.b64encode(payload).decode("ascii")]))
+        writer.add_data(strings(SUMMARY_DATA_NAME, [self.text()]))
