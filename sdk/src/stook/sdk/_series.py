@@ -93,18 +93,6 @@ def doubles_array(doubles: pb.DoubleSeries) -> np.ndarray[Any, np.dtype[np.float
     return np.array(doubles.series, dtype=np.float64)
 
 
-def packed_doubles(doubles: pb.DoubleSeries) -> memoryview:
-    """The doubles as little-endian float64 bytes, bit for bit, for an aggregation that
-    joins many jobs' values before it makes one array of them (`np.frombuffer`)."""
-    n = len(doubles.series)
-    if n >= _PACKED_PATH_MIN:
-        wire = doubles.SerializeToString()
-        header = _packed_header(n * 8)
-        if len(wire) == len(header) + n * 8 and wire.startswith(header):
-            return memoryview(wire)[len(header) :]
-    return memoryview(np.array(doubles.series, dtype=_LITTLE_ENDIAN_F8).tobytes())
-
-
 _LITTLE_ENDIAN_F8 = np.dtype("<f8")
 
 
