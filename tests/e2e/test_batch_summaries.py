@@ -124,7 +124,7 @@ def test_no_summary_when_some_jobs_are_missing(tmp_path: Path) -> None:
     ("patch", "said"),
     [
         ("SUMMARY_VERSION", "batch summary written by a newer stook"),
-        ("summary_text", "batch summary unreadable"),
+        ("text", "batch summary unreadable"),
     ],
 )
 def test_a_summary_it_cannot_read_falls_back_to_the_listings(
@@ -139,7 +139,7 @@ def test_a_summary_it_cannot_read_falls_back_to_the_listings(
             if patch == "SUMMARY_VERSION":
                 mp.setattr(_summary, "SUMMARY_VERSION", _summary.SUMMARY_VERSION + 1)
             else:
-                mp.setattr(_summary, "summary_text", lambda summary: "AAAA")
+                mp.setattr(_summary.BatchSummaryWriter, "text", lambda self: "AAAA")
             for batch in emu.dataset.report_batches():
                 emu.dataset.batch_output(batch.id)  # written now, while patched
         before = emu.stats.endpoints["api:list_jobs"]

@@ -272,7 +272,7 @@ def test_fetched_values_are_kept_in_arrival_order_across_many_jobs() -> None:
         return agg
 
     whole = histogram(records)
-    assert whole.kept_arrays  # some fetched values still wait
+    assert whole.packed or whole.kept_arrays  # some fetched values still wait
     assert pl.concat(whole._kept()).to_list() == appended
     assert whole.total == len(appended)
     merged, travelled = histogram(records[:333]), histogram(records[:333])

@@ -115,3 +115,34 @@ def test_scalar_defaults_distribution_survives_extreme_ranges(values: list[float
     validate_job_metrics(writer.to_proto())
     resim_validate(rp.JobMetrics.FromString(writer.serialize()))
     assert writer.has_metric("x (distribution)")
+
+
+def test_scalar_defaults_columns_are_the_jobs_scalars_in_arrival_order() -> None:
+    # More jobs than wait to be added at once, some without some scalars, some units
+    # differing: the columns hold each scalar's values in the order the jobs came, and
+    # the units counted, whether read after the fold, after pickling or after a merge.
+    import pickle
+
+    jobs = [
+        job(
+            scalars={
+                **({"a": Scalar(i * 0.5, "m" if i % 4 else "km")} if i % 3 else {}),
+                **({"b": Scalar(-float(i))} if i % 5 else {}),
+            }
+        )
+        for i in range(700)
+    ]
+    expected = {
+        name: [j.scalars[name].value for j in jobs if name in j.scalars] for name in ("a", "b")
+    }
+    whole = fold(ScalarDefaults(), jobs)
+    assert isinstance(whole, ScalarDefaults)
+    travelled = pickle.loads(pickle.dumps(whole))
+    merged = fold(ScalarDefaults(), jobs[:300])
+    assert isinstance(merged, ScalarDefaults)
+    merged.merge(fold(ScalarDefaults(), jobs[300:]))  # type: ignore[arg-type]
+    for agg in (travelled, merged, whole):
+        agg._add_waiting()  # the ones still waiting, if any
+        assert {n: list(c.values) for n, c in sorted(agg.columns.items())} == expected
+        assert agg.columns["a"].units == {"m": 350, "km": 116}
+        assert Output(agg).writer.serialize() == Output(whole).writer.serialize()

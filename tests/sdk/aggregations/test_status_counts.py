@@ -108,3 +108,24 @@ def test_pass_rate() -> None:
     assert m.description == "5 of 8 jobs passed."
     assert Output(fold(PassRate(), [])).names == []
     assert Output(fold(PassRate(name="PR"), [job("ERROR")])).by_name["PR"].value == 0.0
+
+
+def test_metric_statuses_of_many_jobs_are_counted_however_read() -> None:
+    # More jobs than wait to be counted at once: the counts are every job's statuses,
+    # read after the fold, after pickling or after a merge, and the output is the same.
+    import pickle
+    from collections import Counter
+
+    statuses = ("PASSED", "FAIL_WARN", "RAW", "FAIL_BLOCK", "SOMETHING_NEW")
+    jobs = [job(metric_statuses=statuses[: i % 6]) for i in range(700)]
+    expected = Counter(s for j in jobs for s in j.metric_statuses)
+    whole = fold(MetricStatusCounts(), jobs)
+    assert isinstance(whole, MetricStatusCounts)
+    travelled = pickle.loads(pickle.dumps(whole))
+    merged = fold(MetricStatusCounts(), jobs[:300])
+    assert isinstance(merged, MetricStatusCounts)
+    merged.merge(fold(MetricStatusCounts(), jobs[300:]))  # type: ignore[arg-type]
+    for agg in (travelled, merged, whole):
+        agg._count_waiting()  # the ones still waiting, if any
+        assert agg.counts == expected
+        assert Output(agg).writer.serialize() == Output(whole).writer.serialize()

@@ -29,6 +29,7 @@ from stook.sdk.aggregations import (
     encode_summary,
     summary_from_data,
 )
+from stook.sdk.aggregations._summary import summary_text
 from stook.sdk.testing import check_merge_laws
 from tests.hypothesis_profiles import examples
 
@@ -203,3 +204,27 @@ def test_any_summary_round_trips(jobs: list[SummaryJob], statuses: dict[str, int
         tuple(sorted(jobs, key=lambda j: j.job_id.bytes)), dict(sorted(statuses.items()))
     )
     assert decode_summary(encode_summary(summary)) == summary
+
+
+def test_the_writer_of_many_jobs_writes_the_summary_of_them_all() -> None:
+    # More jobs than wait to be counted at once, folded in one piece, pickled, or in two
+    # merged pieces: the same summary, the one of every job, and the same bytes.
+    import pickle
+    from collections import Counter
+
+    records = _records(700)
+    whole = BatchSummaryWriter()
+    for record in records:
+        whole.update(record)
+    travelled = pickle.loads(pickle.dumps(whole))
+    merged, other = BatchSummaryWriter(), BatchSummaryWriter()
+    for i, record in enumerate(records):
+        (merged if i < 300 else other).update(record)
+    merged.merge(other)
+    expected = Counter(s for r in records for s in r.metric_statuses)
+    for writer in (travelled, merged, whole):
+        summary = writer.summary()
+        assert summary.metric_statuses == dict(sorted(expected.items()))
+        assert [j.job_id for j in summary.jobs] == [r.job_id for r in records]
+        assert encode_summary(summary) == encode_summary(whole.summary())
+        assert writer.text() == summary_text(summary)  # what finish writes

@@ -9,7 +9,7 @@ import textwrap
 SCRIPT = textwrap.dedent(
     """
     import asyncio, sys
-    from stook.service.fetch._decoders import decoders_ready, start_importing
+    from stook.service.fetch._decoders import decoders_loaded, decoders_ready, start_importing
 
     async def main():
         assert "polars" not in sys.modules
@@ -23,6 +23,7 @@ SCRIPT = textwrap.dedent(
         await asyncio.sleep(0)
         start_importing()
         start_importing()  # one import, however many ask
+        assert not decoders_loaded()
         before = ticks
         await asyncio.gather(decoders_ready(), decoders_ready())
         during = ticks - before
@@ -31,6 +32,7 @@ SCRIPT = textwrap.dedent(
         assert "numpy.ma" in sys.modules
         import polars, numpy
         await decoders_ready()  # once imported, at once
+        assert decoders_loaded()
         print(during, polars.Series([1.0]).sum())
 
     asyncio.run(main())

@@ -217,26 +217,27 @@ _new = object.__new__
 
 def _data_view(msg: pb.MetricsData, source: str) -> MetricsDataView:
     data_type = msg.data_type
-    if data_type == pb.NO_DATA_TYPE:
+    if data_type == _NO_DATA_TYPE:
         raise MalformedError(f"{_data_label(msg)}: data type is unset")
-    kind = _kind(data_type)
+    kind, elements = _KNOWN_TYPES.get(data_type) or _type_of(data_type)
     holds = msg.WhichOneof("data")
-    if kind is SeriesKind.EXTERNAL_FILE:
+    per_category = msg.is_per_category
+    if kind is _EXTERNAL_FILE:
         if holds not in (None, "external_file"):
             raise MalformedError(
                 f"{_data_label(msg)} is declared an external file but holds a {holds}"
             )
     elif kind is not None:  # of an unknown data type, nothing says what its series hold
-        expected = "series_per_category" if msg.is_per_category else "series"
+        expected = "series_per_category" if per_category else "series"
         if holds not in (None, expected):
-            declared = f"is_per_category is {msg.is_per_category}"
+            declared = f"is_per_category is {per_category}"
             raise MalformedError(f"{_data_label(msg)}: {declared} but it holds {holds}")
         # `series` and `series_per_category` are one oneof: only the one set holds series.
         if holds == "series":
-            _check_series(msg.series, kind, msg)
+            _check_series(msg.series, elements, kind, msg)
         elif holds == "series_per_category":
             for series in msg.series_per_category.category_to_series.values():
-                _check_series(series, kind, msg)
+                _check_series(series, elements, kind, msg)
     # Written through its twin (see `stook.sdk.fastpaths`): a view per downloaded series.
     view: Any = _new(_WritableDataView)
     view.id = _data_uuid(msg, msg.metrics_data_id.id.data, "id")
@@ -248,7 +249,7 @@ def _data_view(msg: pb.MetricsData, source: str) -> MetricsDataView:
     view.index_id = _data_uuid(msg, index_text, "index id") if index_text else None
     index_type = msg.index_data_type
     view.index_kind = _kind(index_type) if index_type != pb.NO_DATA_TYPE else None
-    view.per_category = msg.is_per_category
+    view.per_category = per_category
     names = msg.category_names
     view.categories = tuple(names) if names else ()
     view.external_path = msg.external_file.path if holds == "external_file" else None
@@ -269,9 +270,28 @@ _ELEMENT_FIELDS: dict[SeriesKind, str] = {
 }
 
 
-def _check_series(series: pb.Series, kind: SeriesKind, msg: pb.MetricsData) -> None:
+# Per known data type: its kind and the element field its series hold, found by one lookup
+# of the type's number (an enum member hashes in Python; a series is read for every job).
+_KNOWN_TYPES: dict[int, tuple[SeriesKind, str | None]] = {}
+_NO_DATA_TYPE: Final = pb.NO_DATA_TYPE
+_EXTERNAL_FILE: Final = SeriesKind.EXTERNAL_FILE
+
+
+def _type_of(data_type: int) -> tuple[SeriesKind | None, str | None]:
+    """`_KNOWN_TYPES` of `data_type`, kept once known; (None, None) for an unknown type."""
+    kind = _kind(data_type)
+    if kind is None:
+        return None, None
+    known = _KNOWN_TYPES[data_type] = (kind, _ELEMENT_FIELDS.get(kind))
+    return known
+
+
+def _check_series(
+    series: pb.Series, elements: str | None, kind: SeriesKind, msg: pb.MetricsData
+) -> None:
+    """`elements`: the element field `kind`'s series hold."""
     holds = series.WhichOneof("series")
-    if holds is not None and holds != _ELEMENT_FIELDS[kind]:
+    if holds is not None and holds != elements:
         raise MalformedError(
             f"{_data_label(msg)} is declared {kind.value} but its series holds {holds}"
         )

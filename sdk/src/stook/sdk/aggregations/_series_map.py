@@ -3,13 +3,16 @@
 A fetch hands every job's plain double data to its aggregations as `JobRecord.series`.
 Building a polars Series per job cost more than some aggregations' whole update (the
 merged histogram bins the values with numpy), so the series are made on first access
-and kept; `values_of` gives the same values as a numpy array without polars.
+and kept; `values_of` gives the same values as a numpy array without polars, and
+`packed_of` as the little-endian bytes of their wire form, without numpy either.
 """
 
 from __future__ import annotations
 
+import functools
+import sys
+from array import array
 from collections.abc import Callable, Iterator, Mapping
-from functools import cache
 from typing import TYPE_CHECKING, Any
 
 from stook.sdk._enums import SeriesKind
@@ -20,6 +23,9 @@ if TYPE_CHECKING:
 
     from stook.proto import metrics_pb2 as pb
     from stook.sdk._views import MetricsDataView
+
+
+_DOUBLE = SeriesKind.DOUBLE  # an enum member read off its class costs a lookup
 
 
 class SeriesByName(Mapping[str, "pl.Series"]):
@@ -36,7 +42,7 @@ class SeriesByName(Mapping[str, "pl.Series"]):
 
     def __init__(self, views: Mapping[str, MetricsDataView]) -> None:
         for name, view in views.items():
-            if view.kind is not SeriesKind.DOUBLE or view.per_category:
+            if view.kind is not _DOUBLE or view.per_category:
                 raise ValueError(f"metrics data {name!r} is not a plain double series")
         self._views = views
         self._made: dict[str, pl.Series] = {}
@@ -67,11 +73,73 @@ class SeriesByName(Mapping[str, "pl.Series"]):
             return None
         return _doubles_array()(view.raw.series.doubles)
 
+    def packed_of(self, name: str) -> memoryview | None:
+        """The values of `name` as little-endian float64 bytes (None without such data),
+        bit for bit the series' values: for an aggregation that joins many jobs' values
+        into one array, rather than make an array per job."""
+        view = self._views.get(name)
+        if view is None:
+            return None
+        return packed_doubles(view.raw.series.doubles)
 
-@cache
+
+@functools.cache
 def _doubles_array() -> Callable[[pb.DoubleSeries], np.ndarray[Any, np.dtype[np.float64]]]:
     """`stook.sdk._series.doubles_array` (with numpy and polars), imported on first use:
     an import statement per job cost ~4 % of a job's decode+fold path (callgrind)."""
     from stook.sdk._series import doubles_array
 
     return doubles_array
+
+
+def packed_doubles(doubles: pb.DoubleSeries) -> memoryview:
+    """The doubles as little-endian float64 bytes, bit for bit.
+
+    A serialized DoubleSeries that holds its values alone is the key of field 1 (packed),
+    the length as a varint, then exactly these bytes: re-serializing the field (a memcpy
+    in upb) gives every value without a Python float each, and without numpy or polars.
+    (`stook.sdk._series.doubles_array` reads the same wire form into an array.)"""
+    wire = doubles.SerializeToString()
+    # Told by the wire's length alone (no look at the repeated field, which costs a
+    # container object): this runs for every fetched job's series.
+    header = _HEADERS.get(len(wire)) or _header_of_wire(len(wire))
+    if header and wire.startswith(header):
+        return memoryview(wire)[len(header) :]
+    # Unknown fields beside the values (or no values): element by element.
+    values = array("d", doubles.series)
+    if sys.byteorder == "big":
+        values.byteswap()
+    return memoryview(values.tobytes())
+
+
+@functools.lru_cache(maxsize=256)
+def _packed_header(payload_len: int) -> bytes:
+    """What a serialized DoubleSeries holding only `payload_len` bytes of packed doubles
+    starts with: the key of field 1 / wire type 2 and the length as a (minimal) varint,
+    as protobuf writes it. Anything else (unknown fields) takes the element path."""
+    varint = bytearray()
+    while True:
+        byte, payload_len = payload_len & 0x7F, payload_len >> 7
+        varint.append(byte | 0x80 if payload_len else byte)
+        if not payload_len:
+            return b"\x0a" + bytes(varint)
+
+
+# Wire length -> the header a wire of that length starts with if it holds packed doubles
+# alone (b"" where none fits); a batch's series have a few hundred lengths.
+_HEADERS: dict[int, bytes] = {}
+_MAX_HEADERS = 4096
+
+
+def _header_of_wire(wire_len: int) -> bytes:
+    header = b""
+    for varint_len in range(1, 11):
+        payload_len = wire_len - 1 - varint_len
+        if payload_len < 0:
+            break
+        if payload_len % 8 == 0 and len(_packed_header(payload_len)) == 1 + varint_len:
+            header = _packed_header(payload_len)
+            break
+    if len(_HEADERS) < _MAX_HEADERS:
+        _HEADERS[wire_len] = header
+    return header

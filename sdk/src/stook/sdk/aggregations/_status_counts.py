@@ -11,7 +11,9 @@ metric statuses.
 from __future__ import annotations
 
 from collections import Counter
+from collections.abc import Sequence
 from dataclasses import dataclass, field
+from itertools import chain
 from typing import TYPE_CHECKING, Self
 
 from stook.sdk._enums import MetricStatus
@@ -25,6 +27,8 @@ if TYPE_CHECKING:
 #: even at zero, so that charts of different batches line up. Others come after, sorted.
 JOB_STATUSES = ("PASSED", "WARNING", "BLOCKER", "ERROR", "CANCELLED", "QUEUED", "RUNNING")
 _ALWAYS_SHOWN_JOB_STATUSES = JOB_STATUSES[:4]
+#: How many jobs' metric statuses wait to be counted in one Counter.update.
+COUNT_BATCH = 256
 #: The same for the statuses of job metrics, in the API's spelling.
 METRIC_STATUSES = (
     "PASSED",
@@ -83,14 +87,33 @@ class MetricStatusCounts(Aggregation[JobRecord]):
 
     name: str = "Job metric statuses"
     counts: Counter[str] = field(default_factory=Counter, init=False)
+    # Jobs' statuses wait here and are counted COUNT_BATCH jobs at a time: a Counter.update
+    # per job cost a third more (a Python call and a Mapping check each).
+    waiting: list[Sequence[str]] = field(default_factory=list, init=False)
 
     def update(self, job: JobRecord) -> None:
-        self.counts.update(job.metric_statuses)
+        self.waiting.append(job.metric_statuses)
+        if len(self.waiting) >= COUNT_BATCH:
+            self._count_waiting()
+
+    def _count_waiting(self) -> None:
+        if self.waiting:
+            waiting, self.waiting = self.waiting, []
+            self.counts.update(chain.from_iterable(waiting))
+
+    def __getstate__(self) -> dict[str, object]:
+        """What travels between processes (see `Aggregation`): the counts, the waiting
+        statuses counted first."""
+        self._count_waiting()
+        return dict(self.__dict__)
 
     def merge(self, other: Self) -> None:
+        self._count_waiting()
+        other._count_waiting()
         self.counts.update(other.counts)
 
     def finish(self, writer: MetricsWriter) -> None:
+        self._count_waiting()
         if not self.counts:
             return
         status = MetricStatus.PASSED

@@ -26,17 +26,20 @@ reader falls back to the listings instead of guessing at its meaning.
 from __future__ import annotations
 
 import base64
+import operator
 import struct
 import uuid
 from collections import Counter
-from collections.abc import Mapping
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Self
+from itertools import chain
+from typing import TYPE_CHECKING, Any, Self
 
 from stook.sdk._errors import StookError
 from stook.sdk.aggregations._base import Aggregation, Needs
 from stook.sdk.aggregations._columns import JobColumns, ScalarColumn
-from stook.sdk.aggregations._record import JobRecord
+from stook.sdk.aggregations._record import JobRecord, Scalar
+from stook.sdk.aggregations._status_counts import COUNT_BATCH
 
 if TYPE_CHECKING:
     import numpy as np
@@ -100,17 +103,51 @@ class ColumnarSummary:
 
 def encode_summary(summary: BatchSummary) -> bytes:
     """The summary's bytes (version `SUMMARY_VERSION`); equal summaries, equal bytes."""
-    jobs = sorted(summary.jobs, key=lambda j: j.job_id.bytes)
-    metric_names = sorted({name for j in jobs for name in j.scalars})
-    experiences = sorted(
-        {(j.experience_name, j.experience_id.bytes if j.experience_id else _NO_ID) for j in jobs}
-    )
+    rows = [
+        (j.job_id, j.experience_name, j.conflated_status, j.experience_id, j.has_metrics, j.scalars)
+        for j in summary.jobs
+    ]
+    return _encode(rows, summary.metric_statuses, _PAIR_PARTS)
+
+
+# A job as the encoder takes it: ID, experience name, conflated status, experience ID,
+# whether it has metrics, and its scalars by name as (value, unit) pairs or as `Scalar`s.
+_Row = tuple[uuid.UUID, str, str, uuid.UUID | None, bool, Mapping[str, Any]]
+_PAIR_PARTS = (operator.itemgetter(0), operator.itemgetter(1))
+_SCALAR_PARTS = (operator.attrgetter("value"), operator.attrgetter("unit"))
+
+
+def _encode(
+    rows: Iterable[_Row],
+    metric_statuses: Mapping[str, int],
+    parts: tuple[Callable[[Any], float], Callable[[Any], str]],
+) -> bytes:
+    """`encode_summary` of the jobs as rows; `parts` takes a scalar's value and unit apart.
+
+    Batch mode encodes its thousand jobs' rows here, so the per-job and per-scalar work is
+    done by C loops (map, filter, set.union) where it can be, and each UUID's bytes made
+    once (`UUID.bytes` is Python code)."""
+    keyed = sorted([(row[0].bytes, row) for row in rows], key=operator.itemgetter(0))
+    jobs = [row for _, row in keyed]
+    # By the IDs' ints, which hash in C (a UUID's __hash__ is Python code); a batch has
+    # few experiences, so few bytes to make.
+    experience_ids = {row[3].int: row[3] for row in jobs if row[3] is not None}
+    id_bytes = {key: experience_id.bytes for key, experience_id in experience_ids.items()}
+    job_experiences = [(row[1], _NO_ID if row[3] is None else id_bytes[row[3].int]) for row in jobs]
+    scalars = [row[5] for row in jobs]
+    value_of, unit_of = parts
+    metric_names = sorted(set().union(*scalars))
+    # Per metric, each job's scalar or None (a job without it), then the scalars there are.
+    by_job = [list(map(operator.methodcaller("get", name), scalars)) for name in metric_names]
+    found = [list(filter(None, column)) for column in by_job]
+    experiences = sorted(set(job_experiences))
+    statuses = [row[2] for row in jobs]
     texts = sorted(
-        {j.experience_name for j in jobs}
-        | {j.conflated_status for j in jobs}
+        {name for name, _ in experiences}
+        | set(statuses)
         | set(metric_names)
-        | {unit for j in jobs for _, unit in j.scalars.values()}
-        | set(summary.metric_statuses)
+        | set().union(*(map(unit_of, column) for column in found))
+        | set(metric_statuses)
     )
     text_index = {t: i for i, t in enumerate(texts)}
     experience_index = {e: i for i, e in enumerate(experiences)}
@@ -122,31 +159,21 @@ def encode_summary(summary: BatchSummary) -> bytes:
         encoded = text.encode()
         out += _U32.pack(len(encoded)) + encoded
     out += _U32.pack(len(experiences))
-    for name, id_bytes in experiences:
-        out += _U8.pack(id_bytes != _NO_ID) + id_bytes + _index(code, text_index[name])
+    for name, experience_id in experiences:
+        out += _U8.pack(experience_id != _NO_ID) + experience_id + _index(code, text_index[name])
     out += _U32.pack(len(jobs))
-    out += b"".join(j.job_id.bytes for j in jobs)
-    out += _indexes(
-        code,
-        [
-            experience_index[
-                (j.experience_name, j.experience_id.bytes if j.experience_id else _NO_ID)
-            ]
-            for j in jobs
-        ],
-    )
-    out += _indexes(code, [text_index[j.conflated_status] for j in jobs])
-    out += _bitmap([j.has_metrics for j in jobs])
+    out += b"".join([key for key, _ in keyed])
+    out += _indexes(code, list(map(experience_index.__getitem__, job_experiences)))
+    out += _indexes(code, list(map(text_index.__getitem__, statuses)))
+    out += _bitmap([row[4] for row in jobs])
     out += _U32.pack(len(metric_names))
-    for name in metric_names:
-        present = [name in j.scalars for j in jobs]
-        pairs = [j.scalars[name] for j in jobs if name in j.scalars]
-        out += _index(code, text_index[name]) + _bitmap(present)
-        out += struct.pack(f"<{len(pairs)}d", *(value for value, _ in pairs))
-        out += _indexes(code, [text_index[unit] for _, unit in pairs])
-    statuses = sorted(summary.metric_statuses.items())
-    out += _U32.pack(len(statuses))
-    for status, count in statuses:
+    for name, column, present in zip(metric_names, by_job, found, strict=True):
+        out += _index(code, text_index[name]) + _bitmap(column)
+        out += struct.pack(f"<{len(present)}d", *map(value_of, present))
+        out += _indexes(code, list(map(text_index.__getitem__, map(unit_of, present))))
+    counted = sorted(metric_statuses.items())
+    out += _U32.pack(len(counted))
+    for status, count in counted:
         out += _index(code, text_index[status]) + _U32.pack(count)
     return bytes(out)
 
@@ -163,12 +190,16 @@ def _indexes(code: str, values: list[int]) -> bytes:
     return struct.pack(f"<{len(values)}{code}", *values)
 
 
-def _bitmap(flags: list[bool]) -> bytes:
-    bits = bytearray((len(flags) + 7) // 8)
-    for i, flag in enumerate(flags):
-        if flag:
-            bits[i >> 3] |= 1 << (i & 7)
-    return bytes(bits)
+def _bitmap(flags: Sequence[object]) -> bytes:
+    """Bit i (of byte i // 8, least significant first) set where flags[i] is true."""
+    if not flags:
+        return b""
+    # In C loops: the flags as the digits of a binary number, flag 0 the last digit.
+    digits = bytes(map(bool, flags)).translate(_BINARY_DIGITS)[::-1]
+    return int(digits, 2).to_bytes((len(flags) + 7) // 8, "little")
+
+
+_BINARY_DIGITS = bytes.maketrans(b"\x00\x01", b"01")
 
 
 # ---- decoding ----
@@ -352,7 +383,11 @@ class _Decoder:
 def summary_text(summary: BatchSummary) -> str:
     """The summary as the one element of its STRING metrics data (base64: protobuf
     strings must be UTF-8)."""
-    return base64.b64encode(encode_summary(summary)).decode("ascii")
+    return _as_text(encode_summary(summary))
+
+
+def _as_text(payload: bytes) -> str:
+    return base64.b64encode(payload).decode("ascii")
 
 
 def summary_from_text(text: str) -> BatchSummary:
@@ -397,55 +432,89 @@ class BatchSummaryWriter(Aggregation[JobRecord]):
     """
 
     name: str = SUMMARY_DATA_NAME
-    jobs: dict[uuid.UUID, SummaryJob] = field(default_factory=dict, init=False)
+    # A row per job (see `_Row`), its scalars the record's own `Scalar`s: a `SummaryJob`
+    # and a dict of pairs per job cost more than the rest of the job's fold.
+    jobs: dict[uuid.UUID, _Row] = field(default_factory=dict, init=False)
     statuses: Counter[str] = field(default_factory=Counter, init=False)
+    # Jobs' metric statuses, counted COUNT_BATCH jobs at a time (see `MetricStatusCounts`).
+    waiting: list[Sequence[str]] = field(default_factory=list, init=False)
     skipped: str | None = field(default=None, init=False)
 
     def needs(self) -> Needs:
         return Needs(every_scalar=True)
 
+    def _count_waiting(self) -> None:
+        if self.waiting:
+            waiting, self.waiting = self.waiting, []
+            self.statuses.update(chain.from_iterable(waiting))
+
     def update(self, record: JobRecord) -> None:
-        self.jobs[record.job_id] = SummaryJob(
+        self.jobs[record.job_id] = (
             record.job_id,
             record.experience_name,
             record.conflated_status,
             record.experience_id,
             bool(record.metric_statuses),
-            {name: (s.value, s.unit) for name, s in record.scalars.items()},
+            record.scalars,
         )
-        self.statuses.update(record.metric_statuses)
+        self.waiting.append(record.metric_statuses)
+        if len(self.waiting) >= COUNT_BATCH:
+            self._count_waiting()
 
     def merge(self, other: Self) -> None:
+        self._count_waiting()
+        other._count_waiting()
         self.jobs.update(other.jobs)
         self.statuses.update(other.statuses)
         self.skipped = self.skipped or other.skipped
 
     def __getstate__(self) -> dict[str, object]:
         """What travels between processes (see `Aggregation`): the jobs in the summary's
-        own layout (~20 bytes a job plus 8 and an index per scalar) rather than a
-        `SummaryJob`, a UUID and a dict of tuples per job; it decodes to equal jobs."""
+        own layout (~20 bytes a job plus 8 and an index per scalar) rather than a row, a
+        UUID and a dict of `Scalar`s per job; it decodes to equal jobs."""
+        self._count_waiting()
         state = dict(self.__dict__)
-        state["jobs"] = encode_summary(BatchSummary(tuple(self.jobs.values())))
+        state["jobs"] = _encode(self.jobs.values(), {}, _SCALAR_PARTS)
         return state
 
     def __setstate__(self, state: dict[str, object]) -> None:
         packed = state.pop("jobs")
         assert isinstance(packed, bytes)
         self.__dict__.update(state)
-        self.jobs = {job.job_id: job for job in decode_summary(packed).jobs}
+        self.jobs = {
+            job.job_id: (
+                job.job_id,
+                job.experience_name,
+                job.conflated_status,
+                job.experience_id,
+                job.has_metrics,
+                {name: Scalar(value, unit) for name, (value, unit) in job.scalars.items()},
+            )
+            for job in decode_summary(packed).jobs
+        }
 
     def skip(self, reason: str) -> None:
         self.skipped = reason
 
     def summary(self) -> BatchSummary:
+        self._count_waiting()
+        rows = sorted(self.jobs.values(), key=lambda row: row[0].bytes)
         return BatchSummary(
-            tuple(self.jobs[k] for k in sorted(self.jobs, key=lambda k: k.bytes)),
+            tuple(
+                SummaryJob(*row[:5], {name: (s.value, s.unit) for name, s in row[5].items()})
+                for row in rows
+            ),
             dict(sorted(self.statuses.items())),
         )
+
+    def text(self) -> str:
+        """`summary_text(self.summary())`, encoded from the rows (no `SummaryJob` each)."""
+        self._count_waiting()
+        return _as_text(_encode(self.jobs.values(), self.statuses, _SCALAR_PARTS))
 
     def finish(self, writer: MetricsWriter) -> None:
         if self.skipped is not None:
             return
         from stook.sdk._data import strings  # as the writer is: once the metrics are written
 
-        writer.add_data(strings(SUMMARY_DATA_NAME, [summary_text(self.summary())]))
+        writer.add_data(strings(SUMMARY_DATA_NAME, [self.text()]))

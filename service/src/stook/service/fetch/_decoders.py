@@ -15,7 +15,7 @@ import asyncio
 import importlib
 import sys
 
-__all__ = ["decoders_ready", "start_importing"]
+__all__ = ["decoders_loaded", "decoders_ready", "start_importing"]
 
 # numpy.ma too: polars imports it lazily when it first makes a Series from a numpy array
 # (the merged histogram's chunks), ~44 M instructions that would otherwise run on the
@@ -45,6 +45,12 @@ def start_importing() -> None:
     loop = asyncio.get_running_loop()
     if _importing is None or _importing.get_loop() is not loop or _importing.done():
         _importing = loop.run_in_executor(None, _import)
+
+
+def decoders_loaded() -> bool:
+    """Whether `decoders_ready` has seen the decoders imported: then awaiting it is only
+    a coroutine made and finished, which a job with a series can skip."""
+    return _ready
 
 
 async def decoders_ready() -> None:

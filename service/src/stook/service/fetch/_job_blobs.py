@@ -10,10 +10,11 @@ and nothing the plan did not ask for is downloaded.
 from __future__ import annotations
 
 import asyncio
+import functools
 import uuid
 from collections.abc import Awaitable, Callable, Collection, Iterable, Mapping, Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, TypeVar
+from typing import TYPE_CHECKING, Any, Final, TypeVar
 
 import structlog
 
@@ -30,9 +31,10 @@ from stook.sdk import (
     read_metrics_data,
 )
 from stook.sdk.aggregations import Needs, SeriesByName
-from stook.service.api import ApiMetric, ApiMetricsData, StorageClient
-from stook.service.fetch._decoders import decoders_ready
-from stook.service.fetch._presigned import fetch_listed
+from stook.sdk.fastpaths import writable_twin
+from stook.service.api import ApiMetric, ApiMetricsData, PresignedUrlExpiredError, StorageClient
+from stook.service.fetch._decoders import decoders_loaded, decoders_ready
+from stook.service.fetch._presigned import fetch_listed, fetch_relisted
 
 if TYPE_CHECKING:
     import polars as pl
@@ -54,6 +56,11 @@ class JobBlobsResult:
     data: Mapping[str, MetricsDataView]
     series: Mapping[str, pl.Series]
     job_metrics: JobMetricsView | None
+
+
+_WritableResult: Final = writable_twin(JobBlobsResult)
+_new = object.__new__
+_DOUBLE: Final = SeriesKind.DOUBLE  # an enum member read off its class costs a lookup
 
 
 class JobBlobs:
@@ -83,12 +90,17 @@ class JobBlobs:
         self._data = data
         self._relist_metrics = relist_metrics
         self._relist_data = relist_data
-        # One pass: a job lists a dozen data, and this runs for every job.
-        self._listed: dict[uuid.UUID, ApiMetricsData] = {}
-        self._files: dict[uuid.UUID, ApiMetricsData] = {}
-        for d in data:
-            (self._listed if d.is_standard else self._files)[d.data_id] = d
         self._views: dict[uuid.UUID, MetricsDataView] = {}
+
+    @functools.cached_property
+    def _listed(self) -> dict[uuid.UUID, ApiMetricsData]:
+        """The listed metrics data by ID; external files are in `_files`."""
+        return {d.data_id: d for d in self._data if d.is_standard}
+
+    @functools.cached_property
+    def _files(self) -> dict[uuid.UUID, ApiMetricsData]:
+        """The listed external files by ID (see `_file`)."""
+        return {d.data_id: d for d in self._data if not d.is_standard}
 
     @property
     def wants_metrics(self) -> bool:
@@ -104,24 +116,37 @@ class JobBlobs:
         else:
             # The common plan, data by name alone: nothing else is downloaded.
             metric_views, indexed = [], ()
-            await self._download_all(named)
+            if len(named) == 1:  # one series a job: awaited in this frame, see `_download`
+                self._views[named[0].data_id] = await self._download(named[0])
+            else:
+                await self._download_all(named)
         data: dict[str, MetricsDataView] = {}
         doubles: dict[str, MetricsDataView] = {}
-        if any(self._views[item.data_id].kind is SeriesKind.DOUBLE for item in named):
-            await decoders_ready()  # polars, imported off the loop's thread
+        has_doubles = False
         for item in named:
             view = self._views[item.data_id]
             if item.data_id in indexed and view.index_id is not None:
                 view = view.with_index(self._views[view.index_id])
             data[item.name] = view
-            # Per-category data keeps its categories in `data`: no single series of it.
-            # Made into polars Series only when an aggregation asks (see `SeriesByName`).
-            if view.kind is SeriesKind.DOUBLE and not view.per_category:
-                doubles[item.name] = view
-        job_metrics = None
-        if self.wants_metrics:
-            job_metrics = self._job_metrics(metric_views)
-        return JobBlobsResult(data=data, series=SeriesByName(doubles), job_metrics=job_metrics)
+            if view.kind is _DOUBLE:
+                has_doubles = True
+                # Per-category data keeps its categories in `data`: no single series of
+                # it. Made into polars Series only when an aggregation asks (see
+                # `SeriesByName`).
+                if not view.per_category:
+                    doubles[item.name] = view
+        if has_doubles and not decoders_loaded():
+            await decoders_ready()  # polars, imported off the loop's thread
+        job_metrics = self._job_metrics(metric_views) if self.wants_metrics else None
+        # JobBlobsResult(...), written through its twin (see stook.sdk.fastpaths): a frozen
+        # dataclass's __init__ costs several times as much, and this is made for every job.
+        result: Any = _new(_WritableResult)
+        result.data = data
+        result.series = SeriesByName(doubles)
+        result.job_metrics = job_metrics
+        result.__class__ = JobBlobsResult
+        blobs: JobBlobsResult = result
+        return blobs
 
     async def _download_referenced(
         self, named: Sequence[ApiMetricsData]
@@ -246,14 +271,23 @@ class JobBlobs:
 
     async def _download(self, item: ApiMetricsData) -> MetricsDataView:
         source = self._where(f"metrics data {item.name!r}")
-        payload, _ = await fetch_listed(
-            self._storage,
-            item,
-            url_of=lambda d: d.metrics_data_url,
-            id_of=lambda d: d.data_id,
-            relist=self._relist_data,
-            source=source,
-        )
+        # `fetch_listed`, its first download awaited here: every resumption of a download
+        # passes through each coroutine between the worker and the GET, and this is the
+        # download of every job.
+        payload = None
+        if item.metrics_data_url is not None:
+            try:
+                payload = await self._storage.fetch_bytes(item.metrics_data_url)
+            except PresignedUrlExpiredError as expired:
+                payload, _ = await fetch_relisted(
+                    self._storage,
+                    item,
+                    expired,
+                    url_of=lambda d: d.metrics_data_url,
+                    id_of=lambda d: d.data_id,
+                    relist=self._relist_data,
+                    source=source,
+                )
         if payload is None:
             raise InvalidDataError(f"could not read MetricsData from {source}: it has no URL")
         try:

@@ -14,7 +14,7 @@ import structlog
 
 from stook.service.api import PresignedUrlExpiredError, StorageClient
 
-__all__ = ["fetch_listed"]
+__all__ = ["fetch_listed", "fetch_relisted"]
 
 log = structlog.get_logger("stook.fetch")
 
@@ -38,18 +38,43 @@ async def fetch_listed(
     Raises PresignedUrlExpiredError when the URL is still refused after listing again
     twice, or when the item is gone from the new listing.
     """
-    for relisted in range(_MAX_RELISTS + 1):
+    url = url_of(item)
+    if url is None:
+        return None, item
+    try:
+        return await storage.fetch_bytes(url), item
+    except PresignedUrlExpiredError as expired:
+        return await fetch_relisted(
+            storage, item, expired, url_of=url_of, id_of=id_of, relist=relist, source=source
+        )
+
+
+async def fetch_relisted(
+    storage: StorageClient,
+    item: _Item,
+    expired: PresignedUrlExpiredError,
+    *,
+    url_of: Callable[[_Item], str | None],
+    id_of: Callable[[_Item], Hashable],
+    relist: Callable[[], Awaitable[Sequence[_Item]]],
+    source: str,
+) -> tuple[bytes | None, _Item]:
+    """`fetch_listed` once `item`'s URL was refused as `expired`: list again for a fresh
+    URL and fetch that, twice at most. A caller that awaits the first download in its own
+    frame (one coroutine fewer for every resumption of it) comes here on expiry."""
+    for relisted in range(1, _MAX_RELISTS + 1):
+        log.info("presigned URL expired; listing again", source=source)
+        fresh = {id_of(i): i for i in await relist()}
+        if id_of(item) not in fresh:
+            raise expired
+        item = fresh[id_of(item)]
         url = url_of(item)
         if url is None:
             return None, item
         try:
             return await storage.fetch_bytes(url), item
-        except PresignedUrlExpiredError:
+        except PresignedUrlExpiredError as again:
             if relisted == _MAX_RELISTS:
                 raise
-            log.info("presigned URL expired; listing again", source=source)
-            fresh = {id_of(i): i for i in await relist()}
-            if id_of(item) not in fresh:
-                raise
-            item = fresh[id_of(item)]
+            expired = again
     raise AssertionError("unreachable: the loop returns or raises")

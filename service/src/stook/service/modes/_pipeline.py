@@ -200,12 +200,14 @@ async def fetch_here(run: FetchRun[_R, _O]) -> tuple[_O, Traffic]:
     """The fetch and fold in this process: every record folded as it arrives."""
     mode, settings = run.mode, run.settings
     folded = 0
+    # Bound once: the same aggregations fold every record.
+    updates = [aggregation.update for aggregation in mode.aggregations]
 
     def fold(record: _R) -> None:
         nonlocal folded
         folded += 1
-        for aggregation in mode.aggregations:
-            aggregation.update(record)
+        for update in updates:
+            update(record)
 
     log.info(
         f"{mode.kind} fetch starting",
