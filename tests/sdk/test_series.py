@@ -19,8 +19,8 @@ from stook.sdk import (
     parse_metrics_data,
     read_metrics_data,
 )
+from stook.sdk._packed import packed_doubles
 from stook.sdk._series import doubles_array
-from stook.sdk.aggregations._series_map import packed_doubles
 from tests.sdk.support import bare_data
 
 # ---------------------------------------------------------------- a ReSim-written output

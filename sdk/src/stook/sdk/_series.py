@@ -9,7 +9,6 @@ into a `ReadError` that names the data.
 
 from __future__ import annotations
 
-import functools
 import uuid
 from typing import Any
 
@@ -19,6 +18,7 @@ import polars as pl
 from stook.proto import metrics_pb2 as pb
 from stook.sdk._enums import NANOS_PER_SECOND, MetricStatus, SeriesKind
 from stook.sdk._errors import MalformedError
+from stook.sdk._packed import packed_header
 
 STATUS_DTYPE = pl.Enum([s.name for s in MetricStatus])
 """dtype of status values in frames; ``NO_METRIC_STATUS`` (unset) and a status this
@@ -86,7 +86,7 @@ def doubles_array(doubles: pb.DoubleSeries) -> np.ndarray[Any, np.dtype[np.float
     n = len(doubles.series)
     if n >= _PACKED_PATH_MIN:
         wire = doubles.SerializeToString()
-        header = _packed_header(n * 8)
+        header = packed_header(n * 8)
         if len(wire) == len(header) + n * 8 and wire.startswith(header):
             # Positional: frombuffer's keywords cost more than the view itself (~1 µs).
             return np.frombuffer(wire, _LITTLE_ENDIAN_F8, n, len(header))
@@ -94,19 +94,6 @@ def doubles_array(doubles: pb.DoubleSeries) -> np.ndarray[Any, np.dtype[np.float
 
 
 _LITTLE_ENDIAN_F8 = np.dtype("<f8")
-
-
-@functools.lru_cache(maxsize=256)
-def _packed_header(payload_len: int) -> bytes:
-    """What a serialized DoubleSeries holding only `payload_len` bytes of packed doubles
-    starts with: the key of field 1 / wire type 2 and the length as a (minimal) varint,
-    as protobuf writes it. Anything else (unknown fields) takes the element path."""
-    varint = bytearray()
-    while True:
-        byte, payload_len = payload_len & 0x7F, payload_len >> 7
-        varint.append(byte | 0x80 if payload_len else byte)
-        if not payload_len:
-            return b"\x0a" + bytes(varint)
 
 
 def _timestamps(timestamps: pb.TimestampSeries, name: str) -> pl.Series:
