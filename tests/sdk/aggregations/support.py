@@ -4,8 +4,10 @@ from __future__ import annotations
 
 import bisect
 import math
+import pickle
 import uuid
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
+from typing import TypeVar
 
 import polars as pl
 import resim.metrics.proto.metrics_pb2 as rp
@@ -44,10 +46,30 @@ def job(
     )
 
 
+_A = TypeVar("_A", bound=BatchAggregation)
+
+
 def fold(aggregation: BatchAggregation, jobs: Iterable[JobRecord]) -> BatchAggregation:
     for record in jobs:
         aggregation.update(record)
     return aggregation
+
+
+def folded_three_ways(
+    make: Callable[[], _A], jobs: Sequence[JobRecord], split: int
+) -> tuple[_A, _A, _A]:
+    """`jobs` folded into one fresh aggregation (whole), that one pickled and read back
+    (travelled), and two folded at `split` and merged (merged): for aggregations that keep
+    updates waiting, each must read the same."""
+    whole = make()
+    fold(whole, jobs)
+    travelled: _A = pickle.loads(pickle.dumps(whole))
+    merged = make()
+    fold(merged, jobs[:split])
+    rest = make()
+    fold(rest, jobs[split:])
+    merged.merge(rest)
+    return whole, travelled, merged
 
 
 class Output:

@@ -21,7 +21,7 @@ from stook.sdk.aggregations import (
     ScalarStats,
     default_batch_aggregations,
 )
-from tests.sdk.aggregations.support import Output, fold, job
+from tests.sdk.aggregations.support import Output, fold, folded_three_ways, job
 
 
 def test_scalar_defaults_mean_and_distribution_of_every_scalar() -> None:
@@ -121,7 +121,6 @@ def test_scalar_defaults_columns_are_the_jobs_scalars_in_arrival_order() -> None
     # More jobs than wait to be added at once, some without some scalars, some units
     # differing: the columns hold each scalar's values in the order the jobs came, and
     # the units counted, whether read after the fold, after pickling or after a merge.
-    import pickle
 
     jobs = [
         job(
@@ -135,12 +134,7 @@ def test_scalar_defaults_columns_are_the_jobs_scalars_in_arrival_order() -> None
     expected = {
         name: [j.scalars[name].value for j in jobs if name in j.scalars] for name in ("a", "b")
     }
-    whole = fold(ScalarDefaults(), jobs)
-    assert isinstance(whole, ScalarDefaults)
-    travelled = pickle.loads(pickle.dumps(whole))
-    merged = fold(ScalarDefaults(), jobs[:300])
-    assert isinstance(merged, ScalarDefaults)
-    merged.merge(fold(ScalarDefaults(), jobs[300:]))  # type: ignore[arg-type]
+    whole, travelled, merged = folded_three_ways(ScalarDefaults, jobs, 300)
     for agg in (travelled, merged, whole):
         agg._add_waiting()  # the ones still waiting, if any
         assert {n: list(c.values) for n, c in sorted(agg.columns.items())} == expected

@@ -10,7 +10,7 @@ import pytest
 
 from stook.sdk import BarChartMetric, MetricStatus, MetricType
 from stook.sdk.aggregations import JobStatusCounts, MetricStatusCounts, PassRate
-from tests.sdk.aggregations.support import Output, fold, job
+from tests.sdk.aggregations.support import Output, fold, folded_three_ways, job
 
 
 def test_job_status_counts_in_app_order_with_unknown_statuses_last() -> None:
@@ -113,18 +113,12 @@ def test_pass_rate() -> None:
 def test_metric_statuses_of_many_jobs_are_counted_however_read() -> None:
     # More jobs than wait to be counted at once: the counts are every job's statuses,
     # read after the fold, after pickling or after a merge, and the output is the same.
-    import pickle
     from collections import Counter
 
     statuses = ("PASSED", "FAIL_WARN", "RAW", "FAIL_BLOCK", "SOMETHING_NEW")
     jobs = [job(metric_statuses=statuses[: i % 6]) for i in range(700)]
     expected = Counter(s for j in jobs for s in j.metric_statuses)
-    whole = fold(MetricStatusCounts(), jobs)
-    assert isinstance(whole, MetricStatusCounts)
-    travelled = pickle.loads(pickle.dumps(whole))
-    merged = fold(MetricStatusCounts(), jobs[:300])
-    assert isinstance(merged, MetricStatusCounts)
-    merged.merge(fold(MetricStatusCounts(), jobs[300:]))  # type: ignore[arg-type]
+    whole, travelled, merged = folded_three_ways(MetricStatusCounts, jobs, 300)
     for agg in (travelled, merged, whole):
         agg._count_waiting()  # the ones still waiting, if any
         assert agg.counts == expected
