@@ -127,8 +127,7 @@ def run_engine_bench(
         in_fresh_process(measure_engine, emulator.info, {"kind": "local"})  # warm-up
         # The emulator shares the machine's cores: its CPU beside the client's says how
         # much of the machine was left for the engines to spread.
-        process = emulator._process
-        pid = process.pid if process is not None else None
+        pid = emulator.pid
         for label, engine in ENGINES:
             before = process_cpu_seconds(pid) if pid is not None else None
             try:

@@ -380,6 +380,11 @@ class EmulatorProcess:
         return self._info
 
     @property
+    def pid(self) -> int | None:
+        """The child process's ID while it runs: benchmarks read its CPU time by it."""
+        return self._process.pid if self._process is not None else None
+
+    @property
     def api_url(self) -> str:
         return self.info.api_url
 
