@@ -18,6 +18,7 @@ from __future__ import annotations
 import functools
 import uuid
 from collections.abc import Callable, Mapping
+from datetime import datetime
 from operator import itemgetter
 from typing import Any, Final
 
@@ -51,6 +52,7 @@ _WritableMetric: Final = writable_twin(ApiMetric)
 _WritableMetricsData: Final = writable_twin(ApiMetricsData)
 _WritableJob: Final = writable_twin(Job)
 _new = object.__new__
+_from_iso: Final = datetime.fromisoformat
 
 
 class _MalformedError(Exception):
@@ -90,18 +92,21 @@ _last_timestamp: tuple[str, Any] = ("", None)
 
 def _timestamp(value: object) -> Any:
     global _last_timestamp
+    if type(value) is str and value:
+        text, moment = _last_timestamp
+        if value == text:
+            return moment
+        try:
+            moment = _from_iso(value)  # what parse_rfc3339 tries first, without its call
+        except ValueError:
+            moment = parse_rfc3339(value)
+        if moment is None or moment.tzinfo is None:
+            raise _MalformedError
+        _last_timestamp = (value, moment)
+        return moment
     if value is None or value == "":
         return None
-    if type(value) is not str:
-        raise _MalformedError
-    text, moment = _last_timestamp
-    if value == text:
-        return moment
-    moment = parse_rfc3339(value)
-    if moment is None or moment.tzinfo is None:
-        raise _MalformedError
-    _last_timestamp = (value, moment)
-    return moment
+    raise _MalformedError
 
 
 def _metric(data: Mapping[str, Any], owner: MetricOwner) -> ApiMetric | None:
