@@ -3,11 +3,14 @@
 from __future__ import annotations
 
 import dataclasses
+import functools
 import json
 import pickle
 import uuid
+from collections.abc import Callable
 from typing import Any
 
+import orjson
 import pytest
 from resim.sdk.client.models import JobMetric as ResimJobMetric
 from resim.sdk.client.models import JobMetricsData as ResimJobMetricsData
@@ -350,3 +353,39 @@ def test_malformed_job_items_fail_as_from_json_says(change: dict[str, Any]) -> N
     with pytest.raises(ApiResponseError) as caught:
         read_job(data)
     assert str(caught.value) == str(expected.value)
+
+
+@pytest.mark.parametrize(
+    ("parse", "model", "item"),
+    [
+        (read_job, Job.from_json, JOB),
+        (
+            metrics_data_parser(MetricOwner.JOB),
+            functools.partial(ApiMetricsData.from_json, owner=MetricOwner.JOB),
+            DATA,
+        ),
+        (
+            metrics_data_parser(MetricOwner.BATCH),
+            functools.partial(ApiMetricsData.from_json, owner=MetricOwner.BATCH),
+            DATA | {"batchID": IDS[4]},
+        ),
+    ],
+)
+def test_items_with_fields_left_out_or_parsed_by_orjson_read_as_from_json(
+    parse: Callable[[dict[str, Any]], object],
+    model: Callable[[dict[str, Any]], object],
+    item: dict[str, Any],
+) -> None:
+    # The fields are read in one call, by the JSON parser's own keys: an item that leaves
+    # one out is read field by field, and a parsed one as a written one.
+    for key in item:
+        fewer = {k: v for k, v in item.items() if k != key}
+        try:
+            expected = model(fewer)
+        except ApiResponseError:
+            with pytest.raises(ApiResponseError):
+                parse(fewer)
+        else:
+            same(parse(fewer), expected)
+    parsed = orjson.loads(orjson.dumps(item))
+    same(parse(parsed), model(parsed))

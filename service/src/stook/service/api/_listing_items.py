@@ -15,8 +15,11 @@ objects (tests/service/api/test_listing_items.py).
 
 from __future__ import annotations
 
+import functools
 import uuid
 from collections.abc import Callable, Mapping
+from datetime import datetime
+from operator import itemgetter
 from typing import Any, Final
 
 from stook.sdk.fastpaths import writable_twin
@@ -49,6 +52,7 @@ _WritableMetric: Final = writable_twin(ApiMetric)
 _WritableMetricsData: Final = writable_twin(ApiMetricsData)
 _WritableJob: Final = writable_twin(Job)
 _new = object.__new__
+_from_iso: Final = datetime.fromisoformat
 
 
 class _MalformedError(Exception):
@@ -88,18 +92,21 @@ _last_timestamp: tuple[str, Any] = ("", None)
 
 def _timestamp(value: object) -> Any:
     global _last_timestamp
+    if type(value) is str and value:
+        text, moment = _last_timestamp
+        if value == text:
+            return moment
+        try:
+            moment = _from_iso(value)  # what parse_rfc3339 tries first, without its call
+        except ValueError:
+            moment = parse_rfc3339(value)
+        if moment is None or moment.tzinfo is None:
+            raise _MalformedError
+        _last_timestamp = (value, moment)
+        return moment
     if value is None or value == "":
         return None
-    if type(value) is not str:
-        raise _MalformedError
-    text, moment = _last_timestamp
-    if value == text:
-        return moment
-    moment = parse_rfc3339(value)
-    if moment is None or moment.tzinfo is None:
-        raise _MalformedError
-    _last_timestamp = (value, moment)
-    return moment
+    raise _MalformedError
 
 
 def _metric(data: Mapping[str, Any], owner: MetricOwner) -> ApiMetric | None:
@@ -161,33 +168,58 @@ def _metric(data: Mapping[str, Any], owner: MetricOwner) -> ApiMetric | None:
         return None
 
 
-def _metrics_data(data: Mapping[str, Any], owner: MetricOwner) -> ApiMetricsData | None:
-    get = data.get
+# What `_metrics_data` reads of a metrics-data listing's item, in one call (see
+# `_key_reader`), by owner: its owner's ID is the job's or the batch's.
+_DATA_KEYS: Final = {
+    owner: (
+        "dataID",
+        "metricsDataType",
+        "name",
+        "metricsDataURL",
+        "filename",
+        "jobID" if owner is MetricOwner.JOB else "batchID",
+        "creationTimestamp",
+    )
+    for owner in MetricOwner
+}
+
+
+@functools.cache
+def _data_fields() -> tuple[Callable[[Mapping[str, Any]], tuple[Any, ...]], ...]:
+    """The readers of a job's item, then of a batch's: by position, as an enum member's
+    hash is Python code (a dict or a cache keyed by the owner cost a fifth of an item)."""
+    return _key_reader(_DATA_KEYS[_JOB]), _key_reader(_DATA_KEYS[MetricOwner.BATCH])
+
+
+def _metrics_data(data: dict[str, Any], owner: MetricOwner) -> ApiMetricsData | None:
     try:
-        data_id = get("dataID")
+        fields = _data_fields()[owner is not _JOB](data)
+    except KeyError:  # a field left out: read as null, as from_json reads it
+        fields = tuple(map(data.get, _DATA_KEYS[owner]))
+    data_id, storage_type, name, url, filename, owner_id, created = fields
+    try:
         if type(data_id) is not str or not data_id:
             return None
-        storage_type = get("metricsDataType")
         if type(storage_type) is str and storage_type:
             storage_type = _STORAGE_TYPES.get(storage_type, storage_type)
         elif storage_type is None or storage_type == "":
             storage_type = _STANDARD
         else:
             return None
-        job = owner is _JOB
         item: Any = _new(_WritableMetricsData)
         # Through the ID cache: the job's metrics list it too (their dataIDs).
         item.data_id = parse_uuid(data_id)
-        name = get("name")
         item.name = name if type(name) is str else _text(name) or ""
         item.metrics_data_type = storage_type
-        url = get("metricsDataURL")
         item.metrics_data_url = (url or None) if type(url) is str else _text(url)
-        item.filename = _text(get("filename"))
+        item.filename = (filename or None) if type(filename) is str else _text(filename)
         item.owner = owner
-        item.job_id = _opt_id(get("jobID")) if job else None
-        item.batch_id = None if job else _opt_id(get("batchID"))
-        item.creation_timestamp = _timestamp(get("creationTimestamp"))
+        owner_id = parse_uuid(owner_id) if type(owner_id) is str and owner_id else _opt_id(owner_id)
+        if owner is _JOB:
+            item.job_id, item.batch_id = owner_id, None
+        else:
+            item.job_id, item.batch_id = None, owner_id
+        item.creation_timestamp = _timestamp(created)
         item.__class__ = ApiMetricsData
         data_item: ApiMetricsData = item
         return data_item
@@ -195,13 +227,62 @@ def _metrics_data(data: Mapping[str, Any], owner: MetricOwner) -> ApiMetricsData
         return None
 
 
-def _job(data: Mapping[str, Any]) -> Job | None:
-    get = data.get
+# What `_job` reads of a jobs listing's item, in one call (see `_key_reader`).
+_JOB_KEYS: Final = (
+    "jobID",
+    "conflatedStatus",
+    "jobStatus",
+    "jobMetricsStatus",
+    "batchID",
+    "projectID",
+    "experienceID",
+    "experienceName",
+    "buildID",
+    "creationTimestamp",
+    "parameters",
+)
+
+
+def _key_reader(keys: tuple[str, ...]) -> Callable[[Mapping[str, Any]], tuple[Any, ...]]:
+    """The values of `keys` in an item, as a tuple, in one call (KeyError when the item
+    leaves one out), the keys looked up as orjson makes them: it keeps one string per short
+    key (its key cache), so each field is found by identity, where a key of the same text
+    made elsewhere costs a comparison of the text per lookup. They equal `keys` whatever
+    orjson does: only the speed depends on it. Made with the first answer (orjson is
+    imported then); as `stook.service.fetch`'s field_reader."""
+    import orjson
+
+    as_read = tuple(orjson.loads(orjson.dumps(dict.fromkeys(keys))))
+    assert as_read == keys
+    return itemgetter(*as_read)
+
+
+@functools.cache
+def _job_fields() -> Callable[[Mapping[str, Any]], tuple[Any, ...]]:
+    return _key_reader(_JOB_KEYS)
+
+
+def _job(data: dict[str, Any]) -> Job | None:
     try:
-        job_id = get("jobID")
+        fields = _job_fields()(data)
+    except KeyError:  # a field left out: read as null, as from_json reads it
+        fields = tuple(map(data.get, _JOB_KEYS))
+    (
+        job_id,
+        conflated,
+        status,
+        metrics_status,
+        batch_id,
+        project_id,
+        experience_id,
+        experience_name,
+        build_id,
+        created,
+        parameters,
+    ) = fields
+    try:
         if type(job_id) is not str or not job_id:
             return None
-        parameters = get("parameters")
         if type(parameters) is dict:
             for key, value in parameters.items():
                 if type(value) is not str or type(key) is not str:
@@ -211,18 +292,46 @@ def _job(data: Mapping[str, Any]) -> Job | None:
             parameters = {}
         else:
             return None
-        # The same checks as Job.from_json, in its order.
+        # The same checks as Job.from_json, in its order; each field's common shape
+        # inline (a function call per field was a fifth of reading a job), any other
+        # through the helpers.
         item: Any = _new(_WritableJob)
         item.job_id = new_uuid(job_id)  # unique per job: not worth the ID cache
-        item.conflated_status = _opt_choice(get("conflatedStatus"), _CONFLATED)
-        item.job_status = _opt_choice(get("jobStatus"), _JOB_STATUSES)
-        item.job_metrics_status = _opt_choice(get("jobMetricsStatus"), _STATUSES)
-        item.batch_id = _opt_id(get("batchID"))
-        item.project_id = _opt_id(get("projectID"))
-        item.experience_id = _opt_id(get("experienceID"))
-        item.experience_name = _text(get("experienceName"))
-        item.build_id = _opt_id(get("buildID"))
-        item.creation_timestamp = _timestamp(get("creationTimestamp"))
+        item.conflated_status = (
+            _CONFLATED.get(conflated, conflated)
+            if type(conflated) is str and conflated
+            else _opt_choice(conflated, _CONFLATED)
+        )
+        item.job_status = (
+            _JOB_STATUSES.get(status, status)
+            if type(status) is str and status
+            else _opt_choice(status, _JOB_STATUSES)
+        )
+        item.job_metrics_status = (
+            _STATUSES.get(metrics_status, metrics_status)
+            if type(metrics_status) is str and metrics_status
+            else _opt_choice(metrics_status, _STATUSES)
+        )
+        item.batch_id = (
+            parse_uuid(batch_id) if type(batch_id) is str and batch_id else _opt_id(batch_id)
+        )
+        item.project_id = (
+            parse_uuid(project_id)
+            if type(project_id) is str and project_id
+            else _opt_id(project_id)
+        )
+        item.experience_id = (
+            parse_uuid(experience_id)
+            if type(experience_id) is str and experience_id
+            else _opt_id(experience_id)
+        )
+        item.experience_name = (
+            experience_name or None if type(experience_name) is str else _text(experience_name)
+        )
+        item.build_id = (
+            parse_uuid(build_id) if type(build_id) is str and build_id else _opt_id(build_id)
+        )
+        item.creation_timestamp = _timestamp(created)
         item.parameters = parameters
         item.__class__ = Job
         job: Job = item

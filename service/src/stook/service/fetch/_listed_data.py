@@ -81,11 +81,11 @@ def read_listed_data(items: list[Any], wanted: Collection[str]) -> ListedData | 
     ids: list[str] = []  # the data and owner IDs, checked at once
     fields_of = _fields()
     for item in items:
-        if type(item) is not dict:
-            return None
         try:
             fields = fields_of(item)
-        except KeyError:  # a field left out: read as null, as the model reads it
+        except (KeyError, TypeError):  # a field left out (read as null), or no object
+            if type(item) is not dict:
+                return None
             fields = tuple(map(item.get, _KEYS))
         data_id, name, kind, url, filename, job_id, created = fields
         # The model's checks, each field for the shapes it reads as they are. The IDs are

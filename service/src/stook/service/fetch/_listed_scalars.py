@@ -99,11 +99,11 @@ def read_listed_scalars(items: list[Any]) -> ListedScalars | None:
     ids: list[str] = []  # the metric, data and owner IDs, checked at once
     fields_of = _fields()
     for item in items:
-        if type(item) is not dict:
-            return None
         try:
             fields = fields_of(item)
-        except KeyError:  # a field left out: read as null, as the model reads it
+        except (KeyError, TypeError):  # a field left out (read as null), or no object
+            if type(item) is not dict:
+                return None
             fields = tuple(map(item.get, _KEYS))
         (
             metric_id,

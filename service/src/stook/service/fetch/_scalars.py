@@ -82,7 +82,16 @@ def listed_scalars(
 ) -> dict[str, Scalar]:
     """The scalars of a listing read from its items (`read_listed_scalars`): each
     (value, unit) with its status, by name, as `read_scalars` gives them."""
-    return {name: _scalar(value, unit, statuses[name]) for name, (value, unit) in values.items()}
+    scalars: dict[str, Scalar] = {}
+    # `_scalar` written out: a call per scalar of every job cost a third of the loop.
+    for name, (value, unit) in values.items():
+        written: Any = _new(_WritableScalar)
+        written.value = value
+        written.unit = unit
+        written.status = statuses[name]
+        written.__class__ = Scalar
+        scalars[name] = written
+    return scalars
 
 
 def _scalar(value: float, unit: str, status: str) -> Scalar:
