@@ -260,7 +260,8 @@ class HttpTransport:
         fixed = self._fixed_limit
         if fixed is None or not fixed.try_acquire():
             await self._limiter.acquire()
-        held_from = time.perf_counter()
+        # How long the slot was held: what an adaptive limit learns from; a fixed one, nothing.
+        held_from = 0.0 if fixed is not None else time.perf_counter()
         status: int | None = None
         # The per-attempt timeout, in this frame rather than a coroutine of its own (one
         # layer fewer for every resumption of the request). What ``asyncio.timeout`` does,
@@ -272,7 +273,7 @@ class HttpTransport:
             task = asyncio.current_task(self._loop)  # the loop passed: one lookup fewer
             assert task is not None  # a transport is used from a task
             cancelling = task.cancelling()
-            deadline = deadlines.start(task)
+            deadlines.start(task)
             try:
                 # Awaited, not entered: `async with` adds three coroutines a request and a
                 # layer to every resumption; leaving it only releases the answer (a GET has
@@ -323,17 +324,14 @@ class HttpTransport:
                 # As asyncio.timeout: take back the cancellation the timer sent, and make it
                 # a TimeoutError unless the task was also cancelled from outside.
                 if (
-                    deadline.expired
+                    deadlines.end(task)
                     and task.uncancel() <= cancelling
                     and isinstance(exc, asyncio.CancelledError)
                 ):
                     raise TimeoutError from None
                 raise
-            else:
-                if deadline.expired:  # fired, but the cancellation never arrived
-                    task.uncancel()
-            finally:
-                deadline.ended = True
+            if deadlines.end(task):  # fired, but the cancellation never arrived
+                task.uncancel()
             status = response.status
         except TimeoutError:
             raise TransportError(
@@ -350,7 +348,10 @@ class HttpTransport:
             raise TransportError(method="GET", url=url, reason=_describe(exc)) from None
         finally:
             # The outcome goes back with the slot: an adaptive limit learns from it.
-            self._limiter.release(status, time.perf_counter() - held_from)
+            if fixed is not None:
+                fixed.release(status, 0.0)
+            else:
+                self._limiter.release(status, time.perf_counter() - held_from)
         stats = self.stats
         stats.statuses[response.status] += 1
         stats.bytes_received += len(response.body)
