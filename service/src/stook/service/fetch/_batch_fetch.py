@@ -15,6 +15,7 @@ import functools
 import inspect
 import time
 import uuid
+from collections import deque
 from collections.abc import AsyncIterator, Awaitable, Callable, Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, Final
@@ -116,7 +117,7 @@ class BatchFetcher:
         When `on_job` returns an awaitable it is awaited before that worker takes its next
         job: a slow consumer slows the fetch instead of piling records up.
         """
-        queue: asyncio.Queue[Job | None] = asyncio.Queue(maxsize=2 * self._workers)
+        queue = _JobQueue(room=2 * self._workers, low=self._workers)
         if self._needs.data:
             start_importing()  # the series' decoders, while the first requests are out
         try:
@@ -130,13 +131,13 @@ class BatchFetcher:
         self.outcome.seconds = time.monotonic() - self.outcome.started
         return self.outcome
 
-    async def _run(self, queue: asyncio.Queue[Job | None], on_job: OnJob) -> None:
+    async def _run(self, queue: _JobQueue, on_job: OnJob) -> None:
         async with asyncio.TaskGroup() as group:
             group.create_task(self._list_jobs(queue))
             for _ in range(self._workers):
                 group.create_task(self._work(queue, on_job))
 
-    async def _list_jobs(self, queue: asyncio.Queue[Job | None]) -> None:
+    async def _list_jobs(self, queue: _JobQueue) -> None:
         outcome = self.outcome
 
         def total_is(total: int) -> None:
@@ -151,16 +152,20 @@ class BatchFetcher:
             outcome.jobs_listed += 1
             if self._on_progress is not None:
                 self._on_progress(outcome)
-            await queue.put(job)
+            if queue.put(job):
+                await queue.room()
         outcome.jobs_total = outcome.jobs_listed  # what the complete listing proved
-        # Workers stop on None, sent only after a complete listing. On any failure the task
-        # group cancels the workers itself; waiting here to put None into a full queue that
-        # nobody drains any more would hang the run.
-        for _ in range(self._workers):
-            await queue.put(None)
+        # Workers stop once the queue is empty, told only after a complete listing. On any
+        # failure the task group cancels the workers itself.
+        queue.close()
 
-    async def _work(self, queue: asyncio.Queue[Job | None], on_job: OnJob) -> None:
-        while (job := await queue.get()) is not None:
+    async def _work(self, queue: _JobQueue, on_job: OnJob) -> None:
+        while True:
+            job = queue.take()
+            if job is None:
+                if await queue.more():
+                    continue
+                return
             try:
                 record = await self._fetch_job(job)
             except (AuthError, OriginUnavailableError):
@@ -233,8 +238,9 @@ class BatchFetcher:
             await self._tags.of(job.experience_id) if needs.experience_tags else ()
         )
         outcome = self.outcome
-        # How errors and logs name the job, formatted once (UUID.__str__ is Python code).
-        source = f"job {job.job_id}"
+        # How errors and logs name the job, formatted once, from the ID's text its listings'
+        # paths made (UUID.__str__ is Python code: ~9,000 instructions a job).
+        source = "job " + ApiClient.id_text(job.job_id)
         if listed is not None:
             if listed.statuses:  # one per metric listed
                 outcome.jobs_with_metrics += 1
@@ -303,6 +309,87 @@ class BatchFetcher:
             job_event(e)
             async for e in self._api.list_job_events(self._project_id, self._batch_id, job.job_id)
         ]
+
+
+class _JobQueue:
+    """The jobs listed and not taken yet, from the lister to the workers, at most `room`.
+
+    Not an asyncio.Queue: once that was full, each job a worker took woke the lister to
+    put one more (a future, a wake-up and a resumption through the listing's generators,
+    per job), and each take was a coroutine of its own. Here a full queue lets the lister
+    wait until only `low` jobs are left, and a worker takes a job without a coroutine; only
+    a worker that finds the queue empty waits.
+    """
+
+    __slots__ = ("_closed", "_jobs", "_lister", "_low", "_room", "_takers")
+
+    def __init__(self, *, room: int, low: int) -> None:
+        self._jobs: deque[Job] = deque()
+        self._room = room
+        self._low = low
+        self._closed = False  # the listing is complete: no job will be added
+        self._takers: deque[asyncio.Future[None]] = deque()  # workers waiting for a job
+        self._lister: asyncio.Future[None] | None = None  # the lister waiting for room
+
+    def put(self, job: Job) -> bool:
+        """Add a job; whether the queue is full now (then await `room` before the next)."""
+        self._jobs.append(job)
+        if self._takers:
+            self._wake_taker()
+        return len(self._jobs) >= self._room
+
+    async def room(self) -> None:
+        """Wait until the workers have taken the queue down to `low` jobs."""
+        if len(self._jobs) > self._low:
+            self._lister = asyncio.get_running_loop().create_future()
+            try:
+                await self._lister
+            finally:
+                self._lister = None
+
+    def take(self) -> Job | None:
+        """The next job, or None when there is none now (see `more`)."""
+        jobs = self._jobs
+        if not jobs:
+            return None
+        job = jobs.popleft()
+        lister = self._lister
+        if lister is not None and len(jobs) <= self._low and not lister.done():
+            lister.set_result(None)
+        return job
+
+    async def more(self) -> bool:
+        """Wait for a job to take (True), or for the complete listing to have been taken
+        (False). Call it when `take` found none."""
+        while not self._jobs:
+            if self._closed:
+                return False
+            taker = asyncio.get_running_loop().create_future()
+            self._takers.append(taker)
+            try:
+                await taker
+            except BaseException:
+                # Woken for a job, then cancelled: another worker may take it.
+                if taker.done() and not taker.cancelled():
+                    self._wake_taker()
+                raise
+        return True
+
+    def close(self) -> None:
+        """The listing is complete: workers that find the queue empty stop."""
+        self._closed = True
+        while self._takers:
+            taker = self._takers.popleft()
+            if not taker.done():
+                taker.set_result(None)
+
+    def _wake_taker(self) -> None:
+        takers = self._takers
+        while takers:
+            taker = takers.popleft()
+            if not taker.done():
+                taker.set_result(None)
+                return
 
 
 @functools.cache
