@@ -236,12 +236,13 @@ class ApiClient:
         if sent_in is not None:
             try:
                 response = await self._transport.get(url)
-                if not response.ok:
+                if not 200 <= response.status < 300:  # not `ok`: a property is a call
                     raise _api_error(response, self._base.origin())
             except Exception as exc:
                 first = (exc, sent_in)
             else:
-                gate.answered(sent_in)
+                if not gate.quiet:  # else there is nothing to tell it
+                    gate.answered(sent_in)
         if sent_in is None or first is not None:
             response = await call_with_retries(
                 lambda: self._get_once(url),
