@@ -22,17 +22,10 @@ async def test_every_job_is_taken_once_in_order_and_the_workers_stop() -> None:
     taken: list[Any] = []
     most_queued = 0
 
-    async def lister() -> None:
-        nonlocal most_queued
-        for job in jobs(50):
-            full = queue.put(job)
-            most_queued = max(most_queued, len(queue._jobs))
-            if full:
-                await queue.room()
-        queue.close()
-
-    async def worker() -> None:
+    async def work(*, while_plenty: bool = False) -> None:
         while True:
+            if while_plenty and not queue.plenty():
+                return
             job = queue.take()
             if job is None:
                 if await queue.more():
@@ -41,27 +34,24 @@ async def test_every_job_is_taken_once_in_order_and_the_workers_stop() -> None:
             taken.append(job)
             await asyncio.sleep(0)
 
+    async def lister() -> None:  # a worker too, as BatchFetcher's
+        nonlocal most_queued
+        for job in jobs(50):
+            full = queue.put(job)
+            most_queued = max(most_queued, len(queue._jobs))
+            if full:
+                assert queue.plenty()
+                await work(while_plenty=True)
+                assert len(queue._jobs) <= 2
+        queue.close()
+        await work()
+
     async with asyncio.TaskGroup() as group:
-        for _ in range(3):
-            group.create_task(worker())
         group.create_task(lister())
+        for _ in range(2):
+            group.create_task(work())
     assert taken == jobs(50)
     assert most_queued == 4
-
-
-async def test_a_full_queue_lets_the_lister_go_on_once_it_is_down_to_low() -> None:
-    queue = _JobQueue(room=4, low=2)
-    assert [queue.put(job) for job in jobs(4)] == [False, False, False, True]
-    waiting = asyncio.ensure_future(queue.room())
-    await asyncio.sleep(0)
-    assert queue.take() == jobs(2)[0]
-    await asyncio.sleep(0)
-    assert not waiting.done()  # three left
-    assert queue.take() == jobs(2)[1]
-    await asyncio.sleep(0)
-    assert waiting.done()
-    await waiting
-    await queue.room()  # not above low: no wait
 
 
 async def test_workers_of_an_empty_queue_stop_once_it_is_closed() -> None:
