@@ -135,6 +135,11 @@ class ApiClient:
         self._page_size = page_size
         # What `_url` makes of a listing's first page's query ({"pageSize": page_size}).
         self._first_page_query = f"?pageSize={page_size}"
+        # The parts of a listing's first page's URL that every such URL shares: its scheme,
+        # authority and query, and the base URL's path before the listing's (see _all_items).
+        shared = URL(self._base_text + "/" + self._first_page_query, encoded=True)
+        self._first_page_parts = (shared.scheme, shared.raw_authority, shared.raw_query_string)
+        self._base_path = shared.raw_path[:-1]  # "/v1", or "" for a base URL without one
         # The last batch whose jobs' paths were made, by its IDs' identity (see _job_path).
         self._batch_path: tuple[IdLike, IdLike, str] | None = None
         # Shared by every API request: when the API fails, they wait together.
@@ -448,10 +453,19 @@ class ApiClient:
         `_get`'s coroutine.
 
         `path` starts with "/" and holds literal segments and `_id`s only."""
-        # The first page's URL written out: `path` is made of literal segments and `_id`s,
-        # so it needs no quoting, and the first page's query is always the same; `_url`
-        # would check and build both for every job's listings (half of their own CPU).
-        url = URL(self._base_text + path + self._first_page_query, encoded=True)
+        # The first page's URL built from its parts: `path` is made of literal segments and
+        # `_id`s, so it needs no quoting, and the rest is the same for every listing; `_url`
+        # would check and build both for every job's listings (half of their own CPU), and
+        # parsing the URL written out costs four times building it (24k instructions).
+        # Keywords, not a dict unpacked into the call: that costs a third more.
+        scheme, authority, query = self._first_page_parts
+        url = URL.build(
+            scheme=scheme,
+            authority=authority,
+            path=self._base_path + path,
+            query_string=query,
+            encoded=True,
+        )
         return self._get(url, (path, items_key))
 
     async def _rest_of_listing(
