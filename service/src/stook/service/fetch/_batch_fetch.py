@@ -1,11 +1,11 @@
 """The streaming fetch core of batch mode: every job of a batch, as a JobRecord, bounded.
 
-Jobs are listed page by page into a bounded queue; a fixed pool of workers takes
-each job as soon as its page arrives, lists its metrics (scalars come with the
-listing, so they cost no download), downloads only what the aggregations' `Needs` name
-(metrics data, job metrics with their data, events, experience tags; see _job_blobs and
-_job_extras), and hands the record to `on_job`. At most `workers + queue size` jobs are
-in memory at once, whatever the batch size.
+Jobs are listed page by page into a bounded queue, by one of the workers whenever the
+queue runs low; a fixed pool of workers takes each job as soon as its page arrives, lists
+its metrics (scalars come with the listing, so they cost no download), downloads only
+what the aggregations' `Needs` name (metrics data, job metrics with their data, events,
+experience tags; see _job_blobs and _job_extras), and hands the record to `on_job`. At
+most `workers + queue size` jobs are in memory at once, whatever the batch size.
 """
 
 from __future__ import annotations
