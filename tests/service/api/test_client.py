@@ -911,7 +911,7 @@ async def test_a_listings_first_page_url_is_built_as_the_text_would_parse(base: 
             body = b'{"metrics": [], "nextPageToken": ""}'
             return Response(200, CIMultiDictProxy(CIMultiDict()), body, url)
 
-    api = ApiClient(base, "token", transport=Recording(), page_size=7)
+    api = ApiClient(base, TOKEN, transport=Recording(), page_size=7)
     job = uuid.uuid4()
     assert await api.all_job_metric_items(PROJECT, BATCH, job) == []
     # What the first page's URL was before: the base URL as a string, and the rest.
