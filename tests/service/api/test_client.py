@@ -882,3 +882,47 @@ def test_a_url_written_out_is_the_url_yarl_would_build(
     assert str(got) == str(expected)
     assert got.raw_path == expected.raw_path
     assert got.raw_query_string == expected.raw_query_string
+
+
+@pytest.mark.parametrize(
+    "base",
+    [
+        "http://127.0.0.1:8080/v1",
+        "https://api.resim.ai/v1/",
+        "http://api.test",
+        "http://user:secret@api.test:8443/a/b/",
+        "HTTPS://API.Example.COM:443/V1",
+    ],
+)
+async def test_a_listings_first_page_url_is_built_as_the_text_would_parse(base: str) -> None:
+    """_all_items builds the first page's URL from its parts (parsing costs 4x): the same
+    URL, part for part, as its text written out and parsed."""
+    sent: list[URL] = []
+
+    class Recording:
+        stats = TransferStats()
+
+        async def open(self) -> None: ...
+
+        async def close(self) -> None: ...
+
+        async def get(self, url: URL, **_: object) -> Response:
+            sent.append(url)
+            body = b'{"metrics": [], "nextPageToken": ""}'
+            return Response(200, CIMultiDictProxy(CIMultiDict()), body, url)
+
+    api = ApiClient(base, TOKEN, transport=Recording(), page_size=7)
+    job = uuid.uuid4()
+    assert await api.all_job_metric_items(PROJECT, BATCH, job) == []
+    # What the first page's URL was before: the base URL as a string, and the rest.
+    text = f"{str(URL(base)).rstrip('/')}/projects/{PROJECT}/batches/{BATCH}/jobs/{job}/metrics"
+    want = URL(text + "?pageSize=7", encoded=True)
+    (got,) = sent
+    assert got == want
+    assert str(got) == str(want)
+    assert (got.scheme, got.raw_authority, got.raw_path, got.raw_query_string) == (
+        want.scheme,
+        want.raw_authority,
+        want.raw_path,
+        want.raw_query_string,
+    )

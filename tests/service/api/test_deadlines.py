@@ -66,36 +66,41 @@ def task() -> Any:
 
 def test_a_deadline_that_passes_cancels_its_attempt_once() -> None:
     loop = FakeLoop()
+    timed = deadlines(loop, 10.0)
     attempt = task()
-    deadline = deadlines(loop, 10.0).start(attempt)
+    timed.start(attempt)
     loop.run_until(9.9)
-    assert (deadline.expired, attempt.cancels) == (False, 0)
+    assert attempt.cancels == 0
     loop.run_until(10.0)
-    assert (deadline.expired, attempt.cancels) == (True, 1)
+    assert attempt.cancels == 1
     loop.run_until(100.0)
     assert attempt.cancels == 1
     assert loop.pending() == []  # nothing left to time: the timer is not set again
+    assert timed.end(attempt)  # expired
+    assert timed._running == {}
+    assert timed._expired == set()
 
 
 def test_an_attempt_that_ended_is_not_cancelled() -> None:
     loop = FakeLoop()
+    timed = deadlines(loop, 10.0)
     attempt = task()
-    deadline = deadlines(loop, 10.0).start(attempt)
-    deadline.ended = True
+    timed.start(attempt)
+    assert not timed.end(attempt)
     loop.run_until(100.0)
-    assert (deadline.expired, attempt.cancels) == (False, 0)
+    assert attempt.cancels == 0
 
 
 def test_each_attempt_gets_its_own_deadline_on_one_timer() -> None:
     loop = FakeLoop()
     timed = deadlines(loop, 10.0)
     first, second, third = task(), task(), task()
-    d1 = timed.start(first)
+    timed.start(first)
     loop.run_until(3.0)
-    d2 = timed.start(second)
+    timed.start(second)
     loop.run_until(4.0)
-    d3 = timed.start(third)
-    d1.ended = True  # the first ends in time; the others do not
+    timed.start(third)
+    assert not timed.end(first)  # the first ends in time; the others do not
     assert len(loop.pending()) == 1
     loop.run_until(12.9)
     assert [first.cancels, second.cancels, third.cancels] == [0, 0, 0]
@@ -105,7 +110,39 @@ def test_each_attempt_gets_its_own_deadline_on_one_timer() -> None:
     assert third.cancels == 0
     loop.run_until(14.0)
     assert [first.cancels, second.cancels, third.cancels] == [0, 1, 1]
-    assert (d1.expired, d2.expired, d3.expired) == (False, True, True)
+    assert (timed.end(second), timed.end(third)) == (True, True)
+
+
+def test_a_task_attempts_again_after_its_deadline_passed() -> None:
+    loop = FakeLoop()
+    timed = deadlines(loop, 10.0)
+    attempt = task()
+    timed.start(attempt)
+    loop.run_until(10.0)
+    assert timed.end(attempt)
+    timed.start(attempt)  # the retry, in the same task
+    loop.run_until(19.9)
+    assert attempt.cancels == 1
+    assert not timed.end(attempt)
+    loop.run_until(100.0)
+    assert attempt.cancels == 1
+
+
+def test_deadlines_come_due_in_the_order_attempts_started() -> None:
+    # A task whose attempt ended and that attempts again is timed from its new start.
+    loop = FakeLoop()
+    timed = deadlines(loop, 10.0)
+    first, second = task(), task()
+    timed.start(first)
+    loop.run_until(1.0)
+    timed.start(second)
+    loop.run_until(2.0)
+    timed.end(first)
+    timed.start(first)
+    loop.run_until(11.0)
+    assert [first.cancels, second.cancels] == [0, 1]
+    loop.run_until(12.0)
+    assert [first.cancels, second.cancels] == [1, 1]
 
 
 def test_a_timer_that_runs_early_by_the_clocks_resolution_still_expires() -> None:
@@ -127,6 +164,7 @@ def test_closing_stops_the_timer() -> None:
     timed.close()
     assert loop.pending() == []
     assert attempt.cancels == 0
+    assert not timed.end(attempt)  # an attempt may end after its transport closed
 
 
 def test_attempts_that_ended_behind_a_slow_one_do_not_pile_up() -> None:
@@ -135,7 +173,9 @@ def test_attempts_that_ended_behind_a_slow_one_do_not_pile_up() -> None:
     slow = task()
     timed.start(slow)
     for _ in range(10_000):
-        timed.start(task()).ended = True
-    assert len(timed._queue) < 600  # swept, not 10,001
+        fast = task()
+        timed.start(fast)
+        timed.end(fast)
+    assert len(timed._running) == 1
     loop.run_until(10.0)
     assert slow.cancels == 1

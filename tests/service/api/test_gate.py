@@ -207,3 +207,30 @@ async def test_workers_wait_together_at_a_failing_origin(server: ScriptedServer)
     assert gate.stats.reopened == 1
     assert len(answered) == 64
     assert answered[-1] - answered[0] < 0.5  # resumed together
+
+
+def test_quiet_says_an_answer_would_change_nothing(sleep: RecordingSleep) -> None:
+    """`quiet` is `is_open` with no failure since the last answer: what lets a client skip
+    telling the gate of an answer (see ApiClient._get)."""
+    gate = gate_on(sleep, trip_after=2)
+
+    def check() -> None:
+        assert gate.quiet == (gate.is_open and not gate._failing)
+
+    check()
+    fail(gate)
+    check()
+    gate.answered(gate.closures)
+    check()
+    fail(gate)
+    fail(gate)  # closes it
+    check()
+    fail(gate)  # an echo
+    check()
+    gate.answered(gate.closures - 1)  # an answer from before it closed
+    check()
+    fail(gate, probe=True)
+    check()
+    gate.answered(gate.closures)  # reopens it
+    check()
+    assert gate.quiet

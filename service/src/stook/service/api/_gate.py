@@ -83,6 +83,9 @@ class OriginGate:
         # A plain attribute, not a property over a `_closed` flag: every request reads it
         # (see sent_at_once). Only the gate sets it.
         self.is_open = True
+        # Open, and no request failed since the last answer: an answer has nothing to
+        # change (see `answered`), so the caller need not tell it.
+        self.quiet = True
         self._closed_at = 0.0
         self._until = 0.0
         self._failed_probes = 0
@@ -103,8 +106,9 @@ class OriginGate:
         """
         if self._failing:
             self._failing.clear()
+            self.quiet = self.is_open
         if not self.is_open and sent_in == self.closures:
-            self.is_open = True
+            self.is_open = self.quiet = True
             self._failed_probes = 0
             self._probing = False
             self.stats.reopened += 1
@@ -128,6 +132,7 @@ class OriginGate:
         requests with no answer between them, close the gate."""
         self.last_failure = reason
         self.origin = origin
+        self.quiet = False
         if not self.is_open:
             if not probe:
                 return  # an echo of the failure that closed it: sent before it closed
