@@ -153,7 +153,12 @@ def test_the_deadline_ends_a_batch_run_saying_how_far_it_got(
 ) -> None:
     outage = Outage("api", duration_s=60.0, after_requests=MID_RUN["api"])
     started = time.monotonic()
-    run = run_batch(capsys, tmp_path, emulator_config(outage), fetch="deadline = 2")
+    # Four requests in flight: jobs finish one after another before the outage, under any
+    # load. At 64 every job's first listing went out at once, and the outage (after 40 API
+    # requests) could come before any job's second: "0 of 60".
+    run = run_batch(
+        capsys, tmp_path, emulator_config(outage), fetch="deadline = 2\nconcurrency = 4"
+    )
     assert run.code == 3, run.err
     line = error_line(run.err)
     assert line.startswith("stook: error: deadline of 2 s ([fetch] deadline) reached after ")
