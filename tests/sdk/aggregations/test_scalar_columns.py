@@ -5,7 +5,7 @@ from stook.sdk.aggregations._scalar_columns import columns_of
 
 
 class _OwnGet(dict[str, int]):
-    def get(self, key: str, default: object = None) -> int:  # type: ignore[override]
+    def get(self, key: str, default: object = None) -> int:
         return 7
 
 

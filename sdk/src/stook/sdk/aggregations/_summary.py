@@ -33,7 +33,7 @@ from collections import Counter
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from itertools import chain, repeat
-from typing import TYPE_CHECKING, Any, Self
+from typing import TYPE_CHECKING, Any, Final, Literal, Self
 
 from stook.sdk._errors import StookError
 from stook.sdk.aggregations._base import Aggregation, Needs
@@ -117,6 +117,7 @@ _Row = tuple[uuid.UUID, str, str, uuid.UUID | None, bool, Mapping[str, Any]]
 _PAIR_PARTS = (operator.itemgetter(0), operator.itemgetter(1))
 _FIRST = operator.itemgetter(0)
 _INT = operator.attrgetter("int")
+_BIG: Final[Literal["big"]] = "big"
 _SCALAR_PARTS = (operator.attrgetter("value"), operator.attrgetter("unit"))
 
 
@@ -136,7 +137,7 @@ def _encode(
     ids = list(map(_INT, map(_FIRST, given)))
     order = sorted(range(len(given)), key=ids.__getitem__)
     jobs = list(map(given.__getitem__, order))
-    job_ids = b"".join(map(int.to_bytes, map(ids.__getitem__, order), repeat(16), repeat("big")))
+    job_ids = b"".join(map(int.to_bytes, map(ids.__getitem__, order), repeat(16), repeat(_BIG)))
     # By the IDs' ints, which hash in C (a UUID's __hash__ is Python code); a batch has
     # few experiences, so few bytes to make.
     experience_ids = {row[3].int: row[3] for row in jobs if row[3] is not None}
