@@ -346,3 +346,15 @@ def test_generated_outputs_read_back_completely(msg: pb.JobMetrics) -> None:
     assert view.raw.SerializeToString(deterministic=True) == wire
     frame = view.series_frame()
     assert len(frame) == sum(len(d.frame()) for d in view.data if not d.is_external)
+
+
+def test_an_index_id_is_read_whether_its_message_is_absent_empty_or_set() -> None:
+    # `_data_view` asks whether the index ID's message is there before reading its text.
+    index = uuid.UUID(int=7)
+    absent = bare_data(pb.DOUBLE_SERIES_DATA_TYPE)
+    empty = bare_data(pb.DOUBLE_SERIES_DATA_TYPE)
+    empty.index_data_id.SetInParent()
+    set_ = bare_data(pb.DOUBLE_SERIES_DATA_TYPE)
+    set_.index_data_id.id.data = str(index)
+    got = [read_metrics_data(d.SerializeToString()).index_id for d in (absent, empty, set_)]
+    assert got == [None, None, index]

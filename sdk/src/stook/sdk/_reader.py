@@ -85,6 +85,7 @@ __all__ = [
 ]
 
 _Msg = TypeVar("_Msg", bound=Message)
+_METRICS_DATA: Final = pb.MetricsData
 _E = TypeVar("_E", MetricStatus, MetricImportance, MetricType)
 _V = TypeVar("_V")
 
@@ -104,7 +105,12 @@ def read_metric(data: bytes, *, source: str = "<bytes>") -> MetricView:
 
 def read_metrics_data(data: bytes, *, source: str = "<bytes>") -> MetricsDataView:
     """Read the bytes of one ``MetricsData`` message."""
-    return _view(pb.MetricsData, _parse(pb.MetricsData, data, source), source, _data_view)
+    # `_view` written out: every downloaded series is read here.
+    msg = _parse(_METRICS_DATA, data, source)
+    try:
+        return _data_view(msg, source)
+    except MalformedError as exc:
+        raise read_error(_METRICS_DATA, source, str(exc)) from None
 
 
 def parse_job_metrics(msg: pb.JobMetrics, *, source: str = "<message>") -> JobMetricsView:
@@ -133,9 +139,8 @@ def _copy(msg: _Msg) -> _Msg:
 def _parse(cls: type[_Msg], data: bytes, source: str) -> _Msg:
     if len(data) == 0:
         raise read_error(cls, source, "no bytes (an empty file is a failed or truncated write)")
-    msg = cls()
     try:
-        msg.ParseFromString(data)
+        msg = cls.FromString(data)
     except ProtobufError as exc:
         detail = str(exc).rpartition(": ")[2].lower() or "parse failed"
         raise read_error(cls, source, f"not a valid protobuf message ({detail})") from exc
@@ -234,21 +239,29 @@ def _data_view(msg: pb.MetricsData, source: str) -> MetricsDataView:
             raise MalformedError(f"{_data_label(msg)}: {declared} but it holds {holds}")
         # `series` and `series_per_category` are one oneof: only the one set holds series.
         if holds == "series":
-            _check_series(msg.series, elements, kind, msg)
+            # `_check_series` of the common case, its call made only to word the error.
+            within = msg.series.WhichOneof("series")
+            if within is not None and within != elements:
+                _check_series(msg.series, elements, kind, msg)
         elif holds == "series_per_category":
             for series in msg.series_per_category.category_to_series.values():
                 _check_series(series, elements, kind, msg)
     # Written through its twin (see `stook.sdk.fastpaths`): a view per downloaded series.
     view: Any = _new(_WritableDataView)
-    view.id = _data_uuid(msg, msg.metrics_data_id.id.data, "id")
+    try:
+        view.id = hex_uuid(msg.metrics_data_id.id.data)
+    except ValueError:
+        view.id = _data_uuid(msg, msg.metrics_data_id.id.data, "id")  # words the error
     view.name = msg.name
     view.unit = msg.unit
     view.kind = kind
     view.indexed = msg.is_indexed
-    index_text = msg.index_data_id.id.data
+    # Asked first: most data has no index, and reading an absent ID's text makes two
+    # message objects.
+    index_text = msg.index_data_id.id.data if msg.HasField("index_data_id") else ""
     view.index_id = _data_uuid(msg, index_text, "index id") if index_text else None
     index_type = msg.index_data_type
-    view.index_kind = _kind(index_type) if index_type != pb.NO_DATA_TYPE else None
+    view.index_kind = _kind(index_type) if index_type != _NO_DATA_TYPE else None
     view.per_category = per_category
     names = msg.category_names
     view.categories = tuple(names) if names else ()

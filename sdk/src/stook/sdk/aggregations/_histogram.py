@@ -80,7 +80,7 @@ class MergedHistogram(Aggregation[JobRecord]):
     # Fetched jobs' values as little-endian doubles (`SeriesByName.packed_of`) wait here
     # and become one array _BIN_BATCH values at a time (see `_settle`): an array and a NaN
     # check per job cost more than the rest of the job's update. Read only once settled.
-    packed: list[memoryview] = field(default_factory=list, init=False)
+    packed: list[bytes] = field(default_factory=list, init=False)
     packed_bytes: int = field(default=0, init=False)
     bucket_counts: list[int] | None = field(default=None, init=False)
     total: int = field(default=0, init=False)

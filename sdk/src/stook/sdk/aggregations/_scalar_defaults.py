@@ -14,6 +14,7 @@ from stook.sdk._buckets import histogram_buckets
 from stook.sdk._errors import WriterError
 from stook.sdk.aggregations._base import Aggregation, Needs
 from stook.sdk.aggregations._record import JobRecord, Scalar
+from stook.sdk.aggregations._scalar_columns import columns_of
 from stook.sdk.aggregations._sums import exact_mean
 from stook.sdk.aggregations._units import pick_unit
 
@@ -73,15 +74,15 @@ class ScalarDefaults(Aggregation[JobRecord]):
     def _add_waiting(self) -> None:
         """Add the waiting jobs' scalars to `columns`, in the order the jobs came."""
         waiting, self.waiting = self.waiting, []
-        for metric in set().union(*waiting):
-            # Each job's scalar of `metric`, the jobs without it left out (a Scalar is
-            # never false).
-            found = list(filter(None, map(operator.methodcaller("get", metric), waiting)))
-            column = self.columns.get(metric)
-            if column is None:
-                column = self.columns[metric] = _Column()
-            column.values.extend(map(_VALUE, found))
-            column.units.update(map(_UNIT, found))
+        metrics = list(set().union(*waiting))
+        for metric, column in zip(metrics, columns_of(waiting, metrics), strict=True):
+            # The jobs without `metric` left out (a Scalar is never false).
+            found = list(filter(None, column))
+            mine = self.columns.get(metric)
+            if mine is None:
+                mine = self.columns[metric] = _Column()
+            mine.values.extend(map(_VALUE, found))
+            mine.units.update(map(_UNIT, found))
 
     def __getstate__(self) -> dict[str, object]:
         """What travels between processes (see `Aggregation`): the columns, the waiting

@@ -72,14 +72,14 @@ class SeriesByName(Mapping[str, "pl.Series"]):
             return None
         return _doubles_array()(view.raw.series.doubles)
 
-    def packed_of(self, name: str) -> memoryview | None:
+    def packed_of(self, name: str) -> bytes | None:
         """The values of `name` as little-endian float64 bytes (None without such data),
         bit for bit the series' values: for an aggregation that joins many jobs' values
         into one array, rather than make an array per job."""
         view = self._views.get(name)
         if view is None:
             return None
-        return packed_doubles(view.raw.series.doubles)
+        return packed_doubles(view.raw.series)
 
 
 @functools.cache

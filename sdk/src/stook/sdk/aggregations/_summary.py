@@ -32,13 +32,14 @@ import uuid
 from collections import Counter
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
-from itertools import chain
-from typing import TYPE_CHECKING, Any, Self
+from itertools import chain, repeat
+from typing import TYPE_CHECKING, Any, Final, Literal, Self
 
 from stook.sdk._errors import StookError
 from stook.sdk.aggregations._base import Aggregation, Needs
 from stook.sdk.aggregations._columns import JobColumns, ScalarColumn
 from stook.sdk.aggregations._record import JobRecord, Scalar
+from stook.sdk.aggregations._scalar_columns import columns_of
 from stook.sdk.aggregations._status_counts import COUNT_BATCH
 
 if TYPE_CHECKING:
@@ -114,6 +115,9 @@ def encode_summary(summary: BatchSummary) -> bytes:
 # whether it has metrics, and its scalars by name as (value, unit) pairs or as `Scalar`s.
 _Row = tuple[uuid.UUID, str, str, uuid.UUID | None, bool, Mapping[str, Any]]
 _PAIR_PARTS = (operator.itemgetter(0), operator.itemgetter(1))
+_FIRST = operator.itemgetter(0)
+_INT = operator.attrgetter("int")
+_BIG: Final[Literal["big"]] = "big"
 _SCALAR_PARTS = (operator.attrgetter("value"), operator.attrgetter("unit"))
 
 
@@ -127,8 +131,13 @@ def _encode(
     Batch mode encodes its thousand jobs' rows here, so the per-job and per-scalar work is
     done by C loops (map, filter, set.union) where it can be, and each UUID's bytes made
     once (`UUID.bytes` is Python code)."""
-    keyed = sorted([(row[0].bytes, row) for row in rows], key=operator.itemgetter(0))
-    jobs = [row for _, row in keyed]
+    given = list(rows)
+    # In job-ID order: by the IDs' ints, which order as their big-endian bytes do (and
+    # are read and compared in C; `UUID.bytes` is Python code), their bytes made from them.
+    ids = list(map(_INT, map(_FIRST, given)))
+    order = sorted(range(len(given)), key=ids.__getitem__)
+    jobs = list(map(given.__getitem__, order))
+    job_ids = b"".join(map(int.to_bytes, map(ids.__getitem__, order), repeat(16), repeat(_BIG)))
     # By the IDs' ints, which hash in C (a UUID's __hash__ is Python code); a batch has
     # few experiences, so few bytes to make.
     experience_ids = {row[3].int: row[3] for row in jobs if row[3] is not None}
@@ -137,16 +146,18 @@ def _encode(
     scalars = [row[5] for row in jobs]
     value_of, unit_of = parts
     metric_names = sorted(set().union(*scalars))
-    # Per metric, each job's scalar or None (a job without it), then the scalars there are.
-    by_job = [list(map(operator.methodcaller("get", name), scalars)) for name in metric_names]
+    # Per metric, each job's scalar or None (a job without it), then the scalars there
+    # are and their units.
+    by_job = columns_of(scalars, metric_names)
     found = [list(filter(None, column)) for column in by_job]
+    units = [list(map(unit_of, column)) for column in found]
     experiences = sorted(set(job_experiences))
     statuses = [row[2] for row in jobs]
     texts = sorted(
         {name for name, _ in experiences}
         | set(statuses)
         | set(metric_names)
-        | set().union(*(map(unit_of, column) for column in found))
+        | set().union(*units)
         | set(metric_statuses)
     )
     text_index = {t: i for i, t in enumerate(texts)}
@@ -162,15 +173,17 @@ def _encode(
     for name, experience_id in experiences:
         out += _U8.pack(experience_id != _NO_ID) + experience_id + _index(code, text_index[name])
     out += _U32.pack(len(jobs))
-    out += b"".join([key for key, _ in keyed])
+    out += job_ids
     out += _indexes(code, list(map(experience_index.__getitem__, job_experiences)))
     out += _indexes(code, list(map(text_index.__getitem__, statuses)))
     out += _bitmap([row[4] for row in jobs])
     out += _U32.pack(len(metric_names))
-    for name, column, present in zip(metric_names, by_job, found, strict=True):
+    for name, column, present, present_units in zip(
+        metric_names, by_job, found, units, strict=True
+    ):
         out += _index(code, text_index[name]) + _bitmap(column)
         out += struct.pack(f"<{len(present)}d", *map(value_of, present))
-        out += _indexes(code, list(map(text_index.__getitem__, map(unit_of, present))))
+        out += _unit_indexes(code, present_units, text_index)
     counted = sorted(metric_statuses.items())
     out += _U32.pack(len(counted))
     for status, count in counted:
@@ -190,12 +203,21 @@ def _indexes(code: str, values: list[int]) -> bytes:
     return struct.pack(f"<{len(values)}{code}", *values)
 
 
+def _unit_indexes(code: str, units: list[str], text_index: Mapping[str, int]) -> bytes:
+    """The index of each unit; a metric's scalars nearly always share one unit, which is
+    then looked up once."""
+    if units and units.count(units[0]) == len(units):
+        return _indexes(code, [text_index[units[0]]] * len(units))
+    return _indexes(code, list(map(text_index.__getitem__, units)))
+
+
 def _bitmap(flags: Sequence[object]) -> bytes:
     """Bit i (of byte i // 8, least significant first) set where flags[i] is true."""
     if not flags:
         return b""
     # In C loops: the flags as the digits of a binary number, flag 0 the last digit.
-    digits = bytes(map(bool, flags)).translate(_BINARY_DIGITS)[::-1]
+    # (operator.truth, not bool: calling a type costs more than calling a function.)
+    digits = bytes(map(operator.truth, flags)).translate(_BINARY_DIGITS)[::-1]
     return int(digits, 2).to_bytes((len(flags) + 7) // 8, "little")
 
 

@@ -109,23 +109,25 @@ class JobBlobs:
     async def fetch(self) -> JobBlobsResult:
         needs = self._needs
         named = [d for d in self._data if d.name in needs.data and d.is_standard]
-        metric_views: Sequence[MetricView]
-        indexed: Collection[uuid.UUID]
-        if needs.metrics or needs.every_metric or needs.data_with_index:
+        wants_metrics = bool(needs.metrics) or needs.every_metric
+        metric_views: Sequence[MetricView] = ()
+        indexed: Collection[uuid.UUID] = ()
+        if wants_metrics or needs.data_with_index:
             metric_views, indexed = await self._download_referenced(named)
+            views = [self._views[item.data_id] for item in named]
+        elif len(named) == 1:
+            # The common plan, data by name alone, and one series a job: awaited in this
+            # frame (see `_download`), and not kept by ID (a UUID hashes in Python code).
+            views = [await self._download(named[0])]
         else:
-            # The common plan, data by name alone: nothing else is downloaded.
-            metric_views, indexed = [], ()
-            if len(named) == 1:  # one series a job: awaited in this frame, see `_download`
-                self._views[named[0].data_id] = await self._download(named[0])
-            else:
-                await self._download_all(named)
+            # Data by name alone: nothing else is downloaded.
+            await self._download_all(named)
+            views = [self._views[item.data_id] for item in named]
         data: dict[str, MetricsDataView] = {}
         doubles: dict[str, MetricsDataView] = {}
         has_doubles = False
-        for item in named:
-            view = self._views[item.data_id]
-            if item.data_id in indexed and view.index_id is not None:
+        for item, view in zip(named, views, strict=True):
+            if indexed and item.data_id in indexed and view.index_id is not None:
                 view = view.with_index(self._views[view.index_id])
             data[item.name] = view
             if view.kind is _DOUBLE:
@@ -137,7 +139,7 @@ class JobBlobs:
                     doubles[item.name] = view
         if has_doubles and not decoders_loaded():
             await decoders_ready()  # polars, imported off the loop's thread
-        job_metrics = self._job_metrics(metric_views) if self.wants_metrics else None
+        job_metrics = self._job_metrics(metric_views) if wants_metrics else None
         # JobBlobsResult(...), written through its twin (see stook.sdk.fastpaths): a frozen
         # dataclass's __init__ costs several times as much, and this is made for every job.
         result: Any = _new(_WritableResult)
