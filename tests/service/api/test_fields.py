@@ -8,6 +8,7 @@ import uuid
 
 import pytest
 
+from stook.service.api import ApiClient
 from stook.service.api._fields import new_uuid, uuid_text
 
 CANONICAL = "61fbd861-8d13-523b-9236-d0af9a8ecadb"
@@ -74,3 +75,17 @@ def test_a_subclass_of_uuid_is_written_its_own_way() -> None:
             return "short"
 
     assert uuid_text(Short(CANONICAL)) == "short"
+
+
+def test_a_field_reader_reads_the_fields_of_an_item_in_order() -> None:
+    import orjson
+
+    keys = ("metricID", "name", "value")
+    read = ApiClient.field_reader(keys)
+    item = orjson.loads(b'{"value": 1.5, "other": 1, "metricID": "m", "name": null}')
+    assert read(item) == ("m", None, 1.5)
+    with pytest.raises(KeyError):
+        read({"metricID": "m"})
+    # Why it is made from orjson's keys: the item's own key objects, found by identity.
+    (made,) = (key for key in item if key == "metricID")
+    assert any(made is key for key in read.__reduce__()[1])

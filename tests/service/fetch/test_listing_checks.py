@@ -7,7 +7,7 @@ import uuid
 
 import pytest
 
-from stook.service.fetch._listing_checks import ID_FULLMATCH, are_ids, field_reader
+from stook.service.fetch._listing_checks import ID_FULLMATCH, are_ids
 
 IDS = [str(uuid.UUID(int=i * 7919 + 1)) for i in range(5)]
 
@@ -66,17 +66,3 @@ def test_random_corruptions_are_taken_as_the_expression_takes_them() -> None:
 def test_ids_that_are_not_strings_are_refused() -> None:
     assert not are_ids([IDS[0], 3])  # type: ignore[list-item]
     assert not are_ids([None])  # type: ignore[list-item]
-
-
-def test_a_field_reader_reads_the_fields_of_an_item_in_order() -> None:
-    import orjson
-
-    keys = ("metricID", "name", "value")
-    read = field_reader(keys)
-    item = orjson.loads(b'{"value": 1.5, "other": 1, "metricID": "m", "name": null}')
-    assert read(item) == ("m", None, 1.5)
-    with pytest.raises(KeyError):
-        read({"metricID": "m"})
-    # Why it is made from orjson's keys: the item's own key objects, found by identity.
-    (made,) = (key for key in item if key == "metricID")
-    assert any(made is key for key in read.__reduce__()[1])

@@ -26,7 +26,7 @@ from stook.service.api._errors import (
     NotFoundError,
     RedirectedRefusalError,
 )
-from stook.service.api._fields import uuid_text
+from stook.service.api._fields import field_reader, uuid_text
 from stook.service.api._limits import AimdLimiter, ConcurrencyLimit, FixedLimit, NestedLimit
 from stook.service.api._listing_items import metric_parser, metrics_data_parser, read_job
 from stook.service.api._models import (
@@ -403,6 +403,10 @@ class ApiClient:
     #: A job's listings have written its ID out already, so a worker naming the job (``job
     #: <ID>``) finds it there, for a fifth of what ``UUID.__str__`` (Python code) costs.
     id_text = staticmethod(uuid_text)
+    #: What reads the given fields of this client's raw listing items (`all_job_metric_items`,
+    #: `all_job_metrics_data_items`) in one call, by the keys' strings as the JSON parser
+    #: keeps them (see `stook.service.api._fields.field_reader`).
+    field_reader = staticmethod(field_reader)
 
     @staticmethod
     def read_job_metrics_data(item: Mapping[str, Any]) -> ApiMetricsData:

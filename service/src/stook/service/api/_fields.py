@@ -11,14 +11,15 @@ import enum
 import functools
 import re
 import uuid
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from datetime import UTC, datetime, timedelta, timezone
+from operator import itemgetter
 from typing import Any, TypeVar
 
 from stook.sdk.fastpaths import hex_uuid
 from stook.service.api._errors import ApiResponseError
 
-__all__ = ["Fields", "new_uuid", "parse_rfc3339", "parse_uuid", "uuid_text"]
+__all__ = ["Fields", "field_reader", "new_uuid", "parse_rfc3339", "parse_uuid", "uuid_text"]
 
 _E = TypeVar("_E", bound=enum.Enum)
 
@@ -302,3 +303,20 @@ def _json_type(value: object) -> str:
         case Mapping():
             return "an object"
     return type(value).__name__
+
+
+def field_reader(keys: tuple[str, ...]) -> Callable[[Mapping[str, Any]], tuple[Any, ...]]:
+    """The values of `keys` in an item of a listing, as a tuple, in one call (KeyError when
+    the item leaves one out).
+
+    The keys are looked up as orjson makes them: it keeps one string per short key for the
+    whole process (its key cache), so each field is found by identity, where a string of
+    the same text made elsewhere costs a comparison of the text per lookup (a sixth of
+    reading a metric listing). They are equal to `keys` whatever orjson does: only the
+    speed depends on it. Call it once the first answer has come (orjson is imported then).
+    """
+    import orjson
+
+    as_read = tuple(orjson.loads(orjson.dumps(dict.fromkeys(keys))))
+    assert as_read == keys
+    return itemgetter(*as_read)

@@ -19,11 +19,10 @@ import functools
 import uuid
 from collections.abc import Callable, Mapping
 from datetime import datetime
-from operator import itemgetter
 from typing import Any, Final
 
 from stook.sdk.fastpaths import writable_twin
-from stook.service.api._fields import new_uuid, parse_rfc3339, parse_uuid
+from stook.service.api._fields import field_reader, new_uuid, parse_rfc3339, parse_uuid
 from stook.service.api._models import (
     ApiMetric,
     ApiMetricsData,
@@ -169,7 +168,7 @@ def _metric(data: Mapping[str, Any], owner: MetricOwner) -> ApiMetric | None:
 
 
 # What `_metrics_data` reads of a metrics-data listing's item, in one call (see
-# `_key_reader`), by owner: its owner's ID is the job's or the batch's.
+# `field_reader`), by owner: its owner's ID is the job's or the batch's.
 _DATA_KEYS: Final = {
     owner: (
         "dataID",
@@ -188,7 +187,7 @@ _DATA_KEYS: Final = {
 def _data_fields() -> tuple[Callable[[Mapping[str, Any]], tuple[Any, ...]], ...]:
     """The readers of a job's item, then of a batch's: by position, as an enum member's
     hash is Python code (a dict or a cache keyed by the owner cost a fifth of an item)."""
-    return _key_reader(_DATA_KEYS[_JOB]), _key_reader(_DATA_KEYS[MetricOwner.BATCH])
+    return field_reader(_DATA_KEYS[_JOB]), field_reader(_DATA_KEYS[MetricOwner.BATCH])
 
 
 def _metrics_data(data: dict[str, Any], owner: MetricOwner) -> ApiMetricsData | None:
@@ -227,7 +226,7 @@ def _metrics_data(data: dict[str, Any], owner: MetricOwner) -> ApiMetricsData | 
         return None
 
 
-# What `_job` reads of a jobs listing's item, in one call (see `_key_reader`).
+# What `_job` reads of a jobs listing's item, in one call (see `field_reader`).
 _JOB_KEYS: Final = (
     "jobID",
     "conflatedStatus",
@@ -243,23 +242,9 @@ _JOB_KEYS: Final = (
 )
 
 
-def _key_reader(keys: tuple[str, ...]) -> Callable[[Mapping[str, Any]], tuple[Any, ...]]:
-    """The values of `keys` in an item, as a tuple, in one call (KeyError when the item
-    leaves one out), the keys looked up as orjson makes them: it keeps one string per short
-    key (its key cache), so each field is found by identity, where a key of the same text
-    made elsewhere costs a comparison of the text per lookup. They equal `keys` whatever
-    orjson does: only the speed depends on it. Made with the first answer (orjson is
-    imported then); as `stook.service.fetch`'s field_reader."""
-    import orjson
-
-    as_read = tuple(orjson.loads(orjson.dumps(dict.fromkeys(keys))))
-    assert as_read == keys
-    return itemgetter(*as_read)
-
-
 @functools.cache
 def _job_fields() -> Callable[[Mapping[str, Any]], tuple[Any, ...]]:
-    return _key_reader(_JOB_KEYS)
+    return field_reader(_JOB_KEYS)
 
 
 def _job(data: dict[str, Any]) -> Job | None:

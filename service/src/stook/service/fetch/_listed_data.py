@@ -25,7 +25,6 @@ from typing import Any, Final
 from stook.service.api import ApiMetricsData, MetricOwner
 from stook.service.fetch._listing_checks import (
     are_ids,
-    field_reader,
     is_owner_id,
     model_reads_time,
 )
@@ -50,8 +49,11 @@ _KEYS: Final = (
 
 @functools.cache
 def _fields() -> Callable[[dict[str, Any]], tuple[Any, ...]]:
-    """What reads `_KEYS` of an item (see `field_reader`)."""
-    return field_reader(_KEYS)
+    """What reads `_KEYS` of an item (see `ApiClient.field_reader`); imported here, with
+    the first answer, as the client has been by then."""
+    from stook.service.api import ApiClient
+
+    return ApiClient.field_reader(_KEYS)
 
 
 # Not frozen: one per job, and a frozen dataclass's __init__ costs three times the plain

@@ -30,7 +30,6 @@ from stook.service.api import (
 )
 from stook.service.fetch._listing_checks import (
     are_ids,
-    field_reader,
     is_owner_id,
     model_reads_time,
 )
@@ -60,8 +59,11 @@ _KEYS: Final = (
 
 @functools.cache
 def _fields() -> Callable[[dict[str, Any]], tuple[Any, ...]]:
-    """What reads `_KEYS` of an item (see `field_reader`)."""
-    return field_reader(_KEYS)
+    """What reads `_KEYS` of an item (see `ApiClient.field_reader`); imported here, with
+    the first answer, as the client has been by then."""
+    from stook.service.api import ApiClient
+
+    return ApiClient.field_reader(_KEYS)
 
 
 # Not frozen: a frozen dataclass sets each field through object.__setattr__, three times

@@ -7,12 +7,11 @@ from __future__ import annotations
 import re
 from collections.abc import Callable
 from datetime import datetime
-from operator import itemgetter
 from typing import Any, Final
 
 from stook.service.api import ApiResponseError
 
-__all__ = ["ID_FULLMATCH", "are_ids", "field_reader", "is_owner_id", "model_reads_time", "zoned"]
+__all__ = ["ID_FULLMATCH", "are_ids", "is_owner_id", "model_reads_time", "zoned"]
 
 # An ID as the API writes it: what the model reads without a doubt (uuid.UUID accepts
 # more, which goes the model's way).
@@ -81,20 +80,3 @@ def are_ids(ids: list[str]) -> bool:
     if len(joined) != 37 * count - 1 or not joined.isascii():
         return False
     return (_ID_SHAPE * count).startswith(joined.encode().translate(_AS_ZERO))
-
-
-def field_reader(keys: tuple[str, ...]) -> Callable[[dict[str, Any]], tuple[Any, ...]]:
-    """The values of `keys` in an item of a listing, as a tuple, in one call (KeyError when
-    the item leaves one out).
-
-    The keys are looked up as orjson makes them: it keeps one string per short key for the
-    whole process (its key cache), so each field is found by identity, where a string of
-    the same text made elsewhere costs a comparison of the text per lookup (a sixth of
-    reading a metric listing). They are equal to `keys` whatever orjson does: only the
-    speed depends on it. Call it once the first answer has come (orjson is imported then).
-    """
-    import orjson
-
-    as_read = tuple(orjson.loads(orjson.dumps(dict.fromkeys(keys))))
-    assert as_read == keys
-    return itemgetter(*as_read)
