@@ -102,7 +102,12 @@ def test_run_help_has_the_readmes_exit_codes_and_mode_detection() -> None:
     flat = " ".join(text.split())
     for default in ("/tmp/resim/inputs", "/tmp/resim/outputs", "./stook.toml"):
         assert f"default {default}" in flat
-    for variable in ("STOOK_INPUTS", "STOOK_PROGRESS", "STOOK_PROGRESS_INTERVAL"):
+    for variable in (
+        "STOOK_INPUTS",
+        "STOOK_PROGRESS",
+        "STOOK_PROGRESS_INTERVAL",
+        "STOOK_EVENT_LOOP",
+    ):
         assert variable in text
 
 

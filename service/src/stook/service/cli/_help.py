@@ -40,6 +40,9 @@ progress: a bar on a terminal (jobs done of the batch's total, rate, ETA, retrie
 off a terminal one "fetch progress" event every 10 s. STOOK_PROGRESS=auto|bar|log|none
 picks the display, STOOK_PROGRESS_INTERVAL the seconds between events.
 
+event loop: uvloop where it is installed (a dependency on Linux and macOS), else
+asyncio's; STOOK_EVENT_LOOP=auto|uvloop|asyncio picks it.
+
 Settings come from the flags, then the STOOK_* variables named above, then the
 defaults; [fetch], [batch] and [report] tables are read from stook.toml."""
 

@@ -477,7 +477,7 @@ def _dispatch(args: argparse.Namespace, voice: Voice) -> int:
             # First: aiohttp's own TLS contexts would cost ~55 ms of every start-up.
             import_aiohttp_without_tls_defaults()
             from stook.service.cli._run import resolve_options, run
-            from stook.service.modes import Tally, for_stream
+            from stook.service.modes import Tally, event_loop_factory, for_stream
 
             options = resolve_options(
                 inputs=args.inputs,
@@ -489,9 +489,10 @@ def _dispatch(args: argparse.Namespace, voice: Voice) -> int:
                 engine=args.engine,
             )
             voice.progress = Tally(for_stream(label="jobs"))
+            loop_factory = event_loop_factory()  # before the run: a bad choice is exit 2
             _fast_exit.arm()
             _collector.resume()  # the imports done: the ones left are the mode's own
-            _signals.run(run(options, progress=voice.progress))
+            _signals.run(run(options, progress=voice.progress), loop_factory=loop_factory)
             return 0
         case "demo":
             from pathlib import Path

@@ -172,8 +172,13 @@ def settle() -> None:
     _guard.settled = True
 
 
-def run(main: Coroutine[Any, Any, _T]) -> _T:
-    """`asyncio.run(main)`, where SIGINT and SIGTERM cancel `main` and raise Interrupted."""
+def run(
+    main: Coroutine[Any, Any, _T],
+    *,
+    loop_factory: Callable[[], asyncio.AbstractEventLoop] | None = None,
+) -> _T:
+    """`asyncio.run(main)` on the loop `loop_factory` makes (asyncio's own by default),
+    where SIGINT and SIGTERM cancel `main` and raise Interrupted."""
     import asyncio
 
     async def guarded() -> _T:
@@ -183,7 +188,8 @@ def run(main: Coroutine[Any, Any, _T]) -> _T:
         return await main
 
     try:
-        result = asyncio.run(guarded())
+        with asyncio.Runner(loop_factory=loop_factory) as runner:
+            result = runner.run(guarded())
     except BaseException as error:
         main.close()  # never started if the signal came first; no "never awaited" warning
         _guard.loop = _guard.main_task = None

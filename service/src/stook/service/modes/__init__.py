@@ -16,6 +16,7 @@ if TYPE_CHECKING:
     from stook.service.modes._config import ConfigError, FetchSettings, StookConfig, load, parse
     from stook.service.modes._engine_config import EngineSettings
     from stook.service.modes._engine_step import engine_for, fetch_step_for
+    from stook.service.modes._event_loop import event_loop_factory, run_on_event_loop
     from stook.service.modes._inputs import (
         ApiAccess,
         BatchInputs,
@@ -56,6 +57,8 @@ else:
             "BatchResult": "stook.service.modes._batch",
             "run_batch": "stook.service.modes._batch",
             "ConfigError": "stook.service.modes._config",
+            "event_loop_factory": "stook.service.modes._event_loop",
+            "run_on_event_loop": "stook.service.modes._event_loop",
             "FetchSettings": "stook.service.modes._config",
             "StookConfig": "stook.service.modes._config",
             "load": "stook.service.modes._config",
@@ -127,6 +130,7 @@ __all__ = [
     "check_outputs_folder",
     "detect",
     "engine_for",
+    "event_loop_factory",
     "fetch_batch",
     "fetch_batch_frame",
     "fetch_report",
@@ -137,6 +141,7 @@ __all__ = [
     "open_api",
     "parse",
     "run_batch",
+    "run_on_event_loop",
     "run_pipeline",
     "run_report",
     "run_test_mode",

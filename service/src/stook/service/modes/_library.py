@@ -33,6 +33,7 @@ from stook.service.fetch import (
     fetch_deadline,
 )
 from stook.service.modes._config import FetchSettings, parse
+from stook.service.modes._event_loop import run_on_event_loop
 from stook.service.modes._inputs import (
     BATCH_CONFIG,
     REPORT_CONFIG,
@@ -392,7 +393,7 @@ def fetch_batch_frame(
         async with contextlib.aclosing(stream) as records:
             return [record async for record in records]
 
-    return _frame(asyncio.run(collect()), wanted, parameters=parameters)
+    return _frame(run_on_event_loop(collect()), wanted, parameters=parameters)
 
 
 def _frame(records: list[JobRecord], series: tuple[str, ...], *, parameters: bool) -> pl.DataFrame:

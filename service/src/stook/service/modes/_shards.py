@@ -13,7 +13,6 @@ The token travels inside the shard's `ApiAccess`, whose repr hides it; it is in 
 
 from __future__ import annotations
 
-import asyncio
 import pickle
 import signal
 import sys
@@ -27,6 +26,7 @@ from stook.sdk.aggregations import Aggregation, Needs
 from stook.service.api import ApiClient, Batch, Job, Report, RetryPolicy
 from stook.service.fetch import BatchFetcher, FetchOutcome, ReportFetcher, ReportOutcome
 from stook.service.modes._config import FetchSettings
+from stook.service.modes._event_loop import run_on_event_loop
 from stook.service.modes._inputs import ApiAccess
 from stook.service.modes._open_api import Traffic, open_api
 from stook.service.modes._shard_errors import RemoteError
@@ -220,7 +220,7 @@ def run_shard(
     try:
         shard: BatchShard | ReportShard = pickle.loads(task)
         index = shard.index
-        outcome, traffic = asyncio.run(_fetch(shard, progress or _send_progress))
+        outcome, traffic = run_on_event_loop(_fetch(shard, progress or _send_progress))
         done = ShardDone(
             index=index,
             size=shard.size,

@@ -14,7 +14,6 @@ are honest about that, not a cluster's.
 
 from __future__ import annotations
 
-import asyncio
 import hashlib
 import importlib
 import io
@@ -67,6 +66,7 @@ def measure_engine(info: EmulatorInfo, engine: dict[str, Any]) -> dict[str, Any]
         detect,
         fetch_step_for,
         parse,
+        run_on_event_loop,
         run_pipeline,
     )
 
@@ -84,7 +84,7 @@ def measure_engine(info: EmulatorInfo, engine: dict[str, Any]) -> dict[str, Any]
         assert isinstance(batch, BatchInputs)
         started = time.perf_counter()
         cpu_before = _cpu_with_workers()
-        result = asyncio.run(
+        result = run_on_event_loop(
             run_pipeline(
                 BatchMode(batch, config),
                 batch.access,

@@ -6,7 +6,6 @@ never shares an event loop or a core's time slice with the server's Python code.
 
 from __future__ import annotations
 
-import asyncio
 import importlib
 import os
 import resource
@@ -120,7 +119,7 @@ def run_stook(
 ) -> tuple[Measurement, Traffic]:
     """`measure_stook`, with the run's traffic: its limiters' stats among it."""
     from stook.service.api import configure_logging
-    from stook.service.modes import BatchInputs, detect, parse, run_batch
+    from stook.service.modes import BatchInputs, detect, parse, run_batch, run_on_event_loop
 
     configure_logging(json=True, level="error")
     # A run imports polars and numpy with its first series (so that its first request goes
@@ -143,7 +142,8 @@ def run_stook(
         assert isinstance(batch, BatchInputs)
         started = time.perf_counter()
         cpu_before = cpu_seconds()
-        result = asyncio.run(run_batch(batch, config, Path(tmp) / "outputs"))
+        # On the loop `stook run` runs on (uvloop where installed).
+        result = run_on_event_loop(run_batch(batch, config, Path(tmp) / "outputs"))
         seconds = time.perf_counter() - started
         cpu = cpu_seconds() - cpu_before
     measurement = Measurement(

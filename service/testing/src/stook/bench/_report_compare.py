@@ -25,7 +25,7 @@ from stook.emulator import EmulatorConfig, EmulatorInfo, EmulatorProcess
 
 def measure_stook_report(info: EmulatorInfo, concurrency: int) -> Measurement:
     from stook.service.api import configure_logging
-    from stook.service.modes import ReportInputs, detect, parse, run_report
+    from stook.service.modes import ReportInputs, detect, parse, run_on_event_loop, run_report
 
     configure_logging(json=True, level="error")
     config = parse({"fetch": {"concurrency": concurrency}}, source="bench")
@@ -35,7 +35,7 @@ def measure_stook_report(info: EmulatorInfo, concurrency: int) -> Measurement:
         mode = detect(inputs)
         assert isinstance(mode, ReportInputs)
         started = time.perf_counter()
-        result = asyncio.run(run_report(mode, config, Path(tmp) / "outputs"))
+        result = run_on_event_loop(run_report(mode, config, Path(tmp) / "outputs"))
         seconds = time.perf_counter() - started
     return Measurement(
         client="stook report",

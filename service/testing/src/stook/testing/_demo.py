@@ -13,7 +13,6 @@ retries and seconds.
 
 from __future__ import annotations
 
-import asyncio
 import shlex
 import time
 import tomllib
@@ -31,6 +30,7 @@ from stook.service.modes import (
     for_stream,
     parse,
     run_batch,
+    run_on_event_loop,
     run_report,
     run_test_mode,
 )
@@ -103,7 +103,7 @@ def run_demo(*, jobs: int, output: Path, seed: int) -> int:
         (test_inputs / folder).mkdir(parents=True, exist_ok=True)
     mode = detect(test_inputs)
     assert isinstance(mode, TestInputs)
-    test_output = asyncio.run(
+    test_output = run_on_event_loop(
         run_test_mode(mode, config, output / "test-mode" / "metrics.binproto")
     )
     # The example's IMAGE metrics name these files beside the output.
@@ -135,7 +135,9 @@ def run_demo(*, jobs: int, output: Path, seed: int) -> int:
         batch = detect(inputs)
         assert isinstance(batch, BatchInputs)
         started = time.perf_counter()
-        result = asyncio.run(run_batch(batch, config, output, progress=for_stream(label="jobs")))
+        result = run_on_event_loop(
+            run_batch(batch, config, output, progress=for_stream(label="jobs"))
+        )
         seconds = time.perf_counter() - started
         stats = emulator.stats()
         invalid += _print_output(result.output)
@@ -151,7 +153,7 @@ def run_demo(*, jobs: int, output: Path, seed: int) -> int:
         report_mode = detect(report_inputs)
         assert isinstance(report_mode, ReportInputs)
         started = time.perf_counter()
-        report = asyncio.run(
+        report = run_on_event_loop(
             run_report(report_mode, config, output / "report", progress=for_stream(label="jobs"))
         )
         seconds = time.perf_counter() - started

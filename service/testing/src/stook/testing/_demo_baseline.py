@@ -8,14 +8,20 @@ true`), fetches both batches side by side and says what changed, with its statis
 
 from __future__ import annotations
 
-import asyncio
 import tomllib
 from collections.abc import Callable
 from pathlib import Path
 
 from stook.emulator import EmulatorConfig, EmulatorProcess
 from stook.sdk import TextMetric, read_job_metrics
-from stook.service.modes import BatchInputs, detect, for_stream, parse, run_batch
+from stook.service.modes import (
+    BatchInputs,
+    detect,
+    for_stream,
+    parse,
+    run_batch,
+    run_on_event_loop,
+)
 
 COMPARISON_CONFIG = """\
 # Batch mode compared with the previous finished batch of the same suite and branch.
@@ -53,7 +59,9 @@ def run_comparison_demo(output: Path, *, seed: int, print_output: Callable[[Path
         emulator.write_batch_config(inputs)
         batch = detect(inputs)
         assert isinstance(batch, BatchInputs)
-        result = asyncio.run(run_batch(batch, config, folder, progress=for_stream(label="jobs")))
+        result = run_on_event_loop(
+            run_batch(batch, config, folder, progress=for_stream(label="jobs"))
+        )
     invalid = print_output(result.output)
     view = read_job_metrics(result.output.read_bytes(), source=str(result.output))
     text = view.metric("Compared with baseline", TextMetric).text
