@@ -119,7 +119,14 @@ def run_stook(
 ) -> tuple[Measurement, Traffic]:
     """`measure_stook`, with the run's traffic: its limiters' stats among it."""
     from stook.service.api import configure_logging
-    from stook.service.modes import BatchInputs, detect, parse, run_batch, run_on_event_loop
+    from stook.service.modes import (
+        BatchInputs,
+        detect,
+        event_loop_factory,
+        parse,
+        run_batch,
+        run_on_event_loop,
+    )
 
     configure_logging(json=True, level="error")
     # A run imports polars and numpy with its first series (so that its first request goes
@@ -130,6 +137,7 @@ def run_stook(
     # And what the run imports with them, off the loop's thread (see
     # stook.service.fetch._decoders): numpy.ma, which polars imports lazily.
     importlib.import_module("numpy.ma")
+    event_loop_factory()  # and uvloop, which `stook run` imports before its loop starts
     doc = tomllib.loads(config_toml)
     doc.setdefault("fetch", {})["concurrency"] = concurrency
     if adaptive:
