@@ -47,7 +47,9 @@ async def main():
     finally:
         await runner.cleanup()
 
-asyncio.run(main())
+# On the loop `stook run` picks (STOOK_EVENT_LOOP): uvloop brings its own TLS transport.
+from stook.service.modes import run_on_event_loop
+run_on_event_loop(main())
 """
 
 
@@ -64,7 +66,7 @@ def _run(script: str, **env: str) -> str:
     return done.stdout
 
 
-def _serve_and_get(*, lean: bool, ca: bool) -> str:
+def _serve_and_get(*, lean: bool, ca: bool, loop: str = "asyncio") -> str:
     first = (
         "from stook.service.api import import_aiohttp_without_tls_defaults\n"
         "import_aiohttp_without_tls_defaults()\n"
@@ -72,20 +74,23 @@ def _serve_and_get(*, lean: bool, ca: bool) -> str:
         else ""
     )
     script = first + SERVE_AND_GET.format(cert=str(TLS / "server.pem"), key=str(TLS / "server.key"))
-    out = _run(script, **({"SSL_CERT_FILE": str(TLS / "ca.pem")} if ca else {}))
+    env = {"STOOK_EVENT_LOOP": loop}
+    out = _run(script, **env, **({"SSL_CERT_FILE": str(TLS / "ca.pem")} if ca else {}))
     return out.splitlines()[-1]  # after the transport's debug log lines
 
 
+@pytest.mark.parametrize("loop", ["asyncio", "uvloop"])
 @pytest.mark.parametrize("lean", [True, False], ids=["lean import", "plain import"])
-def test_a_transport_trusts_the_ca_paths_of_the_environment(lean: bool) -> None:
+def test_a_transport_trusts_the_ca_paths_of_the_environment(lean: bool, loop: str) -> None:
     # SSL_CERT_FILE names the test CA: hidden from aiohttp's import by the lean import,
     # it is what the transport's own context reads.
-    assert _serve_and_get(lean=lean, ca=True) == "200 hello"
+    assert _serve_and_get(lean=lean, ca=True, loop=loop) == "200 hello"
 
 
+@pytest.mark.parametrize("loop", ["asyncio", "uvloop"])
 @pytest.mark.parametrize("lean", [True, False], ids=["lean import", "plain import"])
-def test_a_transport_refuses_a_certificate_no_trusted_ca_signed(lean: bool) -> None:
-    assert _serve_and_get(lean=lean, ca=False) == "TransportError"
+def test_a_transport_refuses_a_certificate_no_trusted_ca_signed(lean: bool, loop: str) -> None:
+    assert _serve_and_get(lean=lean, ca=False, loop=loop) == "TransportError"
 
 
 def test_the_lean_import_hides_the_ca_paths_from_aiohttp_alone() -> None:
