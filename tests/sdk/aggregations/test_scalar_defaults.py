@@ -140,3 +140,35 @@ def test_scalar_defaults_columns_are_the_jobs_scalars_in_arrival_order() -> None
         assert {n: list(c.values) for n, c in sorted(agg.columns.items())} == expected
         assert agg.columns["a"].units == {"m": 350, "km": 116}
         assert Output(agg).writer.serialize() == Output(whole).writer.serialize()
+
+
+@pytest.mark.parametrize(
+    "values",
+    [
+        [3.0, -1.5, 2.25],
+        [1.0, -0.0, 0.0, -2.0],  # -0.0 made 0.0: the element path
+        [1.0, math.nan, -math.inf, 2.0],
+        [1e308, 1e308, -5.0],  # finite values whose sum is not
+        [],
+    ],
+)
+def test_sorted_finite_values_agree_with_the_element_path(values: list[float]) -> None:
+    from array import array
+
+    from stook.sdk.aggregations._scalar_defaults import _sorted_finite
+
+    got = _sorted_finite(array("d", values))
+    expected = sorted(v + 0.0 for v in values if math.isfinite(v))
+    assert [math.copysign(1.0, v) for v in got] == [math.copysign(1.0, v) for v in expected]
+    assert got == expected
+
+
+@pytest.mark.parametrize("units", [["m"] * 5, ["m", "s", "m"], [], ["", ""]])
+def test_units_counted_as_counter_update_counts_them(units: list[str]) -> None:
+    from collections import Counter
+
+    from stook.sdk.aggregations._scalar_defaults import _count_units
+
+    counts: Counter[str] = Counter({"m": 1})
+    _count_units(counts, units)
+    assert counts == Counter({"m": 1}) + Counter(units)

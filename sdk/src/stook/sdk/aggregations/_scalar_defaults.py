@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 import operator
+import struct
 from array import array
 from collections import Counter
 from collections.abc import Mapping
@@ -52,6 +53,25 @@ class _Column:
     units: Counter[str] = field(default_factory=Counter)
 
 
+def _count_units(counts: Counter[str], units: list[str]) -> None:
+    """`counts.update(units)`. A metric's scalars nearly always share one unit: then
+    counted by one comparison each (a Counter hashes and looks up each, ~5x the cost)."""
+    if units and units.count(units[0]) == len(units):
+        counts[units[0]] += len(units)
+    else:
+        counts.update(units)
+
+
+def _sorted_finite(values: array[float]) -> list[float]:
+    """The finite values, sorted, and -0.0 made 0.0 (they compare equal, so sorting keeps
+    arrival order): the output must not depend on the order jobs arrived in."""
+    # The common case in C loops: a sum is finite only when every value is, and with no
+    # zero there is no -0.0 to make 0.0 (-0.0 == 0.0, so `in` finds either).
+    if math.isfinite(sum(values)) and 0.0 not in values:
+        return sorted(values)
+    return sorted(v + 0.0 for v in values if math.isfinite(v))
+
+
 @dataclass
 class ScalarDefaults(Aggregation[JobRecord]):
     """Writes ``N (mean)`` (a SCALAR, unit carried over) and ``N (distribution)`` (a
@@ -81,8 +101,10 @@ class ScalarDefaults(Aggregation[JobRecord]):
             mine = self.columns.get(metric)
             if mine is None:
                 mine = self.columns[metric] = _Column()
-            mine.values.extend(map(_VALUE, found))
-            mine.units.update(map(_UNIT, found))
+            # Packed by struct, then copied in: array.extend converts each value through
+            # a format parser (~4x the cost a value).
+            mine.values.frombytes(struct.pack(f"={len(found)}d", *map(_VALUE, found)))
+            _count_units(mine.units, list(map(_UNIT, found)))
 
     def __getstate__(self) -> dict[str, object]:
         """What travels between processes (see `Aggregation`): the columns, the waiting
@@ -105,9 +127,7 @@ class ScalarDefaults(Aggregation[JobRecord]):
         for metric in sorted(self.columns):
             column = self.columns[metric]
             values = column.values
-            # Sorted, and -0.0 made 0.0 (they compare equal, so sorting keeps arrival
-            # order): the output must not depend on the order jobs arrived in.
-            finite = sorted(v + 0.0 for v in values if math.isfinite(v))
+            finite = _sorted_finite(values)
             unit = pick_unit(column.units)
             if not finite:
                 continue
