@@ -222,3 +222,34 @@ def test_a_million_doubles_round_trip_bit_for_bit() -> None:
         assert d.series().len() == 1_000_000
         assert d.series().to_numpy().tobytes() == values.tobytes()
         assert float_bits(d.raw.series.doubles.series) == values.tobytes()
+
+
+# ---------------------------------------------------------------- status series' fast path
+
+
+@pytest.mark.parametrize(
+    "values",
+    [
+        [MetricStatus.PASSED] * 300,  # what the writer makes beside a value series
+        [MetricStatus.PASSED, MetricStatus.FAIL_BLOCK, MetricStatus.RAW, MetricStatus.FAIL_WARN],
+        [],
+        [200, 3, 1],  # a two-byte varint: the element path
+    ],
+)
+def test_a_status_series_is_encoded_as_extend_would(values: list[int]) -> None:
+    from stook.sdk._encode import _fill_series
+
+    fast = pb.Series()
+    _fill_series(fast, SeriesKind.STATUS, values)
+    slow = pb.Series()
+    slow.statuses.SetInParent()
+    slow.statuses.series.extend(values)  # type: ignore[arg-type]
+    assert list(fast.statuses.series) == list(values)
+    assert fast.SerializeToString(deterministic=True) == slow.SerializeToString(deterministic=True)
+
+
+def test_statuses_that_are_no_numbers_still_reach_extend_and_its_error() -> None:
+    from stook.sdk._encode import _fill_series
+
+    with pytest.raises(ValueError, match="unknown enum label"):
+        _fill_series(pb.Series(), SeriesKind.STATUS, ["not a status"])

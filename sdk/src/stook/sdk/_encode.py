@@ -74,12 +74,26 @@ def _fill_series(series: pb.Series, kind: SeriesKind, values: Sequence[Any]) -> 
             # Parsing the packed wire form is a memcpy in C; extend() would box every value.
             raw = values.tobytes()
             target.MergeFromString(b"\x0a" + _varint(len(raw)) + raw)
+        case SeriesKind.STATUS if (packed := _status_bytes(values)) is not None:
+            # The same, each status's varint being one byte: extend() converted each
+            # value (a status series stands beside every value series the writer makes).
+            target.MergeFromString(b"\x0a" + _varint(len(packed)) + packed)
         case SeriesKind.TIMESTAMP:
             target.series.extend(timestamp_proto(v) for v in values)
         case SeriesKind.UUID:
             target.series.extend(uuid_pb2.UUID(data=v) for v in values)
         case _:
             target.series.extend(values)
+
+
+def _status_bytes(values: Sequence[Any]) -> bytes | None:
+    """The packed wire form of statuses that are all below 128 (every `MetricStatus`
+    is), whose varints are then their own bytes; None for any other values."""
+    try:
+        raw = bytes(values)
+    except (TypeError, ValueError):
+        return None
+    return raw if raw and raw.isascii() else None
 
 
 def _varint(n: int) -> bytes:
