@@ -5,7 +5,8 @@ from __future__ import annotations
 import math
 import struct
 import uuid
-from collections.abc import Mapping
+from array import array
+from collections.abc import Mapping, Sequence
 from datetime import UTC, datetime, timedelta, timezone
 
 import numpy as np
@@ -234,9 +235,13 @@ def test_a_million_doubles_round_trip_bit_for_bit() -> None:
         [MetricStatus.PASSED, MetricStatus.FAIL_BLOCK, MetricStatus.RAW, MetricStatus.FAIL_WARN],
         [],
         [200, 3, 1],  # a two-byte varint: the element path
+        (MetricStatus.PASSED, MetricStatus.NOT_APPLICABLE),
+        # A buffer's bytes are its memory, not its values: the element path.
+        array("q", [MetricStatus.PASSED, MetricStatus.FAIL_BLOCK]),
+        np.array([MetricStatus.PASSED, MetricStatus.FAIL_WARN], dtype=np.int64),
     ],
 )
-def test_a_status_series_is_encoded_as_extend_would(values: list[int]) -> None:
+def test_a_status_series_is_encoded_as_extend_would(values: Sequence[int]) -> None:
     from stook.sdk._encode import _fill_series
 
     fast = pb.Series()

@@ -88,7 +88,12 @@ def _fill_series(series: pb.Series, kind: SeriesKind, values: Sequence[Any]) -> 
 
 def _status_bytes(values: Sequence[Any]) -> bytes | None:
     """The packed wire form of statuses that are all below 128 (every `MetricStatus`
-    is), whose varints are then their own bytes; None for any other values."""
+    is), whose varints are then their own bytes; None for any other values.
+
+    A list or tuple only (what the SDK's constructors make): `bytes` of anything with a
+    buffer (an array, a numpy array) is its memory, not its values."""
+    if type(values) is not list and type(values) is not tuple:
+        return None
     try:
         raw = bytes(values)
     except (TypeError, ValueError):
