@@ -2,9 +2,10 @@
 
 uvloop runs the loop in libuv, compiled, where asyncio runs it in Python: every request
 wakes the loop several times, so a batch run at 0 ms latency and concurrency 64 costs
-3.8 % fewer instructions and ~4 % less wall time with it (docs/benchmarks.md, "Eleventh
-pass"). It is a dependency of stook wherever it has wheels (CPython, not Windows);
-elsewhere asyncio's loop runs, and every run works the same on either.
+3.8 % fewer instructions with it, and ~4 % less wall time on a quiet machine (on a loaded
+one the noise hides it; docs/benchmarks.md, "Eleventh pass"). It is a dependency of
+stook wherever it has wheels (CPython, not Windows); elsewhere asyncio's loop runs, and
+every run works the same on either.
 
 ``STOOK_EVENT_LOOP`` picks by hand: ``asyncio`` (asyncio's own loop: to tell a uvloop
 problem from stook's), ``uvloop`` (insist: exit 2 when it is not installed) or ``auto``
