@@ -79,7 +79,8 @@ COMMANDS: dict[str, tuple[str, str, str | None]] = {
     "bench": (
         "measure batch mode against the emulator and ReSim",
         "Measure batch mode against the emulator (in its own process), a bare "
-        "aiohttp loop and ReSim's fetcher; write tables and plots (docs/benchmarks.md).",
+        "aiohttp loop and ReSim's fetcher; write tables and plots (docs/benchmarks.md). "
+        "With --probe: measure your own API and recommend [fetch] concurrency (docs/probe.md).",
         None,
     ),
     "validate": (
