@@ -101,7 +101,9 @@ def _conclude(
         stopped=stopped,
         interrupted=interrupted,
     )
-    written = write_probe_results(result, out)
+    # Interrupted, only what is quick: the signal's watchdog ends the process 1.5 s after
+    # it, and importing matplotlib for the plot alone can take longer than that.
+    written = write_probe_results(result, out, plot=not interrupted)
     print_result(result, stream or sys.stdout)
     log.info("probe written", files=[str(path) for path in written])
     return result

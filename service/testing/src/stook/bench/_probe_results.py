@@ -4,7 +4,8 @@ the plot, the table and the `[fetch]` lines.
 The recommendation is the smallest level that gives nearly all the throughput the server
 gave: within `NEAR_BEST` of the best level's requests per second, with no 429 and a p95
 latency at most `P95_GROWTH` times the lowest level's. More concurrency than that only
-queues requests at the server (or gets them refused).
+queues requests at the server (or gets them refused). Where no level is both, the level of
+the most throughput among those whose p95 has not doubled.
 """
 
 from __future__ import annotations
@@ -69,7 +70,11 @@ def stops_climb(level: LevelResult) -> str | None:
 
 def recommend(levels: Sequence[LevelResult]) -> int | None:
     """The recommended concurrency (see the module's docstring); None when no level
-    qualifies (the lowest was throttled, failing, or answered nothing)."""
+    qualifies (the lowest was throttled, failing, or answered nothing).
+
+    When every level near the best throughput has more than doubled the p95 latency (the
+    client or the server saturating), the calm level with the most throughput instead.
+    """
     usable = [
         level
         for level in levels
@@ -77,15 +82,21 @@ def recommend(levels: Sequence[LevelResult]) -> int | None:
     ]
     if not usable:
         return None
-    lowest = min(levels, key=lambda level: level.concurrency)
+    usable.sort(key=lambda level: level.concurrency)
+    lowest_p95 = min(levels, key=lambda level: level.concurrency).p95_ms
+    calm = [
+        level
+        for level in usable
+        if lowest_p95 is None or (level.p95_ms or 0.0) <= P95_GROWTH * lowest_p95
+    ]
+    if not calm:
+        return None
     best = max(level.requests_per_s for level in usable)
-    for level in sorted(usable, key=lambda level: level.concurrency):
-        fast_enough = level.requests_per_s >= NEAR_BEST * best
-        p95 = level.p95_ms
-        calm = lowest.p95_ms is None or (p95 is not None and p95 <= P95_GROWTH * lowest.p95_ms)
-        if fast_enough and calm:
+    for level in calm:
+        if level.requests_per_s >= NEAR_BEST * best:
             return level.concurrency
-    return None
+    # max() keeps the first of equals: the smallest level of the most throughput.
+    return max(calm, key=lambda level: level.requests_per_s).concurrency
 
 
 @dataclass(frozen=True, slots=True)
@@ -125,8 +136,8 @@ def fetch_lines(result: ProbeResult) -> str:
     )
 
 
-def write_results(result: ProbeResult, out: Path) -> list[Path]:
-    """probe.json, probe.csv and (with matplotlib) probe.png into `out`."""
+def write_results(result: ProbeResult, out: Path, *, plot: bool = True) -> list[Path]:
+    """probe.json, probe.csv and (with `plot` and matplotlib) probe.png into `out`."""
     out.mkdir(parents=True, exist_ok=True)
     written = [out / "probe.json", out / "probe.csv"]
     written[0].write_text(json.dumps(result.as_dict(), indent=2) + "\n", encoding="utf-8")
@@ -137,7 +148,7 @@ def write_results(result: ProbeResult, out: Path) -> list[Path]:
             writer.writerow(_blank_none(_csv_row(level)))
     from stook.bench._plots import plots_available
 
-    if plots_available() and result.levels:
+    if plot and plots_available() and result.levels:
         written.append(_write_plot(result, out / "probe.png"))
     return written
 
