@@ -180,6 +180,19 @@ def test_a_short_probe_writes_its_results_and_the_fetch_lines(
     assert emu.token not in out + err
 
 
+def test_a_report_is_probed_with_report_mode_s_requests(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path, emu: Emulator
+) -> None:
+    emu.write_report_config(tmp_path / "inputs")
+    code, out, err = probe_cli(capsys, tmp_path, "--levels", "2", "--max-requests", "20")
+    assert code == 0, err
+    doc = json.loads((tmp_path / "out" / "probe.json").read_text())
+    assert doc["kind"] == "report"
+    (only,) = doc["levels"]
+    assert 0 < only["api"]["answered"] <= 20
+    assert "(report mode)" in out
+
+
 def test_no_config_in_the_inputs_is_exit_2_before_any_request(
     capsys: pytest.CaptureFixture[str], tmp_path: Path
 ) -> None:
@@ -229,3 +242,15 @@ def test_bad_flags_are_exit_2(
     with pytest.raises(SystemExit) as exit_:
         probe_cli(capsys, tmp_path, flag, value)
     assert exit_.value.code == 2
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [["bench", "--levels", "4,8"], ["bench", "--inputs", "x"], ["bench", "--probe", "--quick"]],
+)
+def test_probe_flags_without_probe_are_exit_2(
+    capsys: pytest.CaptureFixture[str], argv: list[str]
+) -> None:
+    assert run_cli([*argv, "--log-format", "json"]) == 2
+    (line,) = failure_lines(capsys.readouterr().err)
+    assert "--probe" in line

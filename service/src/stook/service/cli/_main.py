@@ -513,11 +513,12 @@ def _dispatch(args: argparse.Namespace, voice: Voice) -> int:
         case "bench":
             from pathlib import Path
 
+            from stook.service.cli._probe_flags import check_probe_flags, run_probe
+
+            check_probe_flags(args)
             bench = _testing_tool("bench", "stook.bench")
             _collector.resume()
             if args.probe:
-                from stook.service.cli._probe_flags import run_probe
-
                 return run_probe(bench, args)
             if args.engines:
                 bench.run_engine_bench(Path(args.out or "docs/benchmarks"), quick=args.quick)

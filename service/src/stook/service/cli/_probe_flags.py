@@ -71,24 +71,44 @@ def add_probe_flags(parser: argparse.ArgumentParser) -> None:
     group.add_argument(
         "--levels",
         type=_levels,
-        default=_levels(_DEFAULT_LEVELS),
         metavar="N,N,...",
         help=f"the concurrency levels, climbed in order (default {_DEFAULT_LEVELS})",
     )
     group.add_argument(
         "--seconds-per-level",
         type=_positive(float),
-        default=10.0,
         metavar="S",
-        help="the longest a level runs",
+        help="the longest a level runs (default 10)",
     )
     group.add_argument(
         "--max-requests",
         type=_positive(int),
-        default=2_000,
         metavar="N",
-        help="the most requests a level sends",
+        help="the most requests a level sends (default 2000)",
     )
+
+
+_PROBE_ONLY = {
+    "inputs": "--inputs",
+    "config": "--config",
+    "project_id": "--project-id",
+    "levels": "--levels",
+    "seconds_per_level": "--seconds-per-level",
+    "max_requests": "--max-requests",
+}
+
+
+def check_probe_flags(args: argparse.Namespace) -> None:
+    """A probe's flag without --probe is a mistake, not something to ignore (exit 2)."""
+    from stook.service.cli._run import UsageError
+
+    if args.probe:
+        if args.quick or args.engines:
+            raise UsageError("--probe measures your API: it takes neither --quick nor --engines")
+        return
+    given = [flag for name, flag in _PROBE_ONLY.items() if getattr(args, name) is not None]
+    if given:
+        raise UsageError(f"{given[0]} is a flag of 'stook bench --probe'; add --probe")
 
 
 def run_probe(bench: Any, args: argparse.Namespace) -> int:
@@ -110,9 +130,9 @@ def run_probe(bench: Any, args: argparse.Namespace) -> int:
         bench.probe(
             plan,
             Path(args.out or "probe-results"),
-            levels=args.levels,
-            seconds_per_level=args.seconds_per_level,
-            max_requests=args.max_requests,
+            levels=args.levels or _levels(_DEFAULT_LEVELS),
+            seconds_per_level=args.seconds_per_level or 10.0,
+            max_requests=args.max_requests or 2_000,
         )
     )
     return 0

@@ -199,11 +199,24 @@ def _write_plot(result: ProbeResult, path: Path) -> Path:
     latency.plot(xs, [lv.p95_ms or 0.0 for lv in levels], "s--", color="tab:orange", label="p95 ms")
     latency.set_ylabel("p95 latency, ms", color="tab:orange")
     latency.set_ylim(bottom=0)
-    for level in levels:
-        if level.throttled:
-            throughput.annotate("429", (level.concurrency, level.requests_per_s), color="tab:red")
+    throttled = [level for level in levels if level.throttled]
+    if throttled:
+        throughput.plot(
+            [level.concurrency for level in throttled],
+            [level.requests_per_s for level in throttled],
+            "X",
+            color="tab:red",
+            markersize=10,
+            linestyle="none",
+            label="answered 429",
+        )
     if result.recommended_concurrency is not None:
-        throughput.axvline(result.recommended_concurrency, color="grey", linestyle=":")
+        throughput.axvline(
+            result.recommended_concurrency, color="grey", linestyle=":", label="recommended"
+        )
+    handles, labels = throughput.get_legend_handles_labels()
+    more_handles, more_labels = latency.get_legend_handles_labels()
+    throughput.legend(handles + more_handles, labels + more_labels, loc="lower right")
     throughput.set_title(f"stook bench --probe ({result.kind} mode)")
     fig.tight_layout()
     fig.savefig(path, dpi=110)
