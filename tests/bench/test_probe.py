@@ -9,7 +9,10 @@ from __future__ import annotations
 
 import csv
 import json
+import os
+import signal
 import socket
+import subprocess
 import tomllib
 from collections.abc import Iterator
 from pathlib import Path
@@ -25,8 +28,9 @@ from stook.bench._probe_results import (
     stops_climb,
     write_results,
 )
-from stook.emulator import Emulator
+from stook.emulator import Emulator, Outage
 from stook.service.cli import run_cli
+from tests.e2e.processes import stook_command
 from tests.e2e.support import EmulatorThread, config, write_batch_inputs
 
 
@@ -169,8 +173,9 @@ def test_a_short_probe_writes_its_results_and_the_fetch_lines(
     doc = json.loads((tmp_path / "out" / "probe.json").read_text())
     assert [entry["concurrency"] for entry in doc["levels"]] == [1, 2]
     for entry in doc["levels"]:
-        # The request cap holds (a request is a call; its retries are not counted twice).
-        assert entry["api"]["answered"] + entry["storage"]["answered"] <= 30
+        # The request cap holds, but for the calls in flight when it was reached (and their
+        # listings' further pages: the test emulator's pages are small).
+        assert 30 <= entry["requests"] <= 30 + 4 * entry["concurrency"]
         assert entry["storage"]["answered"] > 0  # the histogram's data is downloaded
     assert doc["recommended_concurrency"] in (1, 2)
     assert (tmp_path / "out" / "probe.csv").is_file()
@@ -189,7 +194,8 @@ def test_a_report_is_probed_with_report_mode_s_requests(
     doc = json.loads((tmp_path / "out" / "probe.json").read_text())
     assert doc["kind"] == "report"
     (only,) = doc["levels"]
-    assert 0 < only["api"]["answered"] <= 20
+    assert 0 < only["api"]["answered"] <= only["requests"]
+    assert 20 <= only["requests"] <= 20 + 4 * 2
     assert "(report mode)" in out
 
 
@@ -254,3 +260,41 @@ def test_probe_flags_without_probe_are_exit_2(
     assert run_cli([*argv, "--log-format", "json"]) == 2
     (line,) = failure_lines(capsys.readouterr().err)
     assert "--probe" in line
+
+
+@pytest.mark.slow  # a process of its own: a few seconds on a busy machine
+def test_ctrl_c_writes_and_prints_the_levels_measured_so_far(tmp_path: Path) -> None:
+    # After its first level's 30 requests and the listing, the API is down for a minute:
+    # the second level retries until SIGINT ends it.
+    outage = Outage(origin="api", after_requests=40, duration_s=60)
+    with EmulatorThread(config(jobs_per_batch=20, seed=31, outages=(outage,))) as emulator:
+        write_batch_inputs(tmp_path / "inputs", emulator)
+        (tmp_path / "stook.toml").write_text("")
+        argv = [*stook_command(), "bench", "--probe", "--inputs", str(tmp_path / "inputs")]
+        argv += ["--config", str(tmp_path / "stook.toml"), "--out", str(tmp_path / "out")]
+        argv += ["--levels", "1,2", "--max-requests", "30", "--seconds-per-level", "30"]
+        env = {k: v for k, v in os.environ.items() if not k.startswith("STOOK_")}
+        with subprocess.Popen(
+            [*argv, "--log-format", "json", "--log-level", "info"],
+            env=env,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+        ) as proc:
+            assert proc.stderr is not None
+            said: list[str] = []
+            for line in proc.stderr:  # until the first level is measured
+                said.append(line)
+                if '"probe level"' in line:
+                    break
+            else:
+                pytest.fail("".join(said))
+            proc.send_signal(signal.SIGINT)
+            out, err = proc.communicate(timeout=10)
+    assert proc.returncode == 130, "".join(said) + err
+    assert [line for line in err.splitlines() if '"stook interrupted"' in line]
+    doc = json.loads((tmp_path / "out" / "probe.json").read_text())
+    assert doc["interrupted"] is True
+    assert [entry["concurrency"] for entry in doc["levels"]] == [1]
+    assert "interrupted" in out
+    assert "concurrency = 1" in out

@@ -11,7 +11,6 @@ probe.png (see _probe_results); interrupted, it writes what it measured so far.
 
 from __future__ import annotations
 
-import asyncio
 import dataclasses
 import sys
 from collections.abc import Sequence
@@ -79,7 +78,10 @@ async def probe(
             stopped = stops_climb(level)
             if stopped is not None:
                 break
-    except asyncio.CancelledError:
+    except Exception:
+        raise  # a failure: its exit code and one line, and no partial output
+    except BaseException:
+        # Cancelled, or interrupted on the spot (Ctrl-C, SIGTERM): what was measured.
         _conclude(plan, measured, stopped, out, stream, interrupted=True)
         raise
     return _conclude(plan, measured, stopped, out, stream, interrupted=False)

@@ -92,16 +92,17 @@ class LevelResult:
 
 @dataclass(slots=True)
 class _Budget:
-    """The level's requests left and its end; a worker stops when either runs out."""
+    """The level's requests and its end; a worker stops when either runs out.
 
-    left: int
+    Requests as the client counts them (`sent`): a listing's every page and every retry.
+    A call begun under the limit may take it over by the pages and retries it needs."""
+
+    max_requests: int
     ends_at: float
+    sent: Callable[[], int]
 
     def take(self) -> bool:
-        if self.left <= 0 or time.monotonic() >= self.ends_at:
-            return False
-        self.left -= 1
-        return True
+        return self.sent() < self.max_requests and time.monotonic() < self.ends_at
 
 
 class _BudgetSpentError(Exception):
@@ -138,10 +139,14 @@ async def run_level(
     retry = RetryPolicy(
         retry_for=min(settings.retry_for, seconds), request_timeout=settings.timeout
     )
-    recorder = _Recorder(_Budget(max_requests, time.monotonic() + seconds))
-    timed: Timer = recorder.timed
     visits = plan.visits()
     async with open_api(plan.access, settings, retry=retry) as api:
+
+        def sent() -> int:
+            return api.stats.requests + api.storage.stats.requests
+
+        recorder = _Recorder(_Budget(max_requests, time.monotonic() + seconds, sent))
+        timed: Timer = recorder.timed
         started = time.monotonic()
         try:
             async with asyncio.timeout(seconds), asyncio.TaskGroup() as group:

@@ -89,7 +89,8 @@ class ProbePlan:
         needs, project, batch = self.needs, self.access.project_id, self.target_id
         page_size = self.config.fetch.page_size
         if index % page_size == 0:  # a run lists a page of jobs for every `page_size` jobs
-            await timed("api", partial(_first, api.list_jobs(project, batch), page_size))
+            jobs_page = partial(_page, api, f"{self._batch_path(batch)}/jobs", "jobs", page_size)
+            await timed("api", jobs_page)
         wants_metrics = bool(needs.metrics) or needs.every_metric
         if wants_metrics:
             metrics = await timed("api", partial(api.all_job_metrics, project, batch, job.job_id))
@@ -110,26 +111,33 @@ class ProbePlan:
             if url and (needs.every_metric or metric.name in needs.metrics):
                 await timed("storage", partial(api.storage.fetch_bytes, url))
         if needs.events:
-            events = api.list_job_events(project, batch, job.job_id)
-            await timed("api", partial(_first, events, 1))
+            path = f"{self._batch_path(batch)}/jobs/{job.job_id}/events"
+            await timed("api", partial(_page, api, path, "events", page_size))
 
     async def _visit_batch(self, batch: Any, index: int, api: ApiClient, timed: Timer) -> None:
         """A batch as report mode fetches it (see stook.service.fetch's ReportFetcher)."""
         project, batch_id = self.access.project_id, batch.batch_id
         page_size = self.config.fetch.page_size
-        await timed("api", partial(_first, api.list_batch_metrics(project, batch_id), page_size))
+        path = self._batch_path(batch_id)
+        await timed("api", partial(_page, api, f"{path}/metrics", "batchMetrics", page_size))
         if self.use_summaries:
-            listing = api.list_batch_metrics_data(project, batch_id)
-            listed = await timed("api", partial(_first, listing, page_size))
+            listing = partial(_page, api, f"{path}/metricsData", "batchMetricsData", page_size)
+            listed = await timed("api", listing)
             for data in listed or ():
-                url = data.metrics_data_url
-                if url and data.name == SUMMARY_DATA_NAME:
+                url = data.get("metricsDataURL")
+                if isinstance(url, str) and url and data.get("name") == SUMMARY_DATA_NAME:
                     await timed("storage", partial(api.storage.fetch_bytes, url))
                     return  # the summary stands for the batch's job listings
-        jobs = await timed("api", partial(_first, api.list_jobs(project, batch_id), page_size))
+        jobs = await timed("api", partial(_page, api, f"{path}/jobs", "jobs", page_size))
         if self.needs.job_metrics:
             for job in jobs or ():
-                await timed("api", partial(api.all_job_metric_items, project, batch_id, job.job_id))
+                job_id = job.get("jobID")
+                if isinstance(job_id, str):
+                    metrics = partial(api.all_job_metric_items, project, batch_id, job_id)
+                    await timed("api", metrics)
+
+    def _batch_path(self, batch_id: uuid.UUID) -> str:
+        return f"/projects/{self.access.project_id}/batches/{batch_id}"
 
 
 def read_plan(inputs: Path, config: Path | None, project_id: uuid.UUID | None) -> ProbePlan:
@@ -163,8 +171,16 @@ def _needs(aggregations: list[Any]) -> Needs:
     return needs
 
 
+async def _page(api: ApiClient, path: str, key: str, page_size: int) -> list[dict[str, Any]]:
+    """The first page of the listing at `path`: one request, as a run sends for each page
+    of it. Its items under `key`, as the API wrote them."""
+    document = await api.get_json(path, {"pageSize": page_size})
+    items = document.get(key)
+    return [item for item in items if isinstance(item, dict)] if isinstance(items, list) else []
+
+
 async def _first(items: AsyncIterator[_T], count: int) -> list[_T]:
-    """Up to `count` items of a listing: its first page when `count` is its page size."""
+    """Up to `count` items of a listing, page after page."""
     taken: list[_T] = []
     async for item in items:
         taken.append(item)
