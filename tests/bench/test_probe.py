@@ -2,7 +2,7 @@
 
 The probe's levels against the emulator's concurrency limit are in test_probe_emulator.py
 (slow); here the rules are checked on levels made by hand, and the command on an emulator
-in a thread, at levels too short to mean anything.
+in its own process, at levels too short to mean anything.
 """
 
 from __future__ import annotations
@@ -13,6 +13,7 @@ import os
 import signal
 import socket
 import subprocess
+import sys
 import tomllib
 from collections.abc import Iterator
 from pathlib import Path
@@ -28,10 +29,8 @@ from stook.bench._probe_results import (
     stops_climb,
     write_results,
 )
-from stook.emulator import Emulator, Outage
+from stook.emulator import EmulatorConfig, EmulatorProcess, Outage
 from stook.service.cli import run_cli
-from tests.e2e.processes import stook_command
-from tests.e2e.support import EmulatorThread, config, write_batch_inputs
 
 
 def origin(p95: float | None = None, **counts: int) -> OriginResult:
@@ -141,10 +140,32 @@ def _fresh_structlog() -> Iterator[None]:
     structlog.reset_defaults()
 
 
+# Small pages, so that listings take several.
+SMALL = EmulatorConfig(jobs_per_batch=20, seed=31, default_page_size=5, max_page_size=8)
+
+
 @pytest.fixture(scope="module")
-def emu() -> Iterator[Emulator]:
-    with EmulatorThread(config(jobs_per_batch=20, seed=31)) as emulator:
+def emu() -> Iterator[EmulatorProcess]:
+    with EmulatorProcess(SMALL) as emulator:
         yield emulator
+
+
+def write_batch_inputs(
+    inputs: Path, emu: EmulatorProcess, *, token: str | None = None, api_url: str | None = None
+) -> None:
+    inputs.mkdir(parents=True, exist_ok=True)
+    body = emu.info.batch_config() | {
+        "authToken": token or emu.token,
+        "apiURL": api_url or emu.api_url,
+    }
+    (inputs / "batch_metrics_config.json").write_text(json.dumps(body))
+
+
+def stook_command() -> list[str]:
+    script = Path(sys.executable).parent / "stook"
+    if script.exists():
+        return [str(script)]
+    return [sys.executable, "-c", "from stook.service.cli import main; main()"]
 
 
 def probe_cli(
@@ -162,7 +183,7 @@ def failure_lines(err: str) -> list[str]:
 
 
 def test_a_short_probe_writes_its_results_and_the_fetch_lines(
-    capsys: pytest.CaptureFixture[str], tmp_path: Path, emu: Emulator
+    capsys: pytest.CaptureFixture[str], tmp_path: Path, emu: EmulatorProcess
 ) -> None:
     write_batch_inputs(tmp_path / "inputs", emu)
     toml = '[[batch.histogram]]\nname = "Speeds"\ndata = "speeds"\nlower = 0.0\nupper = 40.0\n'
@@ -186,7 +207,7 @@ def test_a_short_probe_writes_its_results_and_the_fetch_lines(
 
 
 def test_a_report_is_probed_with_report_mode_s_requests(
-    capsys: pytest.CaptureFixture[str], tmp_path: Path, emu: Emulator
+    capsys: pytest.CaptureFixture[str], tmp_path: Path, emu: EmulatorProcess
 ) -> None:
     emu.write_report_config(tmp_path / "inputs")
     code, out, err = probe_cli(capsys, tmp_path, "--levels", "2", "--max-requests", "20")
@@ -212,7 +233,7 @@ def test_no_config_in_the_inputs_is_exit_2_before_any_request(
 
 
 def test_a_bad_token_is_exit_3_at_the_first_request(
-    capsys: pytest.CaptureFixture[str], tmp_path: Path, emu: Emulator
+    capsys: pytest.CaptureFixture[str], tmp_path: Path, emu: EmulatorProcess
 ) -> None:
     wrong = "wrong-token-for-the-probe"
     write_batch_inputs(tmp_path / "inputs", emu, token=wrong)
@@ -225,7 +246,7 @@ def test_a_bad_token_is_exit_3_at_the_first_request(
 
 
 def test_an_unreachable_api_is_exit_3_within_the_retry_budget(
-    capsys: pytest.CaptureFixture[str], tmp_path: Path, emu: Emulator
+    capsys: pytest.CaptureFixture[str], tmp_path: Path, emu: EmulatorProcess
 ) -> None:
     with socket.socket() as sock:
         sock.bind(("127.0.0.1", 0))
@@ -267,7 +288,7 @@ def test_ctrl_c_writes_and_prints_the_levels_measured_so_far(tmp_path: Path) -> 
     # After its first level's 30 requests and the listing, the API is down for a minute:
     # the second level retries until SIGINT ends it.
     outage = Outage(origin="api", after_requests=40, duration_s=60)
-    with EmulatorThread(config(jobs_per_batch=20, seed=31, outages=(outage,))) as emulator:
+    with EmulatorProcess(SMALL.replace(outages=(outage,))) as emulator:
         write_batch_inputs(tmp_path / "inputs", emulator)
         (tmp_path / "stook.toml").write_text("")
         argv = [*stook_command(), "bench", "--probe", "--inputs", str(tmp_path / "inputs")]
