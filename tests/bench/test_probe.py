@@ -84,7 +84,7 @@ def test_a_level_whose_p95_more_than_doubled_is_passed_over() -> None:
     assert recommend(levels) == 16
 
 
-def test_when_every_fast_level_doubled_its_p95_the_fastest_calm_one_is_recommended() -> None:
+def test_the_best_throughput_is_that_of_the_levels_whose_p95_has_not_doubled() -> None:
     levels = [level(4, 200, p95=10.0), level(8, 300, p95=18.0), level(16, 400, p95=45.0)]
     assert recommend(levels) == 8
 

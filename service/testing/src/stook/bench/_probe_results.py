@@ -2,10 +2,10 @@
 the plot, the table and the `[fetch]` lines.
 
 The recommendation is the smallest level that gives nearly all the throughput the server
-gave: within `NEAR_BEST` of the best level's requests per second, with no 429 and a p95
-latency at most `P95_GROWTH` times the lowest level's. More concurrency than that only
-queues requests at the server (or gets them refused). Where no level is both, the level of
-the most throughput among those whose p95 has not doubled.
+gave without throttling or queueing: of the levels with no 429 and a p95 latency at most
+`P95_GROWTH` times the lowest level's, the smallest within `NEAR_BEST` of the best of them
+in requests per second. More concurrency than that only queues requests at the server
+(or gets them refused).
 """
 
 from __future__ import annotations
@@ -70,33 +70,20 @@ def stops_climb(level: LevelResult) -> str | None:
 
 def recommend(levels: Sequence[LevelResult]) -> int | None:
     """The recommended concurrency (see the module's docstring); None when no level
-    qualifies (the lowest was throttled, failing, or answered nothing).
-
-    When every level near the best throughput has more than doubled the p95 latency (the
-    client or the server saturating), the calm level with the most throughput instead.
-    """
-    usable = [
-        level
-        for level in levels
-        if stops_climb(level) is None and level.requests_per_s > 0 and level.p95_ms is not None
-    ]
-    if not usable:
-        return None
-    usable.sort(key=lambda level: level.concurrency)
-    lowest_p95 = min(levels, key=lambda level: level.concurrency).p95_ms
+    qualifies (the lowest was throttled, failing, or answered nothing)."""
+    lowest_p95 = min(levels, key=lambda level: level.concurrency).p95_ms if levels else None
     calm = [
         level
-        for level in usable
-        if lowest_p95 is None or (level.p95_ms or 0.0) <= P95_GROWTH * lowest_p95
+        for level in levels
+        if stops_climb(level) is None
+        and level.requests_per_s > 0
+        and level.p95_ms is not None
+        and (lowest_p95 is None or level.p95_ms <= P95_GROWTH * lowest_p95)
     ]
     if not calm:
         return None
-    best = max(level.requests_per_s for level in usable)
-    for level in calm:
-        if level.requests_per_s >= NEAR_BEST * best:
-            return level.concurrency
-    # max() keeps the first of equals: the smallest level of the most throughput.
-    return max(calm, key=lambda level: level.requests_per_s).concurrency
+    best = max(level.requests_per_s for level in calm)
+    return min(level.concurrency for level in calm if level.requests_per_s >= NEAR_BEST * best)
 
 
 @dataclass(frozen=True, slots=True)
