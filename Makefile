@@ -34,9 +34,10 @@ typecheck: setup
 pytest: setup
 	$(BIN)/pytest --cov --cov-report=term
 
-# The docs site (mkdocs.yml): --strict, so a broken link or a missing page fails.
+# The docs site (mkdocs.yml): --strict, so a broken link or a missing page fails (not
+# --quiet: it hides the warnings that --strict counts).
 docs: setup
-	NO_MKDOCS_2_WARNING=1 $(BIN)/mkdocs build --strict --quiet
+	NO_MKDOCS_2_WARNING=1 $(BIN)/mkdocs build --strict
 
 test: lint typecheck pytest docs
 
