@@ -32,13 +32,13 @@ EXAMPLES: dict[tuple[str, str], str] = {
     ("docs/library.md", "# fetch_batch: "): "e2e/test_fetch_library.py",
     ("docs/library.md", "# fetch_batch_frame: "): "e2e/test_fetch_library.py",
     ("docs/library.md", "# fetch_report: "): "e2e/test_fetch_library.py",
-    ("docs/library.md", "class MaxOfScalar"): "test_readme.py",
-    ("docs/library.md", "check_merge_laws("): "test_readme_views.py",
-    ("docs/sdk.md", 'w.write("metrics.binproto")'): "test_readme.py",
-    ("docs/sdk.md", "by_label()"): "test_readme_views.py",
-    ("docs/sdk.md", "validate_job_metrics(read_job_metrics"): "test_readme.py",
-    ("docs/preview.md", "render_html("): "test_readme_views.py",
-    ("docs/emulator.md", "emulated_batch("): "test_readme_views.py",
+    ("docs/library.md", "class MaxOfScalar"): "test_docs_examples.py",
+    ("docs/library.md", "check_merge_laws("): "test_docs_examples.py",
+    ("docs/sdk.md", 'w.write("metrics.binproto")'): "test_docs_examples.py",
+    ("docs/sdk.md", "by_label()"): "test_docs_examples.py",
+    ("docs/sdk.md", "validate_job_metrics(read_job_metrics"): "test_docs_examples.py",
+    ("docs/preview.md", "render_html("): "test_docs_examples.py",
+    ("docs/emulator.md", "emulated_batch("): "test_docs_examples.py",
 }
 
 

@@ -273,7 +273,7 @@ EXAMPLES = {
 
 @pytest.mark.slow
 @pytest.mark.parametrize("example", sorted(EXAMPLES))
-async def test_readme_example_runs(tmp_path: Path, example: str) -> None:
+async def test_docs_example_runs(tmp_path: Path, example: str) -> None:
     async with emulated_batch(tmp_path / "inputs", jobs_per_batch=6, seed=8) as emu:
         report_inputs = _report_inputs(emu, tmp_path)
         code = (

@@ -18,7 +18,7 @@ from tests.docs_examples import block
 KINDS = ("histogram", "category_totals", "events", "sweep", "by_tag")
 
 
-def test_the_readme_tables_build() -> None:
+def test_the_config_page_tables_build() -> None:
     config = tomllib.loads(block("docs/configuration.md", "[[batch.sweep]]", "toml"))
     tables = {kind: config["batch"][kind] for kind in KINDS}
     built = build_all(tables, section="batch")
