@@ -18,7 +18,8 @@ DOCS = ROOT / "docs"
 def pages() -> list[Path]:
     """The README, every docs page (not the tables `stook bench` writes) and the deploy
     folder's README, which docs/deployment.md includes."""
-    return [README, *sorted(DOCS.glob("*.md")), ROOT / "deploy" / "README.md"]
+    docs = [p for p in sorted(DOCS.rglob("*.md")) if "benchmarks" not in p.parts]
+    return [README, *docs, ROOT / "deploy" / "README.md"]
 
 
 def code_blocks(page: Path, language: str = "python") -> list[str]:
