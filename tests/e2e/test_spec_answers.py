@@ -55,7 +55,7 @@ async def _null_scalars_listed(emu: Emulator) -> int:
     count = 0
     async with ApiClient(emu.api_url, emu.token) as api:
         async for job in api.list_jobs(emu.project_id, emu.batch_id):
-            async for m in api.list_job_metrics(emu.project_id, emu.batch_id, job.job_id):
+            for m in await api.list_job_metrics(emu.project_id, emu.batch_id, job.job_id):
                 count += m.type == "SCALAR" and m.value is None and not m.event_metric
     return count
 
