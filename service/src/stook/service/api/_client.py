@@ -65,6 +65,8 @@ _BATCH_METRIC = functools.partial(ApiMetric.from_json, owner=MetricOwner.BATCH)
 _JOB_DATA = functools.partial(ApiMetricsData.from_json, owner=MetricOwner.JOB)
 _BATCH_DATA = functools.partial(ApiMetricsData.from_json, owner=MetricOwner.BATCH)
 
+# IDs a listing read as an iterator keeps for its further items (see ApiClient._list).
+_MAX_IDS_KEPT: Final = 1_000
 # The API caps pages; 100 is the largest size ReSim's own tools ask for.
 DEFAULT_PAGE_SIZE: Final = 100
 # What one API answer (a JSON page) may hold, decompressed.
@@ -396,22 +398,29 @@ class ApiClient:
         self,
         path: str,
         items_key: str,
-        parse: Callable[[Mapping[str, Any]], _Model],
+        parse: Callable[..., _Model],
         params: Mapping[str, str | int] | None = None,
         *,
         on_total: Callable[[int], None] | None = None,
         expected: int | None = None,
     ) -> AsyncIterator[_Model]:
+        # The IDs read so far, by their text (see Fields): a listing's items repeat their
+        # batch's and project's. Emptied now and then: a listing may run to thousands.
+        ids: dict[str, uuid.UUID] = {}
         async for item in self.paginate(
             path, items_key, params, on_total=on_total, expected=expected
         ):
-            yield parse(item)
+            if len(ids) > _MAX_IDS_KEPT:
+                ids.clear()
+            yield parse(item, ids=ids)
 
     async def _list_all(
-        self, path: str, items_key: str, parse: Callable[[Mapping[str, Any]], _Model]
+        self, path: str, items_key: str, parse: Callable[..., _Model]
     ) -> list[_Model]:
         """What `_list` yields, as one list."""
-        return list(map(parse, await self._all_items(path, items_key)))
+        items = await self._all_items(path, items_key)
+        ids: dict[str, uuid.UUID] = {}  # the listing's IDs read so far (see Fields)
+        return [parse(item, ids=ids) for item in items]
 
     def _all_items(self, path: str, items_key: str) -> Awaitable[list[dict[str, Any]]]:
         """What `paginate` yields, as one list: with no async generator step per item, and

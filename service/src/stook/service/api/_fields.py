@@ -76,16 +76,24 @@ def parse_rfc3339(text: str) -> datetime | None:
 
 
 class Fields:
-    """Reads typed fields from one JSON object; errors name the object and the field."""
+    """Reads typed fields from one JSON object; errors name the object and the field.
 
-    __slots__ = ("_data", "_id_key", "_kind")
+    ``ids``, when given, holds the IDs read so far from the same answer, by their text, and
+    gets those read here: the items of a listing repeat their owner's IDs (a job's metrics
+    each name the job and the batch), and each is then parsed once per listing.
+    """
 
-    def __init__(self, kind: str, data: object, id_key: str) -> None:
+    __slots__ = ("_data", "_id_key", "_ids", "_kind")
+
+    def __init__(
+        self, kind: str, data: object, id_key: str, ids: dict[str, uuid.UUID] | None = None
+    ) -> None:
         if not isinstance(data, Mapping):
             raise ApiResponseError(f"{kind}: expected a JSON object, got {_json_type(data)}")
         self._data: Mapping[str, Any] = data
         self._kind = kind
         self._id_key = id_key
+        self._ids = ids
 
     @property
     def _label(self) -> str:
@@ -116,19 +124,24 @@ class Fields:
 
     def _to_id(self, key: str, value: Any) -> uuid.UUID:
         text = self._to_string(key, value)
+        ids = self._ids
+        if ids is not None and text in ids:
+            return ids[text]
         try:
-            return parse_uuid(text)
+            ident = parse_uuid(text)
         except ValueError:
             raise self._error(key, f"is not a UUID: {text!r}") from None
+        if ids is not None:
+            ids[text] = ident
+        return ident
 
     def _to_choice(self, key: str, value: Any, kind: type[_E]) -> _E | str:
         text = self._to_string(key, value)
-        # A value the enumeration lacks is one the platform added after this client: kept
-        # by name, never an error.
-        try:
-            return kind(text)
-        except ValueError:
-            return text
+        # The enumeration's own map of values to members, which `kind(text)` consults
+        # after a slower call through its metaclass. A value it lacks is one the platform
+        # added after this client: kept by name, never an error.
+        member = kind._value2member_map_.get(text)
+        return text if member is None else member  # type: ignore[return-value]
 
     def _to_integer(self, key: str, value: Any) -> int:
         if isinstance(value, float) and value.is_integer():
