@@ -65,8 +65,9 @@ _BATCH_METRIC = functools.partial(ApiMetric.from_json, owner=MetricOwner.BATCH)
 _JOB_DATA = functools.partial(ApiMetricsData.from_json, owner=MetricOwner.JOB)
 _BATCH_DATA = functools.partial(ApiMetricsData.from_json, owner=MetricOwner.BATCH)
 
-# IDs a listing read as an iterator keeps for its further items (see ApiClient._list).
-_MAX_IDS_KEPT: Final = 1_000
+# The IDs a client keeps for the items it reads next (see ApiClient._ids): a few hundred
+# jobs' worth, however long the run.
+_MAX_IDS_KEPT: Final = 10_000
 # The API caps pages; 100 is the largest size ReSim's own tools ask for.
 DEFAULT_PAGE_SIZE: Final = 100
 # What one API answer (a JSON page) may hold, decompressed.
@@ -142,6 +143,11 @@ class ApiClient:
         self._base_path = shared.raw_path[:-1]  # "/v1", or "" for a base URL without one
         # The last batch whose jobs' paths were made, by its IDs' identity (see _job_path).
         self._batch_path: tuple[IdLike, IdLike, str] | None = None
+        # The IDs read from recent answers, by their text, handed to each listing item's
+        # from_json (see Fields): a job's metrics name the job, the batch and the metrics
+        # data that its data listing lists again, and each is then parsed once. Emptied
+        # when it holds _MAX_IDS_KEPT, so it does not grow with the run.
+        self._ids: dict[str, uuid.UUID] = {}
         # Shared by every API request: when the API fails, they wait together.
         self.gate = new_gate("the API", self._policy)
         if concurrency < 1:
@@ -404,23 +410,24 @@ class ApiClient:
         on_total: Callable[[int], None] | None = None,
         expected: int | None = None,
     ) -> AsyncIterator[_Model]:
-        # The IDs read so far, by their text (see Fields): a listing's items repeat their
-        # batch's and project's. Emptied now and then: a listing may run to thousands.
-        ids: dict[str, uuid.UUID] = {}
         async for item in self.paginate(
             path, items_key, params, on_total=on_total, expected=expected
         ):
-            if len(ids) > _MAX_IDS_KEPT:
-                ids.clear()
-            yield parse(item, ids=ids)
+            yield parse(item, ids=self._recent_ids())
 
     async def _list_all(
         self, path: str, items_key: str, parse: Callable[..., _Model]
     ) -> list[_Model]:
         """What `_list` yields, as one list."""
         items = await self._all_items(path, items_key)
-        ids: dict[str, uuid.UUID] = {}  # the listing's IDs read so far (see Fields)
+        ids = self._recent_ids()
         return [parse(item, ids=ids) for item in items]
+
+    def _recent_ids(self) -> dict[str, uuid.UUID]:
+        """`self._ids`, emptied first when it has reached its bound."""
+        if len(self._ids) >= _MAX_IDS_KEPT:
+            self._ids.clear()
+        return self._ids
 
     def _all_items(self, path: str, items_key: str) -> Awaitable[list[dict[str, Any]]]:
         """What `paginate` yields, as one list: with no async generator step per item, and

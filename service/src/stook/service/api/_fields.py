@@ -264,6 +264,14 @@ class Fields:
         value = self._data.get(key)
         if value is None or value == "":
             return None
+        if type(value) is str:
+            try:  # what parse_rfc3339 tries first: most timestamps the API writes
+                moment = datetime.fromisoformat(value)
+            except ValueError:
+                pass
+            else:
+                if moment.tzinfo is not None:
+                    return moment
         return self._to_timestamp(key, value)
 
 
