@@ -160,7 +160,7 @@ class Job:
 
     @classmethod
     def from_json(cls, data: Mapping[str, Any], *, ids: dict[str, uuid.UUID] | None = None) -> Self:
-        """``ids``: the IDs read from the same listing so far (see ``Fields``)."""
+        """``ids``: IDs read before, by their text, to parse each once (see ``Fields``)."""
         f = Fields("Job", data, "jobID", ids)
         return cls(
             job_id=f.id("jobID"),
@@ -223,7 +223,7 @@ class ApiMetric:
         owner: MetricOwner,
         ids: dict[str, uuid.UUID] | None = None,
     ) -> Self:
-        """``ids``: the IDs read from the same listing so far (see ``Fields``)."""
+        """``ids``: IDs read before, by their text, to parse each once (see ``Fields``)."""
         f = Fields(_METRIC_KINDS[owner], data, "metricID", ids)
         # The order of evaluation decides which error an item with two bad fields gets.
         return cls(
@@ -276,7 +276,7 @@ class ApiMetricsData:
         owner: MetricOwner,
         ids: dict[str, uuid.UUID] | None = None,
     ) -> Self:
-        """``ids``: the IDs read from the same listing so far (see ``Fields``)."""
+        """``ids``: IDs read before, by their text, to parse each once (see ``Fields``)."""
         f = Fields(_DATA_KINDS[owner], data, "dataID", ids)
         data_id = f.id("dataID")
         name = f.opt_string("name") or ""
@@ -323,7 +323,7 @@ class Batch:
 
     @classmethod
     def from_json(cls, data: Mapping[str, Any], *, ids: dict[str, uuid.UUID] | None = None) -> Self:
-        """``ids``: the IDs read from the same listing so far (see ``Fields``)."""
+        """``ids``: IDs read before, by their text, to parse each once (see ``Fields``)."""
         f = Fields("Batch", data, "batchID", ids)
         return cls(
             batch_id=f.id("batchID"),
@@ -416,7 +416,7 @@ class JobEventListing:
 
     @classmethod
     def from_json(cls, data: Mapping[str, Any], *, ids: dict[str, uuid.UUID] | None = None) -> Self:
-        """``ids``: the IDs read from the same listing so far (see ``Fields``)."""
+        """``ids``: IDs read before, by their text, to parse each once (see ``Fields``)."""
         f = Fields("Event", data, "eventID", ids)
         return cls(
             event_id=f.id("eventID"),
@@ -441,7 +441,7 @@ class ExperienceTag:
 
     @classmethod
     def from_json(cls, data: Mapping[str, Any], *, ids: dict[str, uuid.UUID] | None = None) -> Self:
-        """``ids``: the IDs read from the same listing so far (see ``Fields``)."""
+        """``ids``: IDs read before, by their text, to parse each once (see ``Fields``)."""
         f = Fields("ExperienceTag", data, "experienceTagID", ids)
         return cls(
             experience_tag_id=f.id("experienceTagID"),
@@ -460,7 +460,7 @@ class Branch:
 
     @classmethod
     def from_json(cls, data: Mapping[str, Any], *, ids: dict[str, uuid.UUID] | None = None) -> Self:
-        """``ids``: the IDs read from the same listing so far (see ``Fields``)."""
+        """``ids``: IDs read before, by their text, to parse each once (see ``Fields``)."""
         f = Fields("Branch", data, "branchID", ids)
         return cls(
             branch_id=f.id("branchID"),
