@@ -43,7 +43,6 @@ API_ORDER = [
     "_limits",
     "_deadlines",
     "_models",
-    "_listing_items",
     "_paging",
     "_tls",
     "_transport",
