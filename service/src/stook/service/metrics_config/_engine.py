@@ -58,7 +58,7 @@ class QueryEngine:
             columns = [d[0] for d in cursor.description or ()]
             rows = cursor.fetchall()
         except duckdb.Error as exc:
-            raise QueryError(metric, query.strip(), " ".join(str(exc).split()), what=what) from None
+            raise QueryError(metric, query.strip(), _message(exc), what=what) from None
         return Result(columns, rows)
 
     def bind(self, query: str) -> str | None:
@@ -69,7 +69,7 @@ class QueryEngine:
             self._con.execute("PREPARE bound AS " + to_duckdb(query))
             self._con.execute("DEALLOCATE bound")
         except duckdb.Error as exc:
-            return " ".join(str(exc).split())
+            return _message(exc)
         return None
 
     def close(self) -> None:
@@ -85,3 +85,10 @@ class QueryEngine:
         tb: TracebackType | None,
     ) -> None:
         self.close()
+
+
+def _message(exc: Exception) -> str:
+    """DuckDB's message without the transpiled SQL it quotes below it (the error shows
+    the query as written)."""
+    lines = str(exc).strip().splitlines()
+    return lines[0] if lines else type(exc).__name__

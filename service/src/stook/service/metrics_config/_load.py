@@ -41,7 +41,9 @@ def load_config(paths: Sequence[Path], templates: Path | None = None) -> Metrics
     problems: list[str] = []
     topics = _topics(merged["topics"], origin, problems)
     metrics = _metrics(merged["metrics"], origin, problems)
-    sets = _metrics_sets(merged["metrics sets"], metrics, origin, problems)
+    # Set membership is checked against every metric named, faulty or not: one problem
+    # in a metric is one line, not one more per set it is in.
+    sets = _metrics_sets(merged["metrics sets"], set(merged["metrics"]), origin, problems)
     dashboards = _dashboards(merged.get("dashboards"), sets, files[-1], problems)
     texts = _templates(metrics, folder, problems)
     if problems:
@@ -173,7 +175,7 @@ def _status(raw: Any, where: str, problems: list[str]) -> StatusCheck | None:
 
 def _metrics_sets(
     raw: Mapping[str, Any],
-    metrics: Mapping[str, Metric],
+    metrics: set[str],
     origin: Mapping[str, Path],
     problems: list[str],
 ) -> dict[str, tuple[str, ...]]:

@@ -13,7 +13,7 @@ def parse_problem(query: str, *, placeholders: int | None = None) -> str | None:
     try:
         statements = [s for s in sqlglot.parse(query, read="trino") if s is not None]
     except SqlglotError as exc:
-        return _first_line(str(exc))
+        return _describe(exc)
     if len(statements) != 1:
         return f"must be one statement, not {len(statements)}"
     if placeholders is not None:
@@ -30,5 +30,13 @@ def to_duckdb(query: str) -> str:
     return sqlglot.transpile(query, read="trino", write="duckdb")[0]
 
 
-def _first_line(text: str) -> str:
-    return " ".join(text.split())[:300]
+def _describe(exc: Exception) -> str:
+    """sqlglot's first error, without the terminal escapes it highlights the token with."""
+    errors = getattr(exc, "errors", None)
+    if errors:
+        first = errors[0]
+        where = (
+            f" (line {first.get('line')}, column {first.get('col')})" if first.get("line") else ""
+        )
+        return f"{first.get('description')}{where}"
+    return " ".join(str(exc).split())[:300]
