@@ -101,21 +101,25 @@ def test_check_binds_queries_against_the_topics(
 
 
 @pytest.mark.parametrize(
-    ("second", "problem"),
+    ("second", "problem", "theirs"),
     [
-        ("version: 1\ntopics:\n  speed: {schema: {x: int}}\n", "topics name 'speed' is also"),
-        ("version: 2\n", "version 2 conflicts with version 1"),
-        ("topics: {}\n", "'version' is required"),
+        (
+            "version: 1\ntopics:\n  speed: {schema: {x: int}}\n",
+            "topics name 'speed' is also",
+            "duplicate topic name",
+        ),
+        ("version: 2\n", "version 2 conflicts with version 1", "conflicting versions"),
+        ("topics: {}\n", "'version' is required", "version is required"),
     ],
 )
 def test_merging_follows_the_platform(
-    tmp_path: Path, capsys: pytest.CaptureFixture[str], second: str, problem: str
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], second: str, problem: str, theirs: str
 ) -> None:
     from resim.sdk.metrics.emissions import merge_metrics_config_files
 
     first = _config(tmp_path, "version: 1\ntopics:\n  speed: {schema: {x: float}}\n", "a.yml")
     other = _config(tmp_path, second, "b.yml")
-    with pytest.raises(ValueError):  # ReSim refuses the pair too
+    with pytest.raises(ValueError, match=theirs):  # ReSim refuses the pair too
         merge_metrics_config_files([first, other])
     assert run_cli(["metrics-config", "check", str(first), str(other)]) == 2
     (line,) = _stderr(capsys).splitlines()
