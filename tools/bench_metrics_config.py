@@ -7,8 +7,9 @@
    `EmissionsSet` (every row checked against its topic's schema), side by side with
    DuckDB's own `read_json` over the same files (no check); rows/s of each.
 2. Queries: the fixture's batch queries (CTEs, joins with metadata, windows, COUNT_IF,
-   APPROX_PERCENTILE, UNION ALL), transpiled by sqlglot, on DuckDB and on polars'
-   SQLContext: which run, and their median times. Measure on a quiet machine.
+   APPROX_PERCENTILE, UNION ALL), transpiled by sqlglot, on DuckDB as evaluate runs them
+   (QueryEngine.run) and on polars' SQLContext: which run, whether their rows agree,
+   and their median times. Measure on a quiet machine.
 """
 
 from __future__ import annotations
@@ -26,6 +27,7 @@ import polars as pl
 import sqlglot
 
 from stook.service.metrics_config import EmissionsSet, JobMeta, load_config
+from stook.service.metrics_config._engine import QueryEngine
 from stook.testing.metrics_config_fixture import write_fixture
 
 QUERIES = {
@@ -80,10 +82,6 @@ def median_seconds(run: Callable[[], Any], repeat: int) -> float:
     return statistics.median(times)
 
 
-def _fetch_all(con: Any, query: str) -> list[tuple[Any, ...]]:
-    return list(con.execute(query).fetchall())
-
-
 def _close(got: list[tuple[Any, ...]], expected: list[tuple[Any, ...]]) -> bool:
     """Equal rows, floats to 1e-9 (the ARBITRARY row may pick another lane)."""
     if len(got) != len(expected):
@@ -133,16 +131,13 @@ def main() -> None:
         print(f"  DuckDB read_json:        {theirs:6.2f} s  {total / theirs:12,.0f} rows/s")
 
         tables = load()
-        con = duckdb.connect(":memory:", config={"threads": 1})
-        for name, frame in tables.items():
-            con.register(name, frame)
+        engine = QueryEngine(tables)  # what evaluate runs the queries on
         context = pl.SQLContext(frames=dict(tables))
         print("queries (median of 5):              DuckDB      polars SQL")
         for name, query in QUERIES.items():
-            on_duckdb = sqlglot.transpile(query, read="trino", write="duckdb")[0]
             on_polars = sqlglot.transpile(query, read="trino", write="postgres")[0]
-            expected = con.execute(on_duckdb).fetchall()
-            duck = median_seconds(partial(_fetch_all, con, on_duckdb), 5)
+            expected = engine.run(name, query).rows
+            duck = median_seconds(partial(engine.run, name, query), 5)
             try:
                 got = context.execute(on_polars, eager=True).rows()
                 took = median_seconds(partial(context.execute, on_polars, eager=True), 5)
