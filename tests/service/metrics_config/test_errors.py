@@ -58,6 +58,10 @@ metrics:
     type: test
     query_string: SELEC speed FROM
     template: table
+  F:
+    type: test
+    query_string: DROP TABLE speed
+    template: table
 metrics sets:
   core: {metrics: [A, Z]}
 """
@@ -76,6 +80,7 @@ def test_check_prints_one_line_per_problem(
         "metrics 'C': the status query_string must have exactly 1 '?'",
         "metrics 'E': query_string does not parse: Invalid expression / Unexpected token "
         "(line 1, column 16)",
+        "metrics 'F': query_string does not parse: must be a query (SELECT ...), not DROP",
         "metrics sets 'core': names metric 'Z', which the config lacks",
         "metrics 'D': template",
     ]
