@@ -34,7 +34,9 @@ BROKEN = """\
 version: 1
 topics:
   speed:
-    schema: {speed: float, mood: feelings}
+    schema: {speed: float, mood: feelings, Speed: int, timestamp: int}
+  Metadata:
+    schema: {x: int}
 metrics:
   A:
     type: test
@@ -75,6 +77,9 @@ def test_check_prints_one_line_per_problem(
     lines = _stderr(capsys).splitlines()
     expected = [
         "column 'mood' has unknown type 'feelings'",
+        "column 'Speed' is named twice (SQL ignores case)",
+        "column 'timestamp' is one every topic table adds",
+        "topics 'Metadata': the name is taken by the metadata table (SQL ignores case)",
         "metrics 'A': 'template' must be one of",
         "metrics 'B': 'type' must be one of test, batch, dashboard, not 'weekly'",
         "metrics 'C': the status query_string must have exactly 1 '?'",
@@ -190,6 +195,11 @@ def _eval(config: Path, emissions: Path, out: Path, level: str = "test") -> int:
             "topic 'weather' is not in the config",
         ),
         ("{not json", "not a JSON object"),
+        (
+            '{"$metadata": {"topic": "detections"}, '
+            '"$data": {"label": "car", "count": 18446744073709551615, "confident": true}}',
+            "topic 'detections', column 'count': the value does not fit a int (64 bits)",
+        ),
     ],
 )
 def test_a_bad_row_names_file_line_topic_and_column(
@@ -266,3 +276,14 @@ def test_an_unknown_metrics_set_is_exit_2(
     )
     assert code == 2
     assert "unknown metrics set 'nope' (known: core, overview)" in _stderr(capsys)
+
+
+def test_bytes_that_are_not_utf8_are_exit_4(
+    tmp_path: Path, config: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    emissions = tmp_path / "emissions.resim.jsonl"
+    emissions.write_bytes(b'{"$metadata": {"topic": "camera"}, "$data": {"frame": "\xe9"}}\n')
+    out = tmp_path / "out"
+    assert _eval(config, emissions, out) == 4
+    assert f"{emissions}: not UTF-8 JSON lines" in _stderr(capsys)
+    assert not out.exists()

@@ -68,7 +68,7 @@ class EmissionsSet:
         self._jobs.append(meta)
         self._names.append(label)
         if data and data.strip():
-            self._lines.append(_read_lines(data, index))
+            self._lines.append(_read_lines(data, index, label))
 
     def tables(self) -> dict[str, pl.DataFrame]:
         """The topic frames and the metadata frame (see `Tables`)."""
@@ -85,10 +85,24 @@ class EmissionsSet:
             con.register("raw_lines", lines)
             con.register("jobs", metadata.with_row_index("job"))
             self._check(con)
-            frames = {name: _topic_frame(con, topic) for name, topic in topics.items()}
+            frames = {name: self._topic_frame(con, topic) for name, topic in topics.items()}
         finally:
             con.close()
         return {**frames, METADATA_TABLE: metadata}
+
+    def _topic_frame(self, con: duckdb.DuckDBPyConnection, topic: Topic) -> pl.DataFrame:
+        frame = _topic_frame(con, topic)
+        # The check refused nulls, so a null here is a value that did not convert: an
+        # int beyond 64 bits.
+        for column in topic.schema:
+            unconverted = frame.filter(pl.col(column).is_null())
+            if unconverted.height:
+                job, line_no = unconverted.row(0)[-2:]
+                raise EmissionsError(
+                    f"{self._where(job, line_no)}: topic {topic.name!r}, column {column!r}: "
+                    f"the value does not fit a {topic.schema[column]} (64 bits)"
+                )
+        return frame.drop("job", "line_no")
 
     def _check(self, con: duckdb.DuckDBPyConnection) -> None:
         """Raise EmissionsError for the first bad row (by job, then line)."""
@@ -150,15 +164,18 @@ class EmissionsSet:
         return None
 
 
-def _read_lines(data: bytes, job: int) -> pl.DataFrame:
-    frame = pl.read_csv(
-        io.BytesIO(data),
-        has_header=False,
-        separator="\x1f",
-        quote_char=None,
-        new_columns=["line"],
-        schema=_LINES_SCHEMA,
-    )
+def _read_lines(data: bytes, job: int, label: str) -> pl.DataFrame:
+    try:
+        frame = pl.read_csv(
+            io.BytesIO(data),
+            has_header=False,
+            separator="\x1f",
+            quote_char=None,
+            new_columns=["line"],
+            schema=_LINES_SCHEMA,
+        )
+    except pl.exceptions.ComputeError as exc:
+        raise EmissionsError(f"{label}: not UTF-8 JSON lines ({exc})") from None
     return (
         frame.with_row_index("line_no", offset=1)
         .filter(pl.col("line").str.strip_chars().str.len_bytes() > 0)
@@ -202,11 +219,12 @@ def _topic_frame(con: duckdb.DuckDBPyConnection, topic: Topic) -> pl.DataFrame:
     columns.append('s."$metadata".timestamp AS timestamp')
     shape = "'" + json.dumps(structure).replace("'", "''") + "'"
     query = (
-        f"SELECT {', '.join(columns)}, j.job_id, j.batch_id, j.experience_name, j.build_version "
+        f"SELECT {', '.join(columns)}, j.job_id, j.batch_id, j.experience_name, j.build_version, "
+        "job, line_no "
         f"FROM (SELECT job, line_no, json_transform(line, {shape}) AS s FROM lines "
         "WHERE topic = ?) JOIN jobs AS j USING (job) ORDER BY job, line_no"
     )
     # (duckdb's stubs do not type the relation a query is)
     relation: Any = con.sql(query, params=[topic.name])
     frame: pl.DataFrame = relation.pl()
-    return frame.cast(_topic_schema(topic))
+    return frame.cast(_topic_schema(topic))  # job and line_no keep their types
