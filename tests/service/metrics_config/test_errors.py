@@ -287,3 +287,14 @@ def test_bytes_that_are_not_utf8_are_exit_4(
     assert _eval(config, emissions, out) == 4
     assert f"{emissions}: not UTF-8 JSON lines" in _stderr(capsys)
     assert not out.exists()
+
+
+def test_an_image_whose_file_is_missing_is_exit_4(
+    tmp_path: Path, config: Path, one_job: tuple[Path, JobData], capsys: pytest.CaptureFixture[str]
+) -> None:
+    emissions, job = one_job
+    (emissions.parent / job.frame).unlink()
+    out = tmp_path / "out"
+    assert _eval(config, emissions, out) == 4
+    assert f"attached file {job.frame!r} is in no job's folder" in _stderr(capsys)
+    assert not out.exists()

@@ -124,6 +124,10 @@ def test_test_level_metrics_equal_a_plain_computation(
     assert dropout is not None
     assert dropout.status is MetricStatus.NOT_APPLICABLE  # its blocking status did not run
     assert ("no_data", "true") in dropout.tags
+    samples = view.metric("Lidar samples", ScalarMetric)  # COUNT(*): a row of 0
+    assert samples.value == 0
+    assert samples.status is MetricStatus.FAIL_BLOCK
+    assert samples.view.blocking is True
 
     # the event topic's row became an event with its metric
     (event,) = view.events
@@ -138,9 +142,9 @@ def test_test_level_metrics_equal_a_plain_computation(
     impact = view.metrics_by_id[event.metric_ids[0]]
     assert (impact.name, impact.value, impact.unit) == ("impact speed", 3.5, "m/s")
 
-    # only the test level's metrics
+    # only the test level's metrics; the absent lidar's COUNT(*) blocks the test
     assert view.find_metric("Max speed per experience") is None
-    assert view.status is MetricStatus.PASSED
+    assert view.status is MetricStatus.FAIL_BLOCK
 
 
 def test_batch_level_joins_metadata_and_blocks(
