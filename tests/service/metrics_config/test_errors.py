@@ -298,3 +298,12 @@ def test_an_image_whose_file_is_missing_is_exit_4(
     assert _eval(config, emissions, out) == 4
     assert f"attached file {job.frame!r} is in no job's folder" in _stderr(capsys)
     assert not out.exists()
+
+
+def test_check_parses_the_templates(config: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    (config.parent / "templates" / "speed_figure.liquid").write_text(
+        "{% for x in t %}{{ x }}", encoding="utf-8"
+    )
+    assert run_cli(["metrics-config", "check", str(config)]) == 2
+    (line,) = _stderr(capsys).splitlines()
+    assert "metrics 'Speed figure': template 'speed_figure.liquid' does not parse" in line

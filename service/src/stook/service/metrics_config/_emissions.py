@@ -106,32 +106,39 @@ class EmissionsSet:
 
     def _check(self, con: duckdb.DuckDBPyConnection) -> None:
         """Raise EmissionsError for the first bad row (by job, then line)."""
-        bad = con.execute(
+        invalid = con.execute(
             "SELECT job, line_no FROM raw_lines WHERE NOT json_valid(line) "
             "ORDER BY job, line_no LIMIT 1"
         ).fetchone()
-        if bad is not None:
-            raise EmissionsError(f"{self._where(bad[0], bad[1])}: not a JSON object")
+        if invalid is not None:
+            raise EmissionsError(f"{self._where(invalid[0], invalid[1])}: not a JSON object")
         con.execute(
             "CREATE TEMP TABLE lines AS SELECT job, line_no, line, "
             "json_extract_string(line, '/$metadata/topic') AS topic, "
             "json_structure(line) AS structure FROM raw_lines"
         )
         groups = con.execute("SELECT DISTINCT topic, structure FROM lines").fetchall()
-        problems: list[tuple[int, int, str]] = []
+        bad: dict[tuple[str | None, str], str] = {}
         for topic, structure in groups:
             problem = self._row_problem(topic, json.loads(structure))
             if problem is not None:
-                first = con.execute(
-                    "SELECT job, line_no FROM lines WHERE topic IS NOT DISTINCT FROM ? AND "
-                    "structure = ? ORDER BY job, line_no LIMIT 1",
-                    [topic, structure],
-                ).fetchone()
-                assert first is not None
-                problems.append((first[0], first[1], problem))
-        if problems:
-            job, line_no, problem = min(problems)
-            raise EmissionsError(f"{self._where(job, line_no)}: {problem}")
+                bad[(topic, structure)] = problem
+        if not bad:
+            return
+        # One query for the earliest bad line, however many kinds of bad rows there are.
+        kinds = pl.DataFrame(
+            {"topic": [k[0] for k in bad], "structure": [k[1] for k in bad]},
+            schema={"topic": pl.String, "structure": pl.String},
+        )
+        con.register("bad_kinds", kinds)
+        first = con.execute(
+            "SELECT l.job, l.line_no, l.topic, l.structure FROM lines AS l JOIN bad_kinds AS b "
+            "ON l.topic IS NOT DISTINCT FROM b.topic AND l.structure = b.structure "
+            "ORDER BY l.job, l.line_no LIMIT 1"
+        ).fetchone()
+        assert first is not None
+        job, line_no, topic, structure = first
+        raise EmissionsError(f"{self._where(job, line_no)}: {bad[(topic, structure)]}")
 
     def _where(self, job: int, line_no: int) -> str:
         return f"{self._names[job]} line {line_no}"
