@@ -249,3 +249,17 @@ def test_preview_is_written(tmp_path: Path, config: Path, one_job: tuple[Path, J
     out = tmp_path / "out"
     assert _eval(config, emissions, out, "test", "--preview") == 0
     assert "Speed over time" in (out / "metrics.html").read_text(encoding="utf-8")
+
+
+def test_templates_from_another_folder(
+    tmp_path: Path, config: Path, one_job: tuple[Path, JobData]
+) -> None:
+    emissions, _ = one_job
+    elsewhere = tmp_path / "elsewhere"
+    (config.parent / "templates").rename(elsewhere)
+    out = tmp_path / "out"
+    assert run_cli(["metrics-config", "check", str(config)]) == 2  # not beside the config
+    assert run_cli(["metrics-config", "check", str(config), "--templates", str(elsewhere)]) == 0
+    assert _eval(config, emissions, out, "test", "--templates", str(elsewhere)) == 0
+    view = read_job_metrics((out / "metrics.binproto").read_bytes())
+    assert view.find_metric("Speed figure") is not None
