@@ -91,7 +91,6 @@ def _job(emissions: Path, folder: Path, name: str, *, batch: str | None = None) 
         values = loaded
     values.setdefault("job_id", stable_id("job", name))
     values.setdefault("batch_id", stable_id("batch", batch or name))
-    values.setdefault("experience_name", name)
     return OfflineJob(JobMeta.from_mapping(values, source=str(meta_file)), emissions, folder)
 
 
