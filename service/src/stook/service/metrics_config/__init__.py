@@ -27,8 +27,9 @@ if TYPE_CHECKING:
     from stook.service.metrics_config._load import load_config
     from stook.service.metrics_config._model import LEVELS, Level, Metric, MetricsConfig, Topic
     from stook.service.metrics_config._offline import (
+        OfflineJob,
         check_config,
-        read_emissions_paths,
+        find_jobs,
         stable_id,
     )
 else:
@@ -53,7 +54,8 @@ else:
             "MetricsConfig": "stook.service.metrics_config._model",
             "Topic": "stook.service.metrics_config._model",
             "check_config": "stook.service.metrics_config._offline",
-            "read_emissions_paths": "stook.service.metrics_config._offline",
+            "OfflineJob": "stook.service.metrics_config._offline",
+            "find_jobs": "stook.service.metrics_config._offline",
             "stable_id": "stook.service.metrics_config._offline",
         },
     )
@@ -68,13 +70,14 @@ __all__ = [
     "Metric",
     "MetricsConfig",
     "MetricsConfigError",
+    "OfflineJob",
     "QueryError",
     "Tables",
     "TemplateError",
     "Topic",
     "check_config",
     "evaluate",
+    "find_jobs",
     "load_config",
-    "read_emissions_paths",
     "stable_id",
 ]
