@@ -208,7 +208,6 @@ LAZY = [
     "stook.service.api",
     "stook.service.cli",
     "stook.service.fetch",
-    "stook.service.metrics_config",
     "stook.service.modes",
 ]
 PACKAGES = sorted(PUBLIC_API)
