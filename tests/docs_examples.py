@@ -40,6 +40,7 @@ EXAMPLES: dict[tuple[str, str], str] = {
     ("docs/sdk.md", "validate_job_metrics(read_job_metrics"): "test_docs_examples.py",
     ("docs/preview.md", "render_html("): "test_docs_examples.py",
     ("docs/emulator.md", "emulated_batch("): "test_docs_examples.py",
+    ("docs/metrics-config.md", "# metrics-config: "): "service/metrics_config/test_docs_example.py",
 }
 
 
