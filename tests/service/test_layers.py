@@ -43,6 +43,7 @@ API_ORDER = [
     "_limits",
     "_deadlines",
     "_models",
+    "_job_logs",
     "_listing_items",
     "_paging",
     "_tls",
