@@ -101,6 +101,11 @@ COMMANDS: dict[str, tuple[str, str, str | None]] = {
         "file, 4 for one that is not JobMetrics, 5 if the page cannot be written.",
         None,
     ),
+    "metrics-config": (
+        "check or evaluate the platform's config-defined metrics (config.resim.yml), offline",
+        "",  # the long text is stook.service.cli._metrics_config.DESCRIPTION
+        None,
+    ),
 }
 
 

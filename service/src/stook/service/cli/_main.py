@@ -250,6 +250,12 @@ def _add_preview_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--open", action="store_true", help="open the page in a browser")
 
 
+def _add_metrics_config_arguments(parser: argparse.ArgumentParser) -> None:
+    from stook.service.cli._metrics_config import add_arguments
+
+    add_arguments(parser)
+
+
 _ADD_ARGUMENTS: dict[str, Callable[[argparse.ArgumentParser], None]] = {
     "run": _add_run_arguments,
     "demo": _add_demo_arguments,
@@ -258,6 +264,7 @@ _ADD_ARGUMENTS: dict[str, Callable[[argparse.ArgumentParser], None]] = {
     "validate": _add_validate_arguments,
     "show": _add_show_arguments,
     "preview": _add_preview_arguments,
+    "metrics-config": _add_metrics_config_arguments,
 }
 
 
@@ -519,6 +526,11 @@ def _dispatch(args: argparse.Namespace, voice: Voice) -> int:
 
             _collector.resume()
             return preview_files(args.files, args.output, open_browser=args.open)
+        case "metrics-config":
+            from stook.service.cli import _metrics_config
+
+            _collector.resume()
+            return _metrics_config.run(args)
         case "validate":
             from stook.service.cli._inspect import validate_file
 

@@ -221,8 +221,19 @@ def explain(error: BaseException) -> str:
 
 def exit_code_for(error: BaseException) -> ExitCode:
     """The documented exit code of an expected failure; UNEXPECTED for anything else."""
+    from stook.service.metrics_config import (
+        EmissionsError,
+        MetricsConfigError,
+        QueryError,
+        TemplateError,
+    )
+
     if isinstance(error, UsageError | ConfigError | InputsError | OutputsError):
         return ExitCode.USAGE
+    if isinstance(error, MetricsConfigError):
+        return ExitCode.USAGE
+    if isinstance(error, EmissionsError | QueryError | TemplateError):
+        return ExitCode.INVALID_DATA
     if isinstance(error, ApiError):
         return ExitCode.API
     if isinstance(error, ReadError | InvalidMetricsError):
