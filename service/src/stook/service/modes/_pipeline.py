@@ -33,6 +33,7 @@ from stook.service.modes._progress import NoProgress, Progress, Snapshot
 if TYPE_CHECKING:
     # The writer (and protobuf with it) is imported once the fetch is done: see run_pipeline.
     from stook.sdk import MetricsWriter
+    from stook.service.modes._config_metrics import ConfigMetricsStep
 
 log = structlog.get_logger("stook.pipeline")
 
@@ -103,6 +104,11 @@ class Mode(Protocol[_R, _O]):
 
     def preface(self, writer: MetricsWriter, outcome: _O) -> None:
         """What the output says before the aggregations' metrics."""
+        ...
+
+    @property
+    def config_metrics(self) -> ConfigMetricsStep | None:
+        """The config-defined metrics ([metrics_config]), written after the aggregations'."""
         ...
 
 
@@ -183,6 +189,8 @@ async def run_pipeline(
     mode.preface(writer, outcome)
     for aggregation in mode.aggregations:
         aggregation.finish(writer)
+    if mode.config_metrics is not None:
+        await mode.config_metrics(writer, settings, retry)
     output = writer.write(outputs_dir / OUTPUT_NAME)
     return RunResult(
         kind=mode.kind,

@@ -1,0 +1,240 @@
+"""Config-defined metrics in batch and report mode: each job's emissions, into the engine.
+
+With `[metrics_config] paths = [...]` in stook.toml, a batch run also evaluates the
+config's `type: batch` metrics, and a report run its `dashboard` metrics, over what the
+jobs emitted (their EMISSIONS_LOG, see stook.service.fetch). The config is loaded and
+checked before the first request (`config_metrics_step`); the step itself runs once the
+fetch is done, writing into the run's MetricsWriter beside the aggregations' metrics.
+
+Each job's metadata row is filled from what the mode knows: the job (IDs, experience,
+statuses), its batch (name, branch), the batch's build (`build_version`) and the
+experience's tags. Jobs are handed to the engine in listing order, whatever order their
+downloads finish in, so that the same inputs give the same bytes.
+"""
+
+from __future__ import annotations
+
+import uuid
+from collections.abc import Awaitable, Callable, Sequence
+from dataclasses import dataclass
+from datetime import UTC, datetime
+from typing import TYPE_CHECKING, Literal
+
+import structlog
+
+from stook.service.api import ApiClient, Batch, Job, RetryPolicy
+from stook.service.fetch import fetch_emissions, search_for
+from stook.service.modes._config import FetchSettings, StookConfig
+from stook.service.modes._inputs import ApiAccess
+from stook.service.modes._open_api import open_api
+
+if TYPE_CHECKING:
+    from stook.sdk import MetricsWriter
+    from stook.service.metrics_config import EmissionsSet, JobMeta, MetricsConfig
+
+__all__ = ["ConfigMetricsStep", "config_metrics_step"]
+
+log = structlog.get_logger("stook.metrics_config")
+
+Level = Literal["batch", "dashboard"]
+_NEVER = datetime.min.replace(tzinfo=UTC)
+#: What the pipeline runs once the fetch is done, before it writes the output: the
+#: metrics into the writer, fetched with the run's `[fetch]` settings (and retry policy).
+ConfigMetricsStep = Callable[
+    ["MetricsWriter", FetchSettings, "RetryPolicy | None"], Awaitable[None]
+]
+
+
+@dataclass(frozen=True, slots=True)
+class _Scope:
+    """Whose jobs a run evaluates: one batch (batch mode) or a report's (report mode)."""
+
+    level: Level
+    batch_id: uuid.UUID | None = None
+    report_id: uuid.UUID | None = None
+
+
+def config_metrics_step(
+    config: StookConfig,
+    access: ApiAccess,
+    *,
+    batch_id: uuid.UUID | None = None,
+    report_id: uuid.UUID | None = None,
+) -> ConfigMetricsStep | None:
+    """The step that writes the config-defined metrics of one batch (`batch_id`: its
+    `batch` metrics) or one report (`report_id`: its `dashboard` metrics); None when
+    stook.toml has no `[metrics_config]`.
+
+    The config is loaded and checked here, before any request: a bad one raises
+    MetricsConfigError (exit 2) and the run sends nothing.
+    """
+    settings = config.metrics_config
+    if settings is None:
+        return None
+    # The engine (DuckDB, sqlglot, polars) only for the runs that use it.
+    from stook.service.metrics_config import load_config
+
+    # Relative paths are read from stook.toml's folder.
+    base = config.file.parent if config.file is not None else None
+    loaded = load_config(settings.config_paths(base), templates=settings.templates_path(base))
+    scope = (
+        _Scope("batch", batch_id=batch_id) if batch_id else _Scope("dashboard", report_id=report_id)
+    )
+
+    async def step(writer: MetricsWriter, fetch: FetchSettings, retry: RetryPolicy | None) -> None:
+        await _write(writer, loaded, settings.metrics_set, scope, access, fetch, retry)
+
+    return step
+
+
+async def _write(
+    writer: MetricsWriter,
+    loaded: MetricsConfig,
+    metrics_set: str | None,
+    scope: _Scope,
+    access: ApiAccess,
+    settings: FetchSettings,
+    retry: RetryPolicy | None,
+) -> None:
+    from stook.service.metrics_config import EmissionsSet, evaluate
+
+    emissions = EmissionsSet(loaded)
+    async with open_api(access, settings, retry) as api:
+        jobs = await _jobs_of(api, access.project_id, scope)
+        with_log = await _add_in_order(
+            api, access.project_id, jobs, emissions, settings.concurrency
+        )
+    result = evaluate(
+        loaded, emissions.tables(), writer, level=scope.level, metrics_set=metrics_set
+    )
+    log.info(
+        "config metrics written",
+        level=scope.level,
+        jobs=len(jobs),
+        jobs_with_emissions=with_log,
+        metrics=len(result.written),
+        hidden=len(result.hidden),
+    )
+
+
+async def _add_in_order(
+    api: ApiClient,
+    project_id: uuid.UUID,
+    jobs: Sequence[_ListedJob],
+    emissions: EmissionsSet,
+    workers: int,
+) -> int:
+    """Download every job's emissions, adding each to `emissions` in `jobs`' order: a job
+    whose download finished early waits for those listed before it (so that at most the
+    downloads in flight, and the ones waiting, are held at once)."""
+    waiting: dict[int, bytes | None] = {}
+    added = 0
+
+    def arrived(job: _ListedJob, body: bytes | None) -> None:
+        nonlocal added
+        waiting[job.index] = body
+        while added in waiting:
+            listed = jobs[added]
+            emissions.add_job(
+                listed.meta, waiting.pop(added), name=f"job {listed.job_id} emissions log"
+            )
+            added += 1
+
+    return await fetch_emissions(
+        api,
+        project_id,
+        jobs,
+        ids_of=lambda job: (job.batch_id, job.job_id),
+        on_job=arrived,
+        workers=workers,
+    )
+
+
+@dataclass(frozen=True, slots=True)
+class _ListedJob:
+    index: int  # in listing order, across the scope's batches
+    batch_id: uuid.UUID
+    job_id: uuid.UUID
+    meta: JobMeta
+
+
+async def _jobs_of(api: ApiClient, project_id: uuid.UUID, scope: _Scope) -> list[_ListedJob]:
+    """Every job of the scope with its metadata row, batches oldest first, jobs in
+    listing order."""
+    if scope.batch_id is not None:
+        batches = [await api.get_batch(project_id, scope.batch_id)]
+    else:
+        assert scope.report_id is not None
+        report = await api.get_report(project_id, scope.report_id)
+        found = [b async for b in api.list_batches(project_id, search=search_for(report))]
+        # Oldest first (the API lists newest first); by ID among equal times.
+        batches = sorted(found, key=lambda b: (b.creation_timestamp or _NEVER, str(b.batch_id)))
+    known = _Known(api, project_id)
+    out: list[_ListedJob] = []
+    for batch in batches:
+        async for job in api.list_jobs(project_id, batch.batch_id):
+            meta = await known.meta(batch, job)
+            out.append(_ListedJob(len(out), batch.batch_id, job.job_id, meta))
+    return out
+
+
+class _Known:
+    """Builds' versions, branches' names and experiences' tags, each asked for once a run."""
+
+    def __init__(self, api: ApiClient, project_id: uuid.UUID) -> None:
+        self._api = api
+        self._project_id = project_id
+        self._versions: dict[uuid.UUID, str | None] = {}
+        self._branches: dict[uuid.UUID, str] | None = None
+        self._tags: dict[uuid.UUID, tuple[str, ...]] = {}
+
+    async def meta(self, batch: Batch, job: Job) -> JobMeta:
+        from stook.service.metrics_config import JobMeta
+
+        build_id = job.build_id or batch.build_id
+        return JobMeta(
+            job_id=str(job.job_id),
+            batch_id=str(batch.batch_id),
+            project_id=str(self._project_id),
+            experience_id=_text(job.experience_id),
+            experience_name=job.experience_name,
+            build_id=_text(build_id),
+            build_version=await self._version(build_id),
+            batch_name=batch.friendly_name,
+            job_status=_text(job.job_status),
+            job_conflated_status=_text(job.conflated_status),
+            branch=await self._branch(batch.branch_id),
+            tags=await self._experience_tags(job.experience_id),
+        )
+
+    async def _version(self, build_id: uuid.UUID | None) -> str | None:
+        if build_id is None:
+            return None
+        if build_id not in self._versions:
+            build = await self._api.get_build(self._project_id, build_id)
+            self._versions[build_id] = build.version
+        return self._versions[build_id]
+
+    async def _branch(self, branch_id: uuid.UUID | None) -> str | None:
+        if branch_id is None:
+            return None
+        if self._branches is None:
+            self._branches = {
+                b.branch_id: b.name async for b in self._api.list_branches(self._project_id)
+            }
+        return self._branches.get(branch_id)
+
+    async def _experience_tags(self, experience_id: uuid.UUID | None) -> tuple[str, ...]:
+        if experience_id is None:
+            return ()
+        if experience_id not in self._tags:
+            names = [
+                t.name
+                async for t in self._api.list_experience_tags(self._project_id, experience_id)
+            ]
+            self._tags[experience_id] = tuple(sorted(names))
+        return self._tags[experience_id]
+
+
+def _text(value: object) -> str | None:
+    return None if value is None else str(value)
