@@ -14,6 +14,7 @@ downloads finish in, so that the same inputs give the same bytes.
 
 from __future__ import annotations
 
+import asyncio
 import uuid
 from collections.abc import Awaitable, Callable, Sequence
 from dataclasses import dataclass
@@ -169,71 +170,83 @@ async def _jobs_of(api: ApiClient, project_id: uuid.UUID, scope: _Scope) -> list
         found = [b async for b in api.list_batches(project_id, search=search_for(report))]
         # Oldest first (the API lists newest first); by ID among equal times.
         batches = sorted(found, key=lambda b: (b.creation_timestamp or _NEVER, str(b.batch_id)))
-    known = _Known(api, project_id)
-    out: list[_ListedJob] = []
-    for batch in batches:
-        async for job in api.list_jobs(project_id, batch.batch_id):
-            meta = await known.meta(batch, job)
-            out.append(_ListedJob(len(out), batch.batch_id, job.job_id, meta))
-    return out
+    listings = await asyncio.gather(
+        *(_all_jobs(api, project_id, batch.batch_id) for batch in batches)
+    )
+    listed = [(batch, job) for batch, jobs in zip(batches, listings, strict=True) for job in jobs]
+    known = await _Known.ask(api, project_id, listed)
+    return [
+        _ListedJob(index, batch.batch_id, job.job_id, known.meta(project_id, batch, job))
+        for index, (batch, job) in enumerate(listed)
+    ]
 
 
+async def _all_jobs(api: ApiClient, project_id: uuid.UUID, batch_id: uuid.UUID) -> list[Job]:
+    return [job async for job in api.list_jobs(project_id, batch_id)]
+
+
+@dataclass(frozen=True, slots=True)
 class _Known:
-    """Builds' versions, branches' names and experiences' tags, each asked for once a run."""
+    """What the metadata rows take from beyond the jobs: builds' versions, branches' names
+    and experiences' tags, each asked for once a run, all at once."""
 
-    def __init__(self, api: ApiClient, project_id: uuid.UUID) -> None:
-        self._api = api
-        self._project_id = project_id
-        self._versions: dict[uuid.UUID, str | None] = {}
-        self._branches: dict[uuid.UUID, str] | None = None
-        self._tags: dict[uuid.UUID, tuple[str, ...]] = {}
+    versions: dict[uuid.UUID, str | None]
+    branches: dict[uuid.UUID, str]
+    tags: dict[uuid.UUID, tuple[str, ...]]
 
-    async def meta(self, batch: Batch, job: Job) -> JobMeta:
+    @classmethod
+    async def ask(
+        cls, api: ApiClient, project_id: uuid.UUID, listed: Sequence[tuple[Batch, Job]]
+    ) -> _Known:
+        builds = sorted({b for batch, job in listed if (b := _build_of(batch, job)) is not None})
+        experiences = sorted({job.experience_id for _, job in listed if job.experience_id})
+
+        async def version(build_id: uuid.UUID) -> str | None:
+            return (await api.get_build(project_id, build_id)).version
+
+        async def tags(experience_id: uuid.UUID) -> tuple[str, ...]:
+            found = api.list_experience_tags(project_id, experience_id)
+            return tuple(sorted([tag.name async for tag in found]))
+
+        async def branches() -> dict[uuid.UUID, str]:
+            if not listed:
+                return {}
+            return {b.branch_id: b.name async for b in api.list_branches(project_id)}
+
+        # Gathered: the client's limiter bounds the requests in flight.
+        versions, tag_names, names = await asyncio.gather(
+            asyncio.gather(*map(version, builds)),
+            asyncio.gather(*map(tags, experiences)),
+            branches(),
+        )
+        return cls(
+            dict(zip(builds, versions, strict=True)),
+            names,
+            dict(zip(experiences, tag_names, strict=True)),
+        )
+
+    def meta(self, project_id: uuid.UUID, batch: Batch, job: Job) -> JobMeta:
         from stook.service.metrics_config import JobMeta
 
-        build_id = job.build_id or batch.build_id
+        build_id = _build_of(batch, job)
         return JobMeta(
             job_id=str(job.job_id),
             batch_id=str(batch.batch_id),
-            project_id=str(self._project_id),
+            project_id=str(project_id),
             experience_id=_text(job.experience_id),
             experience_name=job.experience_name,
             build_id=_text(build_id),
-            build_version=await self._version(build_id),
+            build_version=None if build_id is None else self.versions[build_id],
             batch_name=batch.friendly_name,
             job_status=_text(job.job_status),
             job_conflated_status=_text(job.conflated_status),
-            branch=await self._branch(batch.branch_id),
-            tags=await self._experience_tags(job.experience_id),
+            branch=None if batch.branch_id is None else self.branches.get(batch.branch_id),
+            tags=self.tags.get(job.experience_id, ()) if job.experience_id else (),
         )
 
-    async def _version(self, build_id: uuid.UUID | None) -> str | None:
-        if build_id is None:
-            return None
-        if build_id not in self._versions:
-            build = await self._api.get_build(self._project_id, build_id)
-            self._versions[build_id] = build.version
-        return self._versions[build_id]
 
-    async def _branch(self, branch_id: uuid.UUID | None) -> str | None:
-        if branch_id is None:
-            return None
-        if self._branches is None:
-            self._branches = {
-                b.branch_id: b.name async for b in self._api.list_branches(self._project_id)
-            }
-        return self._branches.get(branch_id)
-
-    async def _experience_tags(self, experience_id: uuid.UUID | None) -> tuple[str, ...]:
-        if experience_id is None:
-            return ()
-        if experience_id not in self._tags:
-            names = [
-                t.name
-                async for t in self._api.list_experience_tags(self._project_id, experience_id)
-            ]
-            self._tags[experience_id] = tuple(sorted(names))
-        return self._tags[experience_id]
+def _build_of(batch: Batch, job: Job) -> uuid.UUID | None:
+    return job.build_id or batch.build_id
 
 
 def _text(value: object) -> str | None:
