@@ -100,6 +100,7 @@ async def _write(
     from stook.service.metrics_config import EmissionsSet, evaluate
 
     emissions = EmissionsSet(loaded)
+    log.info("config metrics: fetching the jobs' emissions logs", level=scope.level)
     async with open_api(access, settings, retry) as api:
         jobs = await _jobs_of(api, access.project_id, scope)
         with_log = await _add_in_order(

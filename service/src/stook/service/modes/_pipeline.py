@@ -190,7 +190,11 @@ async def run_pipeline(
     for aggregation in mode.aggregations:
         aggregation.finish(writer)
     if mode.config_metrics is not None:
-        await mode.config_metrics(writer, settings, retry)
+        # Its downloads are part of the fetch: under the same deadline.
+        async with fetch_deadline(
+            settings.deadline, started=started, progress=lambda: "the jobs' emissions logs"
+        ):
+            await mode.config_metrics(writer, settings, retry)
     output = writer.write(outputs_dir / OUTPUT_NAME)
     return RunResult(
         kind=mode.kind,
