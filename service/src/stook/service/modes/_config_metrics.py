@@ -24,7 +24,7 @@ from typing import TYPE_CHECKING, Literal
 import structlog
 
 from stook.service.api import ApiClient, Batch, Job, RetryPolicy
-from stook.service.fetch import fetch_emissions, search_for
+from stook.service.fetch import fetch_deadline, fetch_emissions
 from stook.service.modes._config import FetchSettings, StookConfig
 from stook.service.modes._inputs import ApiAccess
 from stook.service.modes._open_api import open_api
@@ -33,7 +33,7 @@ if TYPE_CHECKING:
     from stook.sdk import MetricsWriter
     from stook.service.metrics_config import EmissionsSet, JobMeta, MetricsConfig
 
-__all__ = ["ConfigMetricsStep", "config_metrics_step"]
+__all__ = ["ConfigMetricsStep", "config_metrics_step", "write_config_metrics"]
 
 log = structlog.get_logger("stook.metrics_config")
 
@@ -86,6 +86,24 @@ def config_metrics_step(
         await _write(writer, loaded, settings.metrics_set, scope, access, fetch, retry)
 
     return step
+
+
+async def write_config_metrics(
+    step: ConfigMetricsStep | None,
+    writer: MetricsWriter,
+    settings: FetchSettings,
+    retry: RetryPolicy | None,
+    *,
+    started: float,
+) -> None:
+    """Run `step` (when there is one) into `writer`: its downloads are part of the fetch,
+    under the run's `[fetch] deadline` (counted from `started`, the event loop's clock)."""
+    if step is None:
+        return
+    async with fetch_deadline(
+        settings.deadline, started=started, progress=lambda: "the jobs' emissions logs"
+    ):
+        await step(writer, settings, retry)
 
 
 async def _write(
@@ -167,6 +185,9 @@ async def _jobs_of(api: ApiClient, project_id: uuid.UUID, scope: _Scope) -> list
         batches = [await api.get_batch(project_id, scope.batch_id)]
     else:
         assert scope.report_id is not None
+        # The report fetch's module, with report mode's search: not imported by batch runs.
+        from stook.service.fetch import search_for
+
         report = await api.get_report(project_id, scope.report_id)
         found = [b async for b in api.list_batches(project_id, search=search_for(report))]
         # Oldest first (the API lists newest first); by ID among equal times.

@@ -26,6 +26,7 @@ from stook.sdk.aggregations import Aggregation, Needs
 from stook.service.api import ApiClient, ApiError, RetryPolicy
 from stook.service.fetch import MissingJob, fetch_deadline
 from stook.service.modes._config import FetchSettings
+from stook.service.modes._config_metrics import ConfigMetricsStep, write_config_metrics
 from stook.service.modes._inputs import ApiAccess
 from stook.service.modes._open_api import HasTraffic, Traffic, open_api
 from stook.service.modes._progress import NoProgress, Progress, Snapshot
@@ -33,7 +34,6 @@ from stook.service.modes._progress import NoProgress, Progress, Snapshot
 if TYPE_CHECKING:
     # The writer (and protobuf with it) is imported once the fetch is done: see run_pipeline.
     from stook.sdk import MetricsWriter
-    from stook.service.modes._config_metrics import ConfigMetricsStep
 
 log = structlog.get_logger("stook.pipeline")
 
@@ -189,12 +189,7 @@ async def run_pipeline(
     mode.preface(writer, outcome)
     for aggregation in mode.aggregations:
         aggregation.finish(writer)
-    if mode.config_metrics is not None:
-        # Its downloads are part of the fetch: under the same deadline.
-        async with fetch_deadline(
-            settings.deadline, started=started, progress=lambda: "the jobs' emissions logs"
-        ):
-            await mode.config_metrics(writer, settings, retry)
+    await write_config_metrics(mode.config_metrics, writer, settings, retry, started=started)
     output = writer.write(outputs_dir / OUTPUT_NAME)
     return RunResult(
         kind=mode.kind,
