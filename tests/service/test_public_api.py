@@ -185,6 +185,26 @@ PUBLIC_API: dict[str, list[str]] = {
         "run_test_mode",
     ],
     "stook.service.preview": ["PREVIEW_NAME", "PreviewInput", "render_html", "write_preview"],
+    "stook.service.metrics_config": [
+        "LEVELS",
+        "EmissionsError",
+        "EmissionsSet",
+        "Evaluation",
+        "JobMeta",
+        "Level",
+        "Metric",
+        "MetricsConfig",
+        "MetricsConfigError",
+        "QueryError",
+        "Tables",
+        "TemplateError",
+        "Topic",
+        "check_config",
+        "evaluate",
+        "load_config",
+        "read_emissions_paths",
+        "stable_id",
+    ],
     "stook.service.cli": ["Voice", "build_parser", "main", "run_cli", "summary_lines"],
 }
 LAZY = [
@@ -192,6 +212,7 @@ LAZY = [
     "stook.service.api",
     "stook.service.cli",
     "stook.service.fetch",
+    "stook.service.metrics_config",
     "stook.service.modes",
 ]
 PACKAGES = sorted(PUBLIC_API)

@@ -34,28 +34,27 @@ if TYPE_CHECKING:
 else:
     from stook.service._lazy import lazy_exports
 
-    _E = "stook.service.metrics_config."
     __getattr__, __dir__ = lazy_exports(
         __name__,
         {
-            "EmissionsSet": _E + "_emissions",
-            "Tables": _E + "_emissions",
-            "EmissionsError": _E + "_errors",
-            "MetricsConfigError": _E + "_errors",
-            "QueryError": _E + "_errors",
-            "TemplateError": _E + "_errors",
-            "Evaluation": _E + "_evaluate",
-            "evaluate": _E + "_evaluate",
-            "JobMeta": _E + "_jobs",
-            "load_config": _E + "_load",
-            "LEVELS": _E + "_model",
-            "Level": _E + "_model",
-            "Metric": _E + "_model",
-            "MetricsConfig": _E + "_model",
-            "Topic": _E + "_model",
-            "check_config": _E + "_offline",
-            "read_emissions_paths": _E + "_offline",
-            "stable_id": _E + "_offline",
+            "EmissionsSet": "stook.service.metrics_config._emissions",
+            "Tables": "stook.service.metrics_config._emissions",
+            "EmissionsError": "stook.service.metrics_config._errors",
+            "MetricsConfigError": "stook.service.metrics_config._errors",
+            "QueryError": "stook.service.metrics_config._errors",
+            "TemplateError": "stook.service.metrics_config._errors",
+            "Evaluation": "stook.service.metrics_config._evaluate",
+            "evaluate": "stook.service.metrics_config._evaluate",
+            "JobMeta": "stook.service.metrics_config._jobs",
+            "load_config": "stook.service.metrics_config._load",
+            "LEVELS": "stook.service.metrics_config._model",
+            "Level": "stook.service.metrics_config._model",
+            "Metric": "stook.service.metrics_config._model",
+            "MetricsConfig": "stook.service.metrics_config._model",
+            "Topic": "stook.service.metrics_config._model",
+            "check_config": "stook.service.metrics_config._offline",
+            "read_emissions_paths": "stook.service.metrics_config._offline",
+            "stable_id": "stook.service.metrics_config._offline",
         },
     )
 
