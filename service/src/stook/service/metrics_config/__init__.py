@@ -13,50 +13,20 @@ DuckDB in this process, custom templates are Liquid. The layer imports stook.sdk
 modes and the CLI import it.
 """
 
-TYPE_CHECKING = False
-if TYPE_CHECKING:
-    from stook.service.metrics_config._emissions import EmissionsSet, Tables
-    from stook.service.metrics_config._errors import (
-        EmissionsError,
-        MetricsConfigError,
-        QueryError,
-        TemplateError,
-    )
-    from stook.service.metrics_config._evaluate import Evaluation, evaluate
-    from stook.service.metrics_config._jobs import JobMeta
-    from stook.service.metrics_config._load import load_config
-    from stook.service.metrics_config._model import LEVELS, Level, Metric, MetricsConfig, Topic
-    from stook.service.metrics_config._offline import (
-        check_config,
-        read_emissions_paths,
-        stable_id,
-    )
-else:
-    from stook.service._lazy import lazy_exports
-
-    __getattr__, __dir__ = lazy_exports(
-        __name__,
-        {
-            "EmissionsSet": "stook.service.metrics_config._emissions",
-            "Tables": "stook.service.metrics_config._emissions",
-            "EmissionsError": "stook.service.metrics_config._errors",
-            "MetricsConfigError": "stook.service.metrics_config._errors",
-            "QueryError": "stook.service.metrics_config._errors",
-            "TemplateError": "stook.service.metrics_config._errors",
-            "Evaluation": "stook.service.metrics_config._evaluate",
-            "evaluate": "stook.service.metrics_config._evaluate",
-            "JobMeta": "stook.service.metrics_config._jobs",
-            "load_config": "stook.service.metrics_config._load",
-            "LEVELS": "stook.service.metrics_config._model",
-            "Level": "stook.service.metrics_config._model",
-            "Metric": "stook.service.metrics_config._model",
-            "MetricsConfig": "stook.service.metrics_config._model",
-            "Topic": "stook.service.metrics_config._model",
-            "check_config": "stook.service.metrics_config._offline",
-            "read_emissions_paths": "stook.service.metrics_config._offline",
-            "stable_id": "stook.service.metrics_config._offline",
-        },
-    )
+# Eager: each module imports its heavy libraries (polars, DuckDB, sqlglot, PyYAML,
+# python-liquid) inside the functions that use them, so importing the package is cheap.
+from stook.service.metrics_config._emissions import EmissionsSet, Tables
+from stook.service.metrics_config._errors import (
+    EmissionsError,
+    MetricsConfigError,
+    QueryError,
+    TemplateError,
+)
+from stook.service.metrics_config._evaluate import Evaluation, evaluate
+from stook.service.metrics_config._jobs import JobMeta
+from stook.service.metrics_config._load import load_config
+from stook.service.metrics_config._model import LEVELS, Level, Metric, MetricsConfig, Topic
+from stook.service.metrics_config._offline import OfflineJob, check_config, find_jobs, stable_id
 
 __all__ = [
     "LEVELS",
@@ -68,13 +38,14 @@ __all__ = [
     "Metric",
     "MetricsConfig",
     "MetricsConfigError",
+    "OfflineJob",
     "QueryError",
     "Tables",
     "TemplateError",
     "Topic",
     "check_config",
     "evaluate",
+    "find_jobs",
     "load_config",
-    "read_emissions_paths",
     "stable_id",
 ]
