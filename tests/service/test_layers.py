@@ -45,6 +45,7 @@ API_ORDER = [
     "_limits",
     "_deadlines",
     "_models",
+    "_job_logs",
     "_paging",
     "_tls",
     "_transport",

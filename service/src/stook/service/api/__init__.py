@@ -34,6 +34,11 @@ if TYPE_CHECKING:
         GateStats,
         OriginGate,
     )
+    from stook.service.api._job_logs import (
+        ExecutionStep,
+        JobLog,
+        LogType,
+    )
     from stook.service.api._limits import (
         AimdLimiter,
         ConcurrencyLimit,
@@ -114,6 +119,9 @@ else:
             "TransportError": "stook.service.api._errors",
             "GateStats": "stook.service.api._gate",
             "OriginGate": "stook.service.api._gate",
+            "ExecutionStep": "stook.service.api._job_logs",
+            "JobLog": "stook.service.api._job_logs",
+            "LogType": "stook.service.api._job_logs",
             "AimdLimiter": "stook.service.api._limits",
             "ConcurrencyLimit": "stook.service.api._limits",
             "FixedLimit": "stook.service.api._limits",
@@ -176,6 +184,7 @@ __all__ = [
     "ConflatedBatchStatus",
     "ConflatedJobStatus",
     "EventTimestampType",
+    "ExecutionStep",
     "ExperienceTag",
     "FixedLimit",
     "GateStats",
@@ -184,8 +193,10 @@ __all__ = [
     "IncompleteBodyError",
     "Job",
     "JobEventListing",
+    "JobLog",
     "JobStatus",
     "LimitStats",
+    "LogType",
     "MetricOwner",
     "MetricsDataStorageType",
     "NestedLimit",

@@ -26,6 +26,7 @@ from stook.service.api._errors import (
     NotFoundError,
     RedirectedRefusalError,
 )
+from stook.service.api._job_logs import JobLog, LogType
 from stook.service.api._limits import AimdLimiter, ConcurrencyLimit, FixedLimit, NestedLimit
 from stook.service.api._models import (
     ApiMetric,
@@ -397,6 +398,26 @@ class ApiClient:
     async def get_build(self, project_id: IdLike, build_id: IdLike) -> Build:
         document = await self.get_json(f"/projects/{_id(project_id)}/builds/{_id(build_id)}")
         return Build.from_json(document)
+
+    async def list_job_logs(
+        self,
+        project_id: IdLike,
+        batch_id: IdLike,
+        job_id: IdLike,
+        *,
+        log_type: LogType | None = None,
+        name: str | None = None,
+    ) -> AsyncIterator[JobLog]:
+        """A job's logs (of `log_type`, named `name`, when given): EMISSIONS_LOG for what
+        its test emitted, each downloadable at its `log_output_location`."""
+        params: dict[str, str | int] = {}
+        if log_type is not None:
+            params["type"] = str(log_type)
+        if name is not None:
+            params["name"] = name
+        path = self._job_path(project_id, batch_id, job_id) + "/logs"
+        async for item in self.paginate(path, "logs", params):
+            yield JobLog.from_json(item)
 
     # -- internals -----------------------------------------------------------------------
 

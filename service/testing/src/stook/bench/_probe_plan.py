@@ -92,14 +92,13 @@ class ProbePlan:
             jobs_page = partial(_page, api, f"{self._batch_path(batch)}/jobs", "jobs", page_size)
             await timed("api", jobs_page)
         wants_metrics = bool(needs.metrics) or needs.every_metric
-        if wants_metrics:
-            metrics = await timed("api", partial(api.all_job_metrics, project, batch, job.job_id))
-        else:
-            await timed("api", partial(api.all_job_metric_items, project, batch, job.job_id))
-            metrics = []
+        listed_metrics = await timed(
+            "api", partial(api.list_job_metrics, project, batch, job.job_id)
+        )
+        metrics = listed_metrics if wants_metrics else []
         if needs.data or wants_metrics:
             listed = await timed(
-                "api", partial(api.all_job_metrics_data, project, batch, job.job_id)
+                "api", partial(api.list_job_metrics_data, project, batch, job.job_id)
             )
             wanted = needs.data | needs.data_with_index
             for data in listed or ():
@@ -133,7 +132,7 @@ class ProbePlan:
             for job in jobs or ():
                 job_id = job.get("jobID")
                 if isinstance(job_id, str):
-                    metrics = partial(api.all_job_metric_items, project, batch_id, job_id)
+                    metrics = partial(api.list_job_metrics, project, batch_id, job_id)
                     await timed("api", metrics)
 
     def _batch_path(self, batch_id: uuid.UUID) -> str:

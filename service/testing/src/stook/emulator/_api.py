@@ -17,6 +17,7 @@ from aiohttp import web
 
 from stook.emulator import _json
 from stook.emulator._branch_routes import add_branch_routes
+from stook.emulator._job_logs import add_job_log_routes
 from stook.emulator._middleware import (
     Handler,
     admit,
@@ -115,6 +116,7 @@ def build_api_app(state: EmulatorState) -> web.Application:
         name="list_experience_tags",
     )
     add_branch_routes(app, state, p)
+    add_job_log_routes(app, state, p, BUCKET)
     app.router.add_get("/_emulator/stats", routes.emulator_stats, name="emulator_stats")
     return app
 

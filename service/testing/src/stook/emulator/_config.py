@@ -71,6 +71,9 @@ class EmulatorConfig:
     baseline_shift_metric: str = "Localization error"
     baseline_shift: float = 0.0
     cache_jobs: int = 256  # generated job outputs kept (an LRU); the rest is regenerated
+    # Frames each job emits to its emissions log (two rows a frame, plus a few; see
+    # _emissions.py): 500 gives the thousand rows a job of the benchmarks emits.
+    emission_frames: int = 40
     # stook batch summaries in the report batches' batch metrics data (see _summaries.py):
     # "off"; "exact", built from every job's generated metrics as stook's batch mode
     # would; "synthetic", from the job specs alone with cheap values (benchmarks of a
@@ -151,6 +154,8 @@ class EmulatorConfig:
             raise ValueError("max_consecutive_faults and retry_after_max_s cannot be negative")
         if self.cache_jobs < 1:
             raise ValueError("cache_jobs must be at least 1")
+        if isinstance(self.emission_frames, bool) or self.emission_frames < 0:
+            raise ValueError("emission_frames cannot be negative")
         if self.batch_summaries not in ("off", "exact", "synthetic"):
             raise ValueError("batch_summaries must be 'off', 'exact' or 'synthetic'")
         for rate in (self.rate_limit_rps, self.storage_rate_limit_rps):

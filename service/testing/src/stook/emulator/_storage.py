@@ -10,6 +10,7 @@ import uuid
 
 from aiohttp import web
 
+from stook.emulator._job_logs import add_log_storage_routes
 from stook.emulator._middleware import (
     Handler,
     admit,
@@ -77,6 +78,7 @@ def build_storage_app(state: EmulatorState) -> web.Application:
     app.router.add_get(
         f"{base}/metricsData/{{object_id}}", routes.batch_data, name="batch_metrics_data"
     )
+    add_log_storage_routes(app, state, BUCKET)
     return app
 
 
