@@ -32,10 +32,10 @@ typecheck: setup
 
 # Over every core (pytest-xdist). `make test` leaves out the tests marked slow (a real
 # browser, Ray, the long outages, wheel builds, the benchmarks' smoke runs); `make test-all`
-# runs everything and measures coverage against its floor (tool.coverage in pyproject.toml),
-# which only the whole suite reaches.
+# runs everything, each property with all its examples (tests/hypothesis_profiles.py), and
+# measures coverage against its floor (tool.coverage in pyproject.toml).
 pytest: setup
-	$(BIN)/pytest -n auto -m "not slow"
+	HYPOTHESIS_PROFILE=quick $(BIN)/pytest -n auto -m "not slow"
 
 pytest-all: setup
 	$(BIN)/pytest -n auto --cov --cov-report=term
