@@ -8,7 +8,7 @@ VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.stook-installed
 
-.PHONY: setup test test-all lint typecheck pytest pytest-all demo proto bench clean
+.PHONY: setup test test-all lint typecheck pytest pytest-all docs demo proto bench clean
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -40,9 +40,14 @@ pytest: setup
 pytest-all: setup
 	$(BIN)/pytest -n auto --cov --cov-report=term
 
-test: lint typecheck pytest
+# The docs site (mkdocs.yml): --strict, so a broken link or a missing page fails (not
+# --quiet: it hides the warnings that --strict counts).
+docs: setup
+	NO_MKDOCS_2_WARNING=1 $(BIN)/mkdocs build --strict
 
-test-all: lint typecheck pytest-all
+test: lint typecheck pytest docs
+
+test-all: lint typecheck pytest-all docs
 
 demo: setup
 	$(BIN)/stook demo
@@ -57,4 +62,4 @@ bench: setup
 	$(BIN)/pytest tests/bench --benchmark-enable --benchmark-only
 
 clean:
-	rm -rf $(VENV) demo-output .pytest_cache .mypy_cache .ruff_cache .hypothesis .coverage .coverage.*
+	rm -rf $(VENV) demo-output site .pytest_cache .mypy_cache .ruff_cache .hypothesis .coverage .coverage.*

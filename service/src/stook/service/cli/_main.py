@@ -201,7 +201,9 @@ def _add_emulate_arguments(parser: argparse.ArgumentParser) -> None:
 def _add_bench_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--quick", action="store_true", help="small sizes; a smoke test")
     parser.add_argument(
-        "--out", metavar="DIR", default="docs/benchmarks", help="where results are written"
+        "--out",
+        metavar="DIR",
+        help="where results are written (default docs/benchmarks; --probe: probe-results)",
     )
     parser.add_argument(
         "--engines",
@@ -209,6 +211,10 @@ def _add_bench_arguments(parser: argparse.ArgumentParser) -> None:
         help="only compare [engine] local, processes and ray on one batch (20,000 jobs; "
         "--quick: 2,000)",
     )
+    from stook.service.cli._probe_flags import add_probe_flags
+
+    add_probe_flags(parser)
+    _add_logging(parser, default_level="warning")
 
 
 # `validate` and `show` take the file's name as given, without pathlib (~5 % of their
@@ -507,12 +513,17 @@ def _dispatch(args: argparse.Namespace, voice: Voice) -> int:
         case "bench":
             from pathlib import Path
 
+            from stook.service.cli._probe_flags import check_probe_flags, run_probe
+
+            check_probe_flags(args)
             bench = _testing_tool("bench", "stook.bench")
             _collector.resume()
+            if args.probe:
+                return run_probe(bench, args)
             if args.engines:
-                bench.run_engine_bench(Path(args.out), quick=args.quick)
+                bench.run_engine_bench(Path(args.out or "docs/benchmarks"), quick=args.quick)
                 return 0
-            bench.run_bench(Path(args.out), quick=args.quick)
+            bench.run_bench(Path(args.out or "docs/benchmarks"), quick=args.quick)
             return 0
         case "preview":
             from stook.service.cli._preview import preview_files
