@@ -27,6 +27,7 @@ def test_each_round_runs_the_checkout_and_counts_its_cpu() -> None:
     assert row["median_seconds"] > 0
 
 
+@pytest.mark.slow
 def test_a_checkout_without_stook_sources_is_refused(tmp_path: Path) -> None:
     # PYTHONPATH then finds nothing of the checkout's, and the installed stook answers.
     with pytest.raises(RuntimeError, match="imported stook from"):

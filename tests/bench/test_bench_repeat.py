@@ -10,6 +10,7 @@ from stook.bench._measure import BARE_LOOP, STOOK
 from stook.bench._repeat import repeat_target_points
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(sys.platform != "linux", reason="the emulator's CPU is read from /proc")
 def test_a_repeated_point_records_each_runs_cpu_and_the_emulators() -> None:
     said: list[str] = []

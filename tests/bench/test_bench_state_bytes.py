@@ -58,6 +58,7 @@ def test_shards_split_the_jobs_in_consecutive_runs() -> None:
     assert [j for p in parts for j in p] == jobs
 
 
+@pytest.mark.slow
 def test_the_command_prints_a_table() -> None:
     done = subprocess.run(
         [sys.executable, "-m", "stook.bench._state_bytes", "--jobs", "40", "--shards", "2"],

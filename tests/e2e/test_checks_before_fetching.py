@@ -13,6 +13,7 @@ import os
 import re
 import resource
 import shutil
+import stat
 import subprocess
 import sys
 import tempfile
@@ -37,6 +38,8 @@ from tests.failures import failure_lines
 
 IMAGE_UID = 10001  # the non-root user of deploy/Dockerfile's optional variant
 SETPRIV = shutil.which("setpriv")
+UNSHARE = shutil.which("unshare")
+CHECKOUT = Path(__file__).resolve().parents[2]  # its .venv and the stook sources
 EXAMPLE_TOML = '[test]\nmetrics = "stook.sdk.example:every_metric_type"\n'
 
 
@@ -98,6 +101,44 @@ def in_process(
     return code, capsys.readouterr().err
 
 
+def closed_to_others(path: Path) -> Path | None:
+    """The outermost folder above `path` that other users cannot enter, if any."""
+    for folder in reversed(path.parents):  # "/" first
+        if not folder.stat().st_mode & stat.S_IXOTH:
+            return folder
+    return None
+
+
+# Run in a private mount namespace (gone with the process): the checkout is bound aside,
+# an open tmpfs covers the closed folder, and the checkout is bound back at its own path
+# inside it, so the .venv's absolute paths (script lines, editable installs) still hold.
+_REOPEN = '''mount --bind "$1" "$2"
+mount -t tmpfs -o mode=755,size=1m stook-open "$3"
+mkdir -p "$1"
+mount --bind "$2" "$1"
+shift 3
+exec "$@"'''
+
+
+def as_image_user(argv: list[str], spare: Path) -> list[str]:
+    """`argv` run as the image's user, who must reach the checkout's .venv and sources.
+
+    A clone under a folder others cannot enter (`mktemp -d` makes 0700 ones) is made
+    reachable for that process only, never by changing the folder's mode; `spare` is an
+    empty folder to hold the checkout meanwhile.
+    """
+    assert SETPRIV is not None
+    drop = [SETPRIV, f"--reuid={IMAGE_UID}", f"--regid={IMAGE_UID}", "--clear-groups"]
+    closed = closed_to_others(CHECKOUT)
+    if closed is None:
+        return [*drop, *argv]
+    assert Path(sys.prefix).is_relative_to(CHECKOUT), f"{sys.prefix} is outside {CHECKOUT}"
+    if UNSHARE is None or subprocess.run([UNSHARE, "--mount", "true"], check=False).returncode:
+        pytest.skip(f"{closed} is closed to other users and no mount namespace can open it")
+    reopen = [UNSHARE, "--mount", "--propagation", "private", "sh", "-euc", _REOPEN, "sh"]
+    return [*reopen, str(CHECKOUT), str(spare), str(closed), *drop, *argv]
+
+
 @contextlib.contextmanager
 def world_readable_folder() -> Iterator[Path]:
     """A folder another user can reach (pytest's tmp_path is private to root)."""
@@ -127,20 +168,10 @@ def test_the_image_user_against_a_root_owned_outputs_folder(emu: Emulator, owner
         outputs.mkdir(mode=0o755)  # root's, as the platform may mount it
         if owner == "image-user":
             os.chown(outputs, IMAGE_UID, IMAGE_UID)
+        (base / "spare").mkdir()
         before = emu.stats.requests["api"]
-        as_image_user = [SETPRIV, f"--reuid={IMAGE_UID}", f"--regid={IMAGE_UID}", "--clear-groups"]
-        done = run_process(
-            [
-                *as_image_user,
-                *stook_command(),
-                "run",
-                "--inputs",
-                str(inputs),
-                "--outputs",
-                str(outputs),
-            ],
-            cwd=base,
-        )
+        stook_run = [*stook_command(), "run", "--inputs", str(inputs), "--outputs", str(outputs)]
+        done = run_process(as_image_user(stook_run, base / "spare"), cwd=base)
         if owner == "image-user":  # the control: the same user and command can write there
             assert done.returncode == 0, done.stderr
             read_output(outputs / OUTPUT_NAME)

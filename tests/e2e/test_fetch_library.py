@@ -253,11 +253,15 @@ def _report_inputs(emu: Emulator, tmp_path: Path) -> Path:
 
 
 async def test_fetch_report_hands_over_every_batch(tmp_path: Path) -> None:
-    async with emulated_batch(tmp_path / "inputs", jobs_per_batch=4, seed=7) as emu:
+    async with emulated_batch(
+        tmp_path / "inputs", jobs_per_batch=4, seed=7, report_batches=4, report_jobs_per_batch=5
+    ) as emu:
         inputs = _report_inputs(emu, tmp_path)
         batches = [b async for b in fetch_report(inputs, needs=Needs(job_metrics=True))]
         expected = emu.dataset.report_batches(emu.report_id)
+    assert len(expected) == 4
     assert sorted(b.batch_id for b in batches) == sorted(b.id for b in expected)
+    assert any(b.jobs for b in batches)
     assert all(b.job_scalars for b in batches if b.jobs)
 
 

@@ -113,6 +113,9 @@ def test_without_the_step_nothing_is_named_there(stepped: Emulator, tmp_path: Pa
     assert min(list(seeded.values())[:2]) > 1.2 * max(calm.values())
 
 
+# Turning them off is also checked where it is decided, quickly: the [report] settings
+# (tests/service/modes/test_report_change_settings.py) and the default aggregations.
+@pytest.mark.slow
 def test_turned_off_the_report_has_neither(stepped: Emulator, tmp_path: Path) -> None:
     toml = "[report]\nchange_points = false\nunstable_experiences = false\n"
     view = run_report_cli(stepped, tmp_path, toml).view()

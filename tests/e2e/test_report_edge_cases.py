@@ -191,6 +191,8 @@ def fault_free_output(tmp_path_factory: pytest.TempPathFactory) -> bytes:
     return asyncio.run(go())
 
 
+# The same retries as a batch run's, whose transient faults test_faults.py checks quickly.
+@pytest.mark.slow
 async def test_transient_faults_leave_the_output_byte_identical(
     tmp_path: Path, fault_free_output: bytes
 ) -> None:

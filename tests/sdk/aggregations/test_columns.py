@@ -200,7 +200,9 @@ def test_bytes_that_are_no_summary_are_refused_as_columns(mangle: object, messag
         decode_summary_columns(mangle(payload))  # type: ignore[operator]
 
 
-def test_report_aggregations_read_columns_and_make_no_job_objects() -> None:
+def test_report_aggregations_read_columns_and_make_no_job_objects(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
     jobs = tuple(
         SummaryJob(uuid.UUID(int=i + 1), f"e{i % 3}", "PASSED", None, True, {"s": (i / 3, "m")})
         for i in range(30)
@@ -212,11 +214,15 @@ def test_report_aggregations_read_columns_and_make_no_job_objects() -> None:
         )
         for n in range(7)
     ]
-    for factory in FACTORIES.values():
-        _written(factory, records)
     for record in records:
         assert isinstance(record.jobs, JobSummaries)
-        assert record.jobs._items is None  # never made
+
+    def made(columns: JobColumns) -> list[JobSummary]:
+        raise AssertionError("an aggregation made the job objects")
+
+    monkeypatch.setattr(JobColumns, "job_summaries", made)
+    for factory in FACTORIES.values():
+        _written(factory, records)
 
 
 def test_the_views_are_sequences_and_mappings() -> None:

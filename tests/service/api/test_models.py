@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import random
 import uuid
 from datetime import UTC, datetime, timedelta, timezone
 from typing import Any
@@ -64,7 +65,9 @@ from stook.service.api._models import (
 )
 
 NOW = datetime(2025, 3, 4, 5, 6, 7, 891011, tzinfo=UTC)
-IDS = [uuid.uuid4() for _ in range(8)]
+# Random-looking but the same in every process: they name parametrized tests, which
+# pytest-xdist's workers must collect alike.
+IDS = [uuid.UUID(int=random.Random(n).getrandbits(128), version=4) for n in range(8)]
 
 
 def as_wire(resim_model: Any) -> dict[str, Any]:

@@ -19,7 +19,7 @@ def jobs(n: int) -> list[Job]:
 async def test_every_job_is_taken_once_in_order_and_the_workers_stop() -> None:
     queue = _JobQueue(room=4, low=2)
     taken: list[Any] = []
-    most_queued = 0
+    put = most_queued = 0
 
     async def work(*, while_plenty: bool = False) -> None:
         while True:
@@ -34,14 +34,16 @@ async def test_every_job_is_taken_once_in_order_and_the_workers_stop() -> None:
             await asyncio.sleep(0)
 
     async def lister() -> None:  # a worker too, as BatchFetcher's
-        nonlocal most_queued
+        nonlocal put, most_queued
         for job in jobs(50):
             full = queue.put(job)
-            most_queued = max(most_queued, len(queue._jobs))
+            put += 1
+            most_queued = max(most_queued, put - len(taken))  # put and not taken yet
             if full:
                 assert queue.plenty()
                 await work(while_plenty=True)
-                assert len(queue._jobs) <= 2
+                assert put - len(taken) <= 2
+                assert not queue.plenty()
         queue.close()
         await work()
 

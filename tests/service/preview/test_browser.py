@@ -16,6 +16,7 @@ import pytest
 
 from stook.sdk import MetricType, read_job_metrics
 from stook.service.preview import write_preview
+from stook.service.preview._values import number_text
 from tests.service.preview.support import (
     BATCH_OUTPUT,
     REPORT_OUTPUT,
@@ -98,7 +99,7 @@ def check_charts(page: Any, source: Path) -> None:
     for figure in drawn:
         assert figure["drawn"], figure["metric"]
         assert figure["points"] == expected[figure["metric"]], figure["metric"]
-    # Every scalar's value is on the page, as written.
+    # Every scalar's value is on the page as people read it, and as written on hover.
     for metric in view.metrics:
         if (
             metric.type is MetricType.SCALAR
@@ -106,7 +107,8 @@ def check_charts(page: Any, source: Path) -> None:
             and not metric.event_metric
         ):
             card = page.locator(f'.metric[data-metric="{metric.name}"] .scalar')
-            assert card.inner_text().startswith(repr(metric.value)), metric.name
+            assert card.inner_text().startswith(number_text(metric.value)), metric.name
+            assert card.get_attribute("title") == repr(metric.value), metric.name
 
 
 def preview_of(source: Path, folder: Path) -> Path:

@@ -86,7 +86,7 @@ def test_every_metric_card_says_name_status_importance_tags_blocking(tmp_path: P
     assert "area: safety" in gap
     assert "1.5" in gap
     assert "m</span>" in gap
-    assert "fails below 2.0" in gap
+    assert 'fails below <span title="2.0">2</span>' in gap
     assert "the most important" in page
     assert "critical importance" in page
 
@@ -221,9 +221,9 @@ def test_histogram_counts_use_the_buckets_as_written() -> None:
 
 def test_numbers_sizes_and_thinning_of_text_series() -> None:
     from stook.service.preview._sources import human_size
-    from stook.service.preview._values import number_text, thin
+    from stook.service.preview._values import exact_text, thin
 
-    assert [number_text(v) for v in (None, math.nan, math.inf, -math.inf, 0.1 + 0.2)] == [
+    assert [exact_text(v) for v in (None, math.nan, math.inf, -math.inf, 0.1 + 0.2)] == [
         "—",
         "NaN",
         "∞",
@@ -240,6 +240,58 @@ def test_numbers_sizes_and_thinning_of_text_series() -> None:
     kept = thin(states, limit=1_000)
     assert len(kept) == 500
     assert list(kept) == sorted(kept)
+
+
+@pytest.mark.parametrize(
+    ("value", "shown"),
+    [
+        (24.09007622286738, "24.0901"),
+        (0.17346938775510204, "0.173469"),
+        (0.1 + 0.2, "0.3"),
+        (1234.5678, "1,234.57"),
+        (123_456.7, "123,457"),
+        (999_999.7, "1,000,000"),
+        (1_234_567.0, "1,234,567"),
+        (-1_234.5, "-1,234.5"),
+        (12.0, "12"),
+        (0.0, "0"),
+        (-0.0, "0"),
+        (0.0001, "0.0001"),
+        (1.5e-7, "1.5e-07"),
+        (2.5e20, "2.5e+20"),
+        (None, "—"),
+        (math.nan, "NaN"),
+        (-math.inf, "-∞"),
+    ],
+)
+def test_numbers_read_as_people_read_them(value: float | None, shown: str) -> None:
+    from stook.service.preview._values import number_text
+
+    assert number_text(value) == shown
+
+
+def test_a_page_shows_values_rounded_and_the_exact_value_on_hover(tmp_path: Path) -> None:
+    exact = 24.09007622286738
+    writer = MetricsWriter(uuid.UUID(int=12))
+    writer.scalar("Distance", exact, unit="m", fails_above=1_234_567.891)
+    distances = data.doubles("Distances", [0.17346938775510204, exact])
+    writer.double_summary("Last distance", distances, index=1)
+    source = tmp_path / "metrics.binproto"
+    source.write_bytes(writer.serialize())
+    written = source.read_bytes()
+    page = write_preview([source], tmp_path / PREVIEW_NAME).read_text()
+
+    card = page[page.index('data-metric="Distance"') :]
+    card = card[: card.index("</article>")]
+    assert f'data-value="{exact!r}" title="{exact!r}">24.0901<span class="unit">m</span>' in card
+    assert 'fails above <span title="1234567.891">1,234,568</span>' in card
+    summary = page[page.index('data-metric="Last distance"') :]
+    summary = summary[: summary.index("</article>")]
+    assert f"<td class='num'><span title=\"{exact!r}\">24.0901</span></td>" in summary
+    assert repr(exact) not in page.replace(f'"{exact!r}"', "")  # only ever on hover
+    # The file keeps every digit: the preview only reads it.
+    assert source.read_bytes() == written
+    assert read_job_metrics(written).metrics[0].value == exact
 
 
 def test_a_metric_that_cannot_be_drawn_says_so_and_the_rest_renders() -> None:

@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from stook.service.preview._style import STATUS_COLORS
+from stook.service.preview._values import exact_text, number_text
 
 _BASE_LAYOUT: dict[str, Any] = {
     "height": 320,
@@ -99,7 +100,8 @@ def bound_lines(
         )
         labels.append(
             {
-                "text": f"{words} {value:g}",
+                "text": f"{words} {number_text(value)}",
+                "hovertext": f"{words} {exact_text(value)}",
                 "xref": "paper",
                 "x": 0,
                 "xanchor": "left",

@@ -27,6 +27,7 @@ from stook.service.preview._values import (
     MAX_DRAWN,
     categories,
     exact_doubles,
+    exact_text,
     index_of,
     number_text,
     pick,
@@ -126,7 +127,8 @@ def scalar(metric: MetricView, ctx: Context) -> str:
         body = '<p class="scalar">no value</p>'
     else:
         unit = f'<span class="unit">{esc(metric.unit)}</span>' if metric.unit else ""
-        body = f'<p class="scalar" data-value="{esc(number_text(metric.value))}">'
+        exact = esc(exact_text(metric.value))
+        body = f'<p class="scalar" data-value="{exact}" title="{exact}">'
         body += f"{esc(number_text(metric.value))}{unit}</p>"
     failure = mv.failure_definition if mv.HasField("failure_definition") else None
     return body + _failure_text(failure)
@@ -137,10 +139,15 @@ def _failure_text(failure: pb.DoubleFailureDefinition | None) -> str:
         return ""
     parts = []
     if failure.HasField("fails_above"):
-        parts.append(f"fails above {number_text(failure.fails_above)}")
+        parts.append(f"fails above {_number(failure.fails_above)}")
     if failure.HasField("fails_below"):
-        parts.append(f"fails below {number_text(failure.fails_below)}")
-    return f'<p class="note">{esc(", ".join(parts))}</p>' if parts else ""
+        parts.append(f"fails below {_number(failure.fails_below)}")
+    return f'<p class="note">{", ".join(parts)}</p>' if parts else ""
+
+
+def _number(value: float | None) -> str:
+    """A value as people read it, the exact value on hover."""
+    return f'<span title="{esc(exact_text(value))}">{esc(number_text(value))}</span>'
 
 
 def double_summary(metric: MetricView, ctx: Context) -> str:
@@ -194,7 +201,7 @@ def double_summary(metric: MetricView, ctx: Context) -> str:
             )
         )
     cells = "".join(
-        f"<tr><td>{esc(name)}</td><td class='num'>{esc(number_text(value))}</td>"
+        f"<tr><td>{esc(name)}</td><td class='num'>{_number(value)}</td>"
         f"<td>{_chip(status) if status else ''}</td></tr>"
         for name, value, status in rows
     )

@@ -157,8 +157,9 @@ def pick(items: Sequence[Any] | None, positions: Sequence[int]) -> list[Any] | N
     return [items[i] for i in positions if i < n]
 
 
-def number_text(value: float | None) -> str:
-    """The shortest text that reads back as the same double: tables never round."""
+def exact_text(value: float | None) -> str:
+    """The shortest text that reads back as the same double: the value as written, for
+    the hover text and the page's data attributes."""
     if value is None:
         return "—"
     if math.isnan(value):
@@ -166,3 +167,22 @@ def number_text(value: float | None) -> str:
     if math.isinf(value):
         return "∞" if value > 0 else "-∞"
     return repr(value)
+
+
+def number_text(value: float | None) -> str:
+    """A value as people read it: six significant digits with thousands separators
+    ("24.0901", "0.173469", "1,234.57"), whole numbers from a million up ("1,234,567"),
+    and an exponent only for the very small or very large ("1.5e-07"). A page shows
+    this; the exact value (`exact_text`) goes beside it, on hover."""
+    if value is None or not math.isfinite(value):
+        return exact_text(value)
+    if value == 0:
+        return "0"  # -0.0 too: its sign is in the exact text
+    magnitude = abs(value)
+    if not 1e-4 <= magnitude < 1e15:
+        return f"{value:.6g}"
+    # 999,999.5 and up has more than six digits before the point: a "g" format would
+    # switch to an exponent there, and rounding to the unit reads better.
+    if magnitude >= 999_999.5:
+        return f"{value:,.0f}"
+    return f"{value:,.6g}"
