@@ -472,10 +472,6 @@ def _testing_tool(command: str, module: str) -> Any:
 def _dispatch(args: argparse.Namespace, voice: Voice) -> int:
     match args.command:
         case "run":
-            from stook.service.api import import_aiohttp_without_tls_defaults
-
-            # First: aiohttp's own TLS contexts would cost ~55 ms of every start-up.
-            import_aiohttp_without_tls_defaults()
             from stook.service.cli._run import resolve_options, run
             from stook.service.modes import Tally, event_loop_factory, for_stream
 
