@@ -331,10 +331,14 @@ class _Request:
             result = await send()
         except Exception as exc:
             self.last = exc
-            if _is_answer(exc):
+            status = getattr(exc, "status", None) if _is_answer(exc) else None
+            if (status is not None and status >= 500) or isinstance(exc, TransportError):
+                # The origin failing (a 5xx, no answer), not pacing us (429) or refusing.
+                origin.answered = origin.answered or status is not None
+                if is_retryable(exc):
+                    origin.fail(self, exc, self.url, passage is _Passage.PROBE)
+            elif status is not None:
                 origin.answer(sent_in)
-            elif is_retryable(exc):
-                origin.fail(self, exc, self.url, passage is _Passage.PROBE)
             if isinstance(exc, TransportError) and exc.kind == "dns" and not origin.answered:
                 # The name does not resolve and never did: no retry can fix a wrong URL.
                 raise self.unreachable(exc.reason) from None

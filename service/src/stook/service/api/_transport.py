@@ -18,6 +18,7 @@ those on top. What it guarantees:
 from __future__ import annotations
 
 import asyncio
+import logging
 import socket
 import time
 from collections import Counter
@@ -38,7 +39,8 @@ from stook.service.api._errors import (
     TransportError,
 )
 from stook.service.api._limits import ConcurrencyLimit, FixedLimit
-from stook.service.api._redact import redact_text
+from stook.service.api._logging import get_logger
+from stook.service.api._redact import redact_text, redact_url
 
 __all__ = [
     "USER_AGENT",
@@ -50,6 +52,8 @@ __all__ = [
     "body_cap_mb",
     "transport_error",
 ]
+
+_log = get_logger("stook.service.http")
 
 USER_AGENT: Final = "stook/0.1 (+aiohttp)"
 _MAX_REDIRECTS: Final = 5
@@ -157,6 +161,7 @@ class HttpTransport:
         self._proxy_for = proxy_for
         self._body_cap = body_cap
         self._session: aiohttp.ClientSession | None = None
+        self._debug = False
 
     async def __aenter__(self) -> Self:
         await self.open()
@@ -172,6 +177,9 @@ class HttpTransport:
 
     async def open(self) -> None:
         """Open the session; `get` needs it open."""
+        # Asked once, not per request: the level does not change during a run, and the
+        # debug line costs a redact_url per request.
+        self._debug = _log.is_enabled_for(logging.DEBUG)
         self._session = aiohttp.ClientSession(
             connector=aiohttp.TCPConnector(limit=self._concurrency, limit_per_host=0),
             headers=self._headers,
@@ -197,7 +205,9 @@ class HttpTransport:
         session = self._session
         if session is None:
             raise RuntimeError(f"{self.name} transport is not open; use 'async with'")
-        if not self._credentials_allowed and (url.raw_user or url.raw_password) is not None:
+        if not self._credentials_allowed and (
+            url.raw_user is not None or url.raw_password is not None
+        ):
             # aiohttp would turn user info into a Basic Authorization header.
             url = url.with_user(None)
         await self.limiter.acquire()
@@ -223,6 +233,15 @@ class HttpTransport:
             self.limiter.release(status, time.monotonic() - started)
         self.stats.statuses[status] += 1
         self.stats.bytes_received += len(body)
+        if self._debug:
+            _log.debug(
+                "http response",
+                transport=self.name,
+                url=redact_url(response.url),
+                status=status,
+                bytes=len(body),
+                ms=round((time.monotonic() - started) * 1000, 1),
+            )
         return response
 
     async def _read(self, answer: aiohttp.ClientResponse) -> bytes:
