@@ -12,9 +12,9 @@ from email.utils import format_datetime
 
 import aiohttp
 import pytest
+import yarl
 from aiohttp import web
 from tenacity import wait_none
-import yarl
 
 from stook.service.api import (
     ApiClient,
