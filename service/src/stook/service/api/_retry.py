@@ -29,15 +29,18 @@ from __future__ import annotations
 import asyncio
 import email.utils
 import enum
+import sys
 import time
 from collections.abc import Awaitable, Callable
 from dataclasses import dataclass
 from typing import Final, TypeVar
 
 from tenacity import (
-    AsyncRetrying,
+    DoAttempt,
+    DoSleep,
     RetryCallState,
     RetryError,
+    Retrying,
     retry_if_exception,
     wait_random_exponential,
 )
@@ -263,7 +266,7 @@ class Origin:
         return _Passage.OPEN
 
     def _close_for(self, attempt: int, retry_after: float | None) -> float:
-        state = RetryCallState(AsyncRetrying(), None, (), {})
+        state = RetryCallState(Retrying(), None, (), {})
         state.attempt_number = attempt
         wait = min(self.policy.backoff_wait()(state), MAX_PROBE_INTERVAL)
         if retry_after is not None:
@@ -454,19 +457,36 @@ async def send(
     honoured raises :class:`RetryAfterTooLongError` at once.
     """
     request = _Request(origin, url, stats)
-    # One AsyncRetrying per request: tenacity keeps its per-call state on it.
-    retrying = AsyncRetrying(
+    retrying = Retrying(
         stop=request.stop,
         wait=request.wait,
         retry=retry_if_exception(is_retryable),
         before_sleep=request.before_sleep,
-        sleep=request.policy.sleep,
     )
+    # What AsyncRetrying.__call__ runs, on tenacity's synchronous core: AsyncRetrying
+    # inspects and wraps the stop, the wait and each step of its own in a coroutine on
+    # every attempt, which cost 80 µs a request at 0 ms latency (a third of the client's
+    # CPU). The rules, their order and their state are tenacity's either way.
+    retrying.begin()
+    state = RetryCallState(retrying, fn=None, args=(), kwargs={})
     try:
-        return await retrying(request.attempt, attempt)
+        while True:
+            do = retrying.iter(state)
+            if isinstance(do, DoAttempt):
+                try:
+                    result = await request.attempt(attempt)
+                except BaseException:
+                    state.set_exception(sys.exc_info())  # type: ignore[arg-type]
+                else:
+                    state.set_result(result)
+            elif isinstance(do, DoSleep):
+                state.prepare_for_next_attempt()
+                await request.policy.sleep(do)
+            else:
+                return do  # type: ignore[no-any-return]
     except _GateTimeoutError:
         request.why = _GiveUp.BUDGET
-        raise request.give_up(retrying.statistics.get("attempt_number", 1) - 1) from None
+        raise request.give_up(state.attempt_number - 1) from None  # that one was not sent
     except RetryError as exhausted:
         raise request.give_up(exhausted.last_attempt.attempt_number) from None
     finally:
