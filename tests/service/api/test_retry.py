@@ -320,9 +320,8 @@ async def test_an_origin_answering_with_an_error_status_is_past_first_contact(
     sleep: RecordingSleep,
 ) -> None:
     """A 503 is an answer: the URL is right, the origin is down; the whole budget."""
-    origin = Origin("the API", RetryPolicy(), setting="apiURL")
     policy = RetryPolicy(retry_for=60.0, first_contact_for=3.0, sleep=sleep, clock=sleep.now)
-    origin.policy = policy
+    origin = Origin("the API", policy, setting="apiURL")
     _calls, attempt = _scripted([status_error(503)] + [refused()] * 10_000)
     with pytest.raises(RetriesExhaustedError):
         await call_with_retries(attempt, policy, origin=origin)

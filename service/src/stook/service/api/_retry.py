@@ -126,6 +126,9 @@ def is_retryable(exc: BaseException) -> bool:
     return isinstance(exc, TransportError) and exc.retryable
 
 
+_RETRYABLE: Final = retry_if_exception(is_retryable)
+
+
 def describe_failure(exc: BaseException) -> str:
     """A short, redacted reason, for logs and errors."""
     if isinstance(exc, ApiStatusError | StorageError) and exc.status is not None:
@@ -181,6 +184,7 @@ class Origin:
     ) -> None:
         self.label = label
         self.policy = policy
+        self.backoff = policy.backoff_wait()
         self.setting = setting
         self.answered = False  # ever: after that, failures are outages, not a wrong URL
         self.retrying = 0  # requests between attempts now
@@ -268,7 +272,7 @@ class Origin:
     def _close_for(self, attempt: int, retry_after: float | None) -> float:
         state = RetryCallState(Retrying(), None, (), {})
         state.attempt_number = attempt
-        wait = min(self.policy.backoff_wait()(state), MAX_PROBE_INTERVAL)
+        wait = min(self.backoff(state), MAX_PROBE_INTERVAL)
         if retry_after is not None:
             wait = max(wait, retry_after)
         self._until = self.policy.clock() + wait
@@ -303,7 +307,6 @@ class _Request:
         self.why: _GiveUp | None = None
         self.left_at_stop = 0.0
         self.counted = False  # in origin.retrying
-        self.backoff = self.policy.backoff_wait()
 
     def first_contact(self) -> bool:
         """Whether the origin never answered and this request failed to connect: the
@@ -376,7 +379,7 @@ class _Request:
             return min(retry_after, self.policy.max_retry_after, left)
         if not self.origin.is_open:
             return 0.0
-        return min(self.backoff(state), left)
+        return min(self.origin.backoff(state), left)
 
     def before_sleep(self, state: RetryCallState) -> None:
         reason = describe_failure(self.last) if self.last is not None else "unknown"
@@ -460,7 +463,7 @@ async def send(
     retrying = Retrying(
         stop=request.stop,
         wait=request.wait,
-        retry=retry_if_exception(is_retryable),
+        retry=_RETRYABLE,
         before_sleep=request.before_sleep,
     )
     # What AsyncRetrying.__call__ runs, on tenacity's synchronous core: AsyncRetrying

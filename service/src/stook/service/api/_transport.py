@@ -57,6 +57,7 @@ _log = get_logger("stook.service.http")
 
 USER_AGENT: Final = "stook/0.1 (+aiohttp)"
 _MAX_REDIRECTS: Final = 5
+_NO_BODY_STATUSES: Final = frozenset({204, 304})
 _CREDENTIAL_HEADERS: Final = frozenset({"authorization", "proxy-authorization"})
 
 
@@ -250,30 +251,27 @@ class HttpTransport:
         when it ends before its ``Content-Length``."""
         cap = self._body_cap
         declared = answer.content_length
-        encoded = hdrs.CONTENT_ENCODING in answer.headers
-        if cap is not None and declared is not None and declared > cap.max_bytes and not encoded:
-            answer.close()  # not worth reading: drop the connection instead
-            raise BodyTooLargeError(
-                method="GET", url=answer.url, cap=cap.max_bytes, setting=cap.setting
-            )
+        if answer.status in _NO_BODY_STATUSES or hdrs.CONTENT_ENCODING in answer.headers:
+            declared = None  # no body whatever it says, or a count of compressed bytes
+        if declared is not None and (cap is None or declared <= cap.max_bytes):
+            try:  # aiohttp ends the body at its length: exactly that many bytes, at once
+                return await answer.content.readexactly(declared)
+            except asyncio.IncompleteReadError as short:
+                raise IncompleteBodyError(
+                    method="GET", url=answer.url, received=len(short.partial), expected=declared
+                ) from None
         chunks: list[bytes] = []
-        size = 0
-        try:
-            async for chunk in answer.content.iter_any():
-                size += len(chunk)
-                if cap is not None and size > cap.max_bytes:
-                    answer.close()
-                    raise BodyTooLargeError(
-                        method="GET", url=answer.url, cap=cap.max_bytes, setting=cap.setting
-                    )
-                chunks.append(chunk)
-        except aiohttp.ClientPayloadError:
-            if declared is None or encoded:
-                raise
-            raise IncompleteBodyError(
-                method="GET", url=answer.url, received=size, expected=declared
-            ) from None
-        return b"".join(chunks)
+        size = 0 if declared is None else declared  # a declared size past the cap: no read
+        while cap is None or size <= cap.max_bytes:
+            chunk = await answer.content.readany()
+            if not chunk:
+                return b"".join(chunks)
+            size += len(chunk)
+            chunks.append(chunk)
+        answer.close()  # not worth reading on: drop the connection instead
+        raise BodyTooLargeError(
+            method="GET", url=answer.url, cap=cap.max_bytes, setting=cap.setting
+        )
 
 
 def transport_error(exc: BaseException, url: URL, timeout: float) -> TransportError:
