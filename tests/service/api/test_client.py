@@ -685,8 +685,6 @@ async def test_a_transport_reads_a_declared_length_and_no_body_where_none_may_be
 async def test_storage_follows_five_redirects_and_refuses_a_sixth(
     server: ScriptedServer, fast_policy: RetryPolicy
 ) -> None:
-    # The first hop is sent in fetch_bytes' own frame, the rest by _follow: the count of
-    # hops is the same either way.
     for hop in range(7):
         server.script(f"/hop/{hop}", redirect(presigned(server, f"/hop/{hop + 1}")))
     server.script("/end/5", answer(200, b"five"))

@@ -52,7 +52,7 @@ def refused() -> TransportError:
     return TransportError(method="GET", url=URL, reason="refused", kind="connect")
 
 
-async def call_with_retries(
+async def retried(
     attempt: Callable[[], Awaitable[str]],
     policy: RetryPolicy,
     *,
@@ -132,7 +132,7 @@ def test_policy_defaults_and_validation() -> None:
         RetryPolicy(retry_for=0)
 
 
-async def test_call_with_retries_counts_and_gives_up(sleep: RecordingSleep) -> None:
+async def test_send_counts_and_gives_up(sleep: RecordingSleep) -> None:
     stats = TransferStats()
     calls = 0
 
@@ -143,7 +143,7 @@ async def test_call_with_retries_counts_and_gives_up(sleep: RecordingSleep) -> N
 
     policy = RetryPolicy(backoff=wait_none(), sleep=sleep, max_attempts=4)
     with pytest.raises(RetriesExhaustedError) as caught:
-        await call_with_retries(always_503, policy, stats=stats)
+        await retried(always_503, policy, stats=stats)
     assert calls == 4
     assert stats.retries == 3
     assert stats.retry_reasons == {"HTTP 503": 3}
@@ -152,7 +152,7 @@ async def test_call_with_retries_counts_and_gives_up(sleep: RecordingSleep) -> N
     assert stats.as_dict()["retries"] == 3
 
 
-async def test_call_with_retries_lets_permanent_errors_through(sleep: RecordingSleep) -> None:
+async def test_send_lets_permanent_errors_through(sleep: RecordingSleep) -> None:
     calls = 0
 
     async def not_found() -> str:
@@ -162,12 +162,12 @@ async def test_call_with_retries_lets_permanent_errors_through(sleep: RecordingS
 
     policy = RetryPolicy(backoff=wait_none(), sleep=sleep)
     with pytest.raises(NotFoundError):
-        await call_with_retries(not_found, policy)
+        await retried(not_found, policy)
     assert calls == 1
     assert sleep.waits == []
 
 
-async def test_call_with_retries_returns_the_value(sleep: RecordingSleep) -> None:
+async def test_send_returns_the_value(sleep: RecordingSleep) -> None:
     answers = iter([TransportError(method="GET", url=URL, reason="reset"), None])
 
     async def flaky() -> str:
@@ -177,7 +177,7 @@ async def test_call_with_retries_returns_the_value(sleep: RecordingSleep) -> Non
         return "done"
 
     policy = RetryPolicy(backoff=wait_none(), sleep=sleep)
-    assert await call_with_retries(flaky, policy) == "done"
+    assert await retried(flaky, policy) == "done"
     assert sleep.waits == [0.0]
 
 
@@ -205,7 +205,7 @@ async def test_retries_last_the_time_budget_not_a_count(sleep: RecordingSleep) -
     calls, attempt = _scripted([status_error(503)] * 10_000)
     policy = RetryPolicy(retry_for=120.0, sleep=sleep, clock=sleep.now)
     with pytest.raises(RetriesExhaustedError) as caught:
-        await call_with_retries(attempt, policy)
+        await retried(attempt, policy)
     assert calls[0] > 6  # the old count; 120 s of backoff holds about 25 attempts
     assert calls[0] == len(sleep.waits) + 1
     assert caught.value.attempts == calls[0]
@@ -225,7 +225,7 @@ async def test_an_outage_shorter_than_the_budget_is_ridden_out(sleep: RecordingS
         return "done"
 
     policy = RetryPolicy(retry_for=120.0, sleep=sleep, clock=sleep.now)
-    got = await call_with_retries(down_for_a_minute, policy)
+    got = await retried(down_for_a_minute, policy)
     assert got == "done"
     assert 60.0 <= sleep.now() <= 70.0  # back within one capped pause of the recovery
 
@@ -237,7 +237,7 @@ async def test_a_retry_after_beyond_the_cap_ends_the_request_at_once(
     calls, attempt = _scripted([throttled] * 100)
     policy = RetryPolicy(sleep=sleep, clock=sleep.now)
     with pytest.raises(RetryAfterTooLongError) as caught:
-        await call_with_retries(attempt, policy)
+        await retried(attempt, policy)
     assert calls[0] == 1
     assert sleep.waits == []
     message = str(caught.value)
@@ -253,7 +253,7 @@ async def test_a_retry_after_beyond_the_budget_left_ends_the_request(
     calls, attempt = _scripted([unavailable] * 100)
     policy = RetryPolicy(retry_for=10.0, sleep=sleep, clock=sleep.now)
     with pytest.raises(RetryAfterTooLongError, match=r"left of its 10 s \[fetch\] retry_for"):
-        await call_with_retries(attempt, policy)
+        await retried(attempt, policy)
     assert calls[0] == 1
     assert sleep.waits == []
 
@@ -262,7 +262,7 @@ async def test_a_retry_after_within_the_cap_and_budget_is_waited(sleep: Recordin
     throttled = ApiStatusError(status=429, method="GET", url=URL, retry_after=45.0)
     calls, attempt = _scripted([throttled, throttled])
     policy = RetryPolicy(sleep=sleep, clock=sleep.now)
-    got = await call_with_retries(attempt, policy)
+    got = await retried(attempt, policy)
     assert got == "done"
     assert calls[0] == 3
     assert sleep.waits == [45.0, 45.0]
@@ -312,7 +312,7 @@ async def test_after_the_first_answer_connection_failures_get_the_whole_budget(
     _calls, attempt = _scripted([refused()] * 10_000)
     policy = RetryPolicy(retry_for=60.0, first_contact_for=3.0, sleep=sleep, clock=sleep.now)
     with pytest.raises(RetriesExhaustedError):
-        await call_with_retries(attempt, policy)  # an origin that answered before
+        await retried(attempt, policy)  # an origin that answered before
     assert sum(sleep.waits) == pytest.approx(60.0)
 
 
@@ -324,7 +324,7 @@ async def test_an_origin_answering_with_an_error_status_is_past_first_contact(
     origin = Origin("the API", policy, setting="apiURL")
     _calls, attempt = _scripted([status_error(503)] + [refused()] * 10_000)
     with pytest.raises(RetriesExhaustedError):
-        await call_with_retries(attempt, policy, origin=origin)
+        await retried(attempt, policy, origin=origin)
     assert origin.answered
     assert sum(sleep.waits) == pytest.approx(60.0)
 
@@ -342,7 +342,7 @@ async def test_an_origin_being_retried_says_so_until_its_requests_end(
             raise status_error(503)
         return "done"
 
-    assert await call_with_retries(fails_twice, policy, origin=origin) == "done"
+    assert await retried(fails_twice, policy, origin=origin) == "done"
     assert seen == [(0, ""), (1, "HTTP 503"), (1, "HTTP 503")]
     assert origin.retrying == 0
 
