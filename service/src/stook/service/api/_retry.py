@@ -36,7 +36,6 @@ from dataclasses import dataclass
 from typing import Final, TypeVar
 
 from tenacity import (
-    DoAttempt,
     DoSleep,
     RetryCallState,
     RetryError,
@@ -479,30 +478,29 @@ async def send(
     """
     request = _Request(origin, url, stats)
     retrying = origin.tenacity
-    # What AsyncRetrying.__call__ runs, on tenacity's synchronous core: AsyncRetrying
-    # inspects and wraps the stop, the wait and each step of its own in a coroutine on
-    # every attempt, which cost 80 µs a request at 0 ms latency (a third of the client's
-    # CPU). The rules, their order and their state are tenacity's either way; the
-    # request's own state rides in the call's (`args`).
-    state = RetryCallState(retrying, fn=None, args=(request,), kwargs={})
+    # Each attempt's failure goes to tenacity, which says whether to retry, whether to
+    # stop and how long to wait: the loop of AsyncRetrying.__call__, on tenacity's
+    # synchronous core. AsyncRetrying would also wrap each step in a coroutine on every
+    # attempt, and its bookkeeping of a success hands the result back unchanged: together
+    # 80 µs a request at 0 ms latency, a third of the client's CPU.
+    state: RetryCallState | None = None  # the call's, made with its first failure
     try:
         while True:
+            try:
+                return await request.attempt(attempt)
+            except Exception:  # a cancellation is no failure: it ends the request as it is
+                if state is None:
+                    state = RetryCallState(retrying, fn=None, args=(request,), kwargs={})
+                state.set_exception(sys.exc_info())  # type: ignore[arg-type]
+            # Raises the failure when it is not retried, RetryError when retries stop.
             do = retrying.iter(state)
-            if isinstance(do, DoAttempt):
-                try:
-                    result = await request.attempt(attempt)
-                except BaseException:
-                    state.set_exception(sys.exc_info())  # type: ignore[arg-type]
-                else:
-                    state.set_result(result)
-            elif isinstance(do, DoSleep):
-                state.prepare_for_next_attempt()
-                await request.policy.sleep(do)
-            else:
-                return do  # type: ignore[no-any-return]
+            assert isinstance(do, DoSleep)
+            state.prepare_for_next_attempt()
+            await request.policy.sleep(do)
     except _GateTimeoutError:
         request.why = _GiveUp.BUDGET
-        raise request.give_up(state.attempt_number - 1) from None  # that one was not sent
+        sent = state.attempt_number - 1 if state is not None else 0  # the last one was not
+        raise request.give_up(sent) from None
     except RetryError as exhausted:
         raise request.give_up(exhausted.last_attempt.attempt_number) from None
     finally:
