@@ -220,12 +220,12 @@ def test_an_api_host_that_does_not_resolve_ends_the_run_at_once(
 def test_a_refused_api_gets_the_short_first_contact_budget(
     capsys: pytest.CaptureFixture[str], tmp_path: Path, emu: Emulator
 ) -> None:
-    with socket.socket() as sock:
+    with socket.socket() as sock:  # bound, never listening: connections are refused
         sock.bind(("127.0.0.1", 0))
         port = sock.getsockname()[1]
-    write_json(tmp_path / "inputs", batch_config(emu, apiURL=f"http://127.0.0.1:{port}/v1"))
-    started = time.monotonic()
-    code, err = stook_run(capsys, tmp_path)  # the default retry_for: 120 s
+        write_json(tmp_path / "inputs", batch_config(emu, apiURL=f"http://127.0.0.1:{port}/v1"))
+        started = time.monotonic()
+        code, err = stook_run(capsys, tmp_path)  # the default retry_for: 120 s
     assert code == 3
     assert 10.0 <= time.monotonic() - started < 20.0
     line = assert_failed(err, tmp_path / "outputs", f"127.0.0.1:{port}", "apiURL")

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import asyncio
 import socket
-from collections.abc import Awaitable, Callable
+from collections.abc import Awaitable, Callable, Iterator
 from datetime import UTC, datetime
 from email.utils import format_datetime
 
@@ -271,10 +271,13 @@ async def test_a_retry_after_within_the_cap_and_budget_is_waited(sleep: Recordin
 # -- first contact -------------------------------------------------------------------------
 
 
-def a_port_nothing_listens_on() -> int:
+@pytest.fixture
+def refusing_port() -> Iterator[int]:
+    """A port bound and never listening: connections to it are refused, and no other
+    program can take it while the test runs."""
     with socket.socket() as sock:
         sock.bind(("127.0.0.1", 0))
-        return int(sock.getsockname()[1])
+        yield int(sock.getsockname()[1])
 
 
 async def test_a_host_that_does_not_resolve_ends_the_first_request_at_once(
@@ -292,8 +295,10 @@ async def test_a_host_that_does_not_resolve_ends_the_first_request_at_once(
     assert "\n" not in message
 
 
-async def test_a_refused_first_contact_gets_the_short_budget(sleep: RecordingSleep) -> None:
-    port = a_port_nothing_listens_on()
+async def test_a_refused_first_contact_gets_the_short_budget(
+    sleep: RecordingSleep, refusing_port: int
+) -> None:
+    port = refusing_port
     policy = RetryPolicy(retry_for=120.0, first_contact_for=3.0, sleep=sleep, clock=sleep.now)
     async with ApiClient(f"http://127.0.0.1:{port}/v1", "t" * 20, retry=policy) as api:
         with pytest.raises(OriginUnreachableError) as caught:
