@@ -1,4 +1,4 @@
-"""`stook demo` previews each of its three outputs and prints where."""
+"""`stook demo` previews each of its outputs and prints where."""
 
 from __future__ import annotations
 
@@ -18,10 +18,13 @@ def test_the_demo_writes_and_prints_a_preview_of_each_output(
     pages = [
         tmp_path / "test-mode" / "metrics.html",
         tmp_path / "metrics.html",
+        tmp_path / "metrics-config" / "metrics.html",
         tmp_path / "report" / "metrics.html",
     ]
     for page in pages:
         assert f"  preview: {page}\n" in printed
         assert page.read_text(encoding="utf-8").startswith("<!DOCTYPE html>")
+    # The config-defined batch metric, with its SQL's gist.
+    assert "Mean localization error (SELECT AVG(error) FROM localization): " in printed
     # The example's images are beside its output, so its preview embeds them.
     assert pages[0].read_text(encoding="utf-8").count('<img src="data:image/png') == 3

@@ -31,6 +31,11 @@ if TYPE_CHECKING:
         StorageError,
         TransportError,
     )
+    from stook.service.api._job_logs import (
+        ExecutionStep,
+        JobLog,
+        LogType,
+    )
     from stook.service.api._limits import (
         AimdLimiter,
         ConcurrencyLimit,
@@ -106,6 +111,9 @@ else:
             "RetryAfterTooLongError": "stook.service.api._errors",
             "StorageError": "stook.service.api._errors",
             "TransportError": "stook.service.api._errors",
+            "ExecutionStep": "stook.service.api._job_logs",
+            "JobLog": "stook.service.api._job_logs",
+            "LogType": "stook.service.api._job_logs",
             "AimdLimiter": "stook.service.api._limits",
             "ConcurrencyLimit": "stook.service.api._limits",
             "FixedLimit": "stook.service.api._limits",
@@ -168,6 +176,7 @@ __all__ = [
     "ConflatedBatchStatus",
     "ConflatedJobStatus",
     "EventTimestampType",
+    "ExecutionStep",
     "ExperienceTag",
     "FixedLimit",
     "HttpTransport",
@@ -175,8 +184,10 @@ __all__ = [
     "IncompleteBodyError",
     "Job",
     "JobEventListing",
+    "JobLog",
     "JobStatus",
     "LimitStats",
+    "LogType",
     "MetricOwner",
     "MetricsDataStorageType",
     "NestedLimit",

@@ -16,6 +16,7 @@ if TYPE_CHECKING:
     from stook.service.fetch._batch_fetch import BatchFetcher, FetchOutcome, MissingJob
     from stook.service.fetch._deadline import DeadlineReachedError, fetch_deadline
     from stook.service.fetch._directions import failure_directions
+    from stook.service.fetch._emissions import fetch_emissions, fetch_emissions_log
     from stook.service.fetch._job_blobs import InvalidDataError, decode_values
     from stook.service.fetch._report_fetch import (
         ReportFetcher,
@@ -39,6 +40,8 @@ else:
             "DeadlineReachedError": "stook.service.fetch._deadline",
             "fetch_deadline": "stook.service.fetch._deadline",
             "failure_directions": "stook.service.fetch._directions",
+            "fetch_emissions": "stook.service.fetch._emissions",
+            "fetch_emissions_log": "stook.service.fetch._emissions",
             "decode_values": "stook.service.fetch._job_blobs",
             "ReportFetcher": "stook.service.fetch._report_fetch",
             "ReportNotFoundError": "stook.service.fetch._report_fetch",
@@ -62,6 +65,8 @@ __all__ = [
     "decode_values",
     "failure_directions",
     "fetch_deadline",
+    "fetch_emissions",
+    "fetch_emissions_log",
     "find_baseline",
     "is_scalar",
     "read_scalars",

@@ -29,6 +29,7 @@ if TYPE_CHECKING:
         Needs,
     )
     from stook.service.modes._baseline import ComparedFetcher
+    from stook.service.modes._config_metrics import ConfigMetricsStep
 
 BatchResult = RunResult[FetchOutcome]
 
@@ -65,6 +66,8 @@ class BatchMode:
     comparison: BaselineComparison | None = field(init=False, default=None)
     # The batch's summary for later reports ([output] summary); None when off.
     summary: BatchSummaryWriter | None = field(init=False, default=None)
+    # The config-defined batch metrics ([metrics_config]); None without.
+    config_metrics: ConfigMetricsStep | None = field(init=False, default=None)
 
     def __post_init__(self) -> None:
         self.aggregations = aggregations_for(self.config)
@@ -76,6 +79,13 @@ class BatchMode:
 
             self.summary = BatchSummaryWriter()
             self.aggregations.append(self.summary)
+        if self.config.metrics_config is not None:
+            # Its config loaded and checked now, before the first request.
+            from stook.service.modes._config_metrics import config_metrics_step
+
+            self.config_metrics = config_metrics_step(
+                self.config, self.inputs.access, batch_id=self.inputs.batch_id
+            )
 
     @property
     def output_id(self) -> uuid.UUID:

@@ -26,6 +26,7 @@ from stook.sdk.aggregations import Aggregation, Needs
 from stook.service.api import ApiClient, ApiError, RetryPolicy
 from stook.service.fetch import MissingJob, fetch_deadline
 from stook.service.modes._config import FetchSettings
+from stook.service.modes._config_metrics import ConfigMetricsStep, write_config_metrics
 from stook.service.modes._inputs import ApiAccess
 from stook.service.modes._open_api import HasTraffic, Traffic, open_api
 from stook.service.modes._progress import NoProgress, Progress, Snapshot
@@ -103,6 +104,11 @@ class Mode(Protocol[_R, _O]):
 
     def preface(self, writer: MetricsWriter, outcome: _O) -> None:
         """What the output says before the aggregations' metrics."""
+        ...
+
+    @property
+    def config_metrics(self) -> ConfigMetricsStep | None:
+        """The config-defined metrics ([metrics_config]), written after the aggregations'."""
         ...
 
 
@@ -183,6 +189,7 @@ async def run_pipeline(
     mode.preface(writer, outcome)
     for aggregation in mode.aggregations:
         aggregation.finish(writer)
+    await write_config_metrics(mode.config_metrics, writer, settings, retry, started=started)
     output = writer.write(outputs_dir / OUTPUT_NAME)
     return RunResult(
         kind=mode.kind,

@@ -25,6 +25,7 @@ if TYPE_CHECKING:
     # The report aggregations are imported by report mode, not by every run.
     from stook.sdk.aggregations import Aggregation, Needs
     from stook.sdk.aggregations.report import RegressionSummary
+    from stook.service.modes._config_metrics import ConfigMetricsStep
 
 log = structlog.get_logger("stook.report")
 
@@ -76,8 +77,18 @@ class ReportMode:
     aggregations: list[Aggregation[Any]] = field(init=False)
     kind: str = "report"
 
+    # The config-defined dashboard metrics ([metrics_config]); None without.
+    config_metrics: ConfigMetricsStep | None = field(init=False, default=None)
+
     def __post_init__(self) -> None:
         self.aggregations = report_aggregations_for(self.config, str(self.inputs.access.project_id))
+        if self.config.metrics_config is not None:
+            # Its config loaded and checked now, before the first request.
+            from stook.service.modes._config_metrics import config_metrics_step
+
+            self.config_metrics = config_metrics_step(
+                self.config, self.inputs.access, report_id=self.inputs.report_id
+            )
 
     @property
     def output_id(self) -> uuid.UUID:

@@ -16,6 +16,11 @@ from typing import Any, Final
 
 from stook.bench._adaptive import run_rate_limited
 from stook.bench._decode import decode_target, measure_decode
+from stook.bench._emissions_batch import JOBS as EMISSIONS_JOBS
+from stook.bench._emissions_batch import QUICK_JOBS as EMISSIONS_QUICK_JOBS
+from stook.bench._emissions_batch import QUICK_RUNS as EMISSIONS_QUICK_RUNS
+from stook.bench._emissions_batch import RUNS as EMISSIONS_RUNS
+from stook.bench._emissions_batch import measure_emissions_batch
 from stook.bench._fetch_loads import run_fetch_loads
 from stook.bench._measure import (
     BARE_LOOP,
@@ -259,6 +264,11 @@ def run_bench(
         f"{latency:g} ms, {report_runs} run(s) ..."
     )
     reports = [compare_report_with_resim(batches, jobs, latency) for _ in range(report_runs)]
+    emissions = measure_emissions_batch(
+        EMISSIONS_QUICK_JOBS if quick else EMISSIONS_JOBS,
+        runs=EMISSIONS_QUICK_RUNS if quick else EMISSIONS_RUNS,
+        say=say,
+    )
     say("decode + reduce of job-sized series, as batch mode reads them ...")
     # In a process of its own, as a run decodes: not beside the bench's own objects.
     decode = in_fresh_process(measure_decode, 50 if quick else 200)
@@ -305,6 +315,7 @@ def run_bench(
         "batch_summaries": summaries,
         "report_vs_resim": reports,
         "decode_reduce": decode,
+        "emissions_batch": emissions,
     }
     out_dir.mkdir(parents=True, exist_ok=True)
     _write_csv(rows, out_dir / f"{prefix}sweep.csv")

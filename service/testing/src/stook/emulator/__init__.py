@@ -15,6 +15,9 @@ deterministic by seed; latency, transient faults and rate limits are configurabl
 
 from stook.emulator._config import EmulatorConfig, Origin, Outage
 from stook.emulator._dataset import Dataset
+from stook.emulator._emissions import CONFIG_YAML as EMISSIONS_CONFIG_YAML
+from stook.emulator._emissions import EMISSIONS_FILE
+from stook.emulator._emissions import Row as EmittedRow
 from stook.emulator._faults import FaultKind
 from stook.emulator._generate import EventTruth, HistogramTruth, Truth
 from stook.emulator._server import (
@@ -33,10 +36,13 @@ from stook.emulator._world import BatchKind, BatchSpec, Experience, JobSpec, Rep
 
 __all__ = [
     "BATCH_CONFIG",
+    "EMISSIONS_CONFIG_YAML",
+    "EMISSIONS_FILE",
     "REPORT_CONFIG",
     "BatchKind",
     "BatchSpec",
     "Dataset",
+    "EmittedRow",
     "Emulator",
     "EmulatorConfig",
     "EmulatorInfo",

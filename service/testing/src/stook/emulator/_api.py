@@ -17,11 +17,13 @@ from aiohttp import web
 
 from stook.emulator import _json
 from stook.emulator._branch_routes import add_branch_routes
+from stook.emulator._job_logs import add_job_log_routes
 from stook.emulator._middleware import (
     Handler,
     admit,
     apply_fault,
     error_response,
+    in_flight_limit,
     json_bytes_response,
     json_response,
     record_response,
@@ -76,7 +78,7 @@ def build_api_app(state: EmulatorState) -> web.Application:
             response = error_response(exc.status, exc.reason)
         return record_response(state.stats, "api", response, fault)
 
-    app = web.Application(middlewares=[middleware])
+    app = web.Application(middlewares=[*in_flight_limit(state, "api"), middleware])
     routes = _ApiRoutes(state)
     p = f"{API_PREFIX}/projects/{{project_id}}"
     app.router.add_get(f"{p}/batches", routes.list_batches, name="list_batches")
@@ -114,6 +116,7 @@ def build_api_app(state: EmulatorState) -> web.Application:
         name="list_experience_tags",
     )
     add_branch_routes(app, state, p)
+    add_job_log_routes(app, state, p, BUCKET)
     app.router.add_get("/_emulator/stats", routes.emulator_stats, name="emulator_stats")
     return app
 

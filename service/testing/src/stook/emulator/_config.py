@@ -71,6 +71,9 @@ class EmulatorConfig:
     baseline_shift_metric: str = "Localization error"
     baseline_shift: float = 0.0
     cache_jobs: int = 256  # generated job outputs kept (an LRU); the rest is regenerated
+    # Frames each job emits to its emissions log (two rows a frame, plus a few; see
+    # _emissions.py): 500 gives the thousand rows a job of the benchmarks emits.
+    emission_frames: int = 40
     # stook batch summaries in the report batches' batch metrics data (see _summaries.py):
     # "off"; "exact", built from every job's generated metrics as stook's batch mode
     # would; "synthetic", from the job specs alone with cheap values (benchmarks of a
@@ -127,6 +130,10 @@ class EmulatorConfig:
     rate_limit_burst: int | None = None  # default: max(1, rate)
     storage_rate_limit_rps: float | None = None
     storage_rate_limit_burst: int | None = None
+    # Requests both origins answer at once (a server's capacity); beyond it a request is
+    # answered 429 with Retry-After at once, as a gateway's concurrency limit does. None:
+    # unlimited. `stook bench --probe` is tested against it.
+    max_in_flight: int | None = None
 
     def __post_init__(self) -> None:
         fractions = (self.fault_5xx, self.fault_429, self.fault_reset, self.fault_truncate)
@@ -147,11 +154,15 @@ class EmulatorConfig:
             raise ValueError("max_consecutive_faults and retry_after_max_s cannot be negative")
         if self.cache_jobs < 1:
             raise ValueError("cache_jobs must be at least 1")
+        if isinstance(self.emission_frames, bool) or self.emission_frames < 0:
+            raise ValueError("emission_frames cannot be negative")
         if self.batch_summaries not in ("off", "exact", "synthetic"):
             raise ValueError("batch_summaries must be 'off', 'exact' or 'synthetic'")
         for rate in (self.rate_limit_rps, self.storage_rate_limit_rps):
             if rate is not None and rate <= 0:
                 raise ValueError("a rate limit must be positive (or None)")
+        if self.max_in_flight is not None and self.max_in_flight < 1:
+            raise ValueError("max_in_flight must be at least 1 (or None)")
         if any(o not in ORIGINS for o in self.fault_origins):
             raise ValueError(f"fault_origins must be drawn from {ORIGINS}")
         step = self.report_step_change_batch

@@ -13,6 +13,7 @@ from collections import Counter
 from collections.abc import Iterator
 
 from stook.emulator._config import EmulatorConfig
+from stook.emulator._emissions import EmissionsStore, EmittedLog, Row
 from stook.emulator._generate import (
     BatchMetricsPlan,
     Truth,
@@ -31,6 +32,7 @@ class Dataset(World):
     def __init__(self, config: EmulatorConfig) -> None:
         super().__init__(config)
         self._store = OutputStore(self)
+        self._emissions = EmissionsStore(self.seed, config.emission_frames, config.cache_jobs)
 
     @property
     def generated_outputs(self) -> int:
@@ -169,3 +171,21 @@ class Dataset(World):
         output = self.batch_output(batch.id)
         assert output is not None
         return output.truth
+
+    # ---- emissions (config-defined metrics) ----
+
+    def emissions_log(self, batch_id: uuid.UUID, job_id: uuid.UUID) -> EmittedLog | None:
+        """A job's EMISSIONS_LOG as stored; None when the job uploaded none (or is unknown)."""
+        job = self.job(batch_id, job_id)
+        return None if job is None else self._emissions.log(job)
+
+    def job_emissions(self, batch_id: uuid.UUID, job_id: uuid.UUID) -> bytes | None:
+        """The `emissions.resim.jsonl` a job uploaded; None when it has none."""
+        log = self.emissions_log(batch_id, job_id)
+        return None if log is None else log.body
+
+    def emitted_rows(self, batch_id: uuid.UUID) -> Iterator[tuple[JobSpec, list[Row] | None]]:
+        """Every job of a batch with the rows it emitted (None: no emissions log), in job
+        order: the ground truth of the config-defined metrics."""
+        for job in self.jobs(batch_id):
+            yield job, self._emissions.rows(job)

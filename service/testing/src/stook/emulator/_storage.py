@@ -10,7 +10,14 @@ import uuid
 
 from aiohttp import web
 
-from stook.emulator._middleware import Handler, admit, apply_fault, record_response
+from stook.emulator._job_logs import add_log_storage_routes
+from stook.emulator._middleware import (
+    Handler,
+    admit,
+    apply_fault,
+    in_flight_limit,
+    record_response,
+)
 from stook.emulator._state import EmulatorState
 from stook.emulator._store import MetricsOutput
 
@@ -57,7 +64,7 @@ def build_storage_app(state: EmulatorState) -> web.Application:
         return record_response(stats, "storage", response, fault)
 
     routes = _StorageRoutes(state)
-    app = web.Application(middlewares=[middleware])
+    app = web.Application(middlewares=[*in_flight_limit(state, "storage"), middleware])
     base = f"/{BUCKET}/projects/{{project_id}}/batches/{{batch_id}}"
     app.router.add_get(
         f"{base}/jobs/{{job_id}}/metrics/{{object_id}}", routes.job_metric, name="job_metric"
@@ -71,6 +78,7 @@ def build_storage_app(state: EmulatorState) -> web.Application:
     app.router.add_get(
         f"{base}/metricsData/{{object_id}}", routes.batch_data, name="batch_metrics_data"
     )
+    add_log_storage_routes(app, state, BUCKET)
     return app
 
 

@@ -7,6 +7,8 @@
    step change half-way; stook draws them over time, says what regressed in the latest
    batch and where, earlier, a level moved (change points).
 4. Batch mode with a baseline: a batch compared with the previous one (_demo_baseline).
+5. Config-defined metrics: the batch's emissions logs through the emulated project's
+   config.resim.yml (_demo_metrics_config), between 2 and 3.
 Each output is validated and summarised; the batch summary adds jobs, requests,
 retries and seconds.
 """
@@ -36,6 +38,7 @@ from stook.service.modes import (
 )
 from stook.service.preview import PREVIEW_NAME, write_preview
 from stook.testing._demo_baseline import run_comparison_demo
+from stook.testing._demo_metrics_config import run_config_metrics_demo
 from stook.testing._frames import write_example_frames
 
 REPORT_BATCHES = 14
@@ -147,6 +150,7 @@ def run_demo(*, jobs: int, output: Path, seed: int) -> int:
             f"{result.requests:,} requests, {result.retries} retries after {faults} injected "
             f"faults, {result.bytes_received / 1e6:.1f} MB, {seconds:.2f} s"
         )
+        invalid += run_config_metrics_demo(inputs, output, print_output=_print_output)
 
         print(f"\n== report mode: {REPORT_BATCHES} batches of a test suite over time ==")
         emulator.write_report_config(report_inputs)
