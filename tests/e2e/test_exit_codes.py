@@ -12,6 +12,7 @@ import os
 import socket
 import subprocess
 import sys
+import time
 import uuid
 from collections.abc import Iterator
 from pathlib import Path
@@ -199,7 +200,36 @@ def test_unreachable_api(capsys: pytest.CaptureFixture[str], tmp_path: Path, emu
     write_json(tmp_path / "inputs", batch_config(emu, apiURL=url))
     code, err = stook_run(capsys, tmp_path, toml="[fetch]\nretry_for = 2\ntimeout = 2.0\n")
     assert code == 3
-    assert_failed(err, tmp_path / "outputs", f"127.0.0.1:{port}")
+    assert_failed(err, tmp_path / "outputs", f"the API at http://127.0.0.1:{port}", "apiURL")
+
+
+def test_an_api_host_that_does_not_resolve_ends_the_run_at_once(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path, emu: Emulator
+) -> None:
+    """Not the whole retry_for (120 s): a name that never resolved is a wrong apiURL."""
+    url = "http://nonexistent.invalid:8080/v1"
+    write_json(tmp_path / "inputs", batch_config(emu, apiURL=url))
+    started = time.monotonic()
+    code, err = stook_run(capsys, tmp_path)
+    assert code == 3
+    assert time.monotonic() - started < 5.0
+    assert_failed(err, tmp_path / "outputs", "nonexistent.invalid:8080", "apiURL")
+
+
+@pytest.mark.slow
+def test_a_refused_api_gets_the_short_first_contact_budget(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path, emu: Emulator
+) -> None:
+    with socket.socket() as sock:  # bound, never listening: connections are refused
+        sock.bind(("127.0.0.1", 0))
+        port = sock.getsockname()[1]
+        write_json(tmp_path / "inputs", batch_config(emu, apiURL=f"http://127.0.0.1:{port}/v1"))
+        started = time.monotonic()
+        code, err = stook_run(capsys, tmp_path)  # the default retry_for: 120 s
+    assert code == 3
+    assert 10.0 <= time.monotonic() - started < 20.0
+    line = assert_failed(err, tmp_path / "outputs", f"127.0.0.1:{port}", "apiURL")
+    assert "tried for 10 s" in line
 
 
 def test_unknown_batch(capsys: pytest.CaptureFixture[str], tmp_path: Path, emu: Emulator) -> None:

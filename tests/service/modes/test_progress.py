@@ -143,6 +143,21 @@ def test_a_reports_events_count_batches() -> None:
     assert event["progress"] == "40 of 80 listed jobs"
 
 
+def test_an_event_while_requests_are_retried_is_a_warning_naming_the_origin() -> None:
+    clock = FakeClock()
+    retrying = "the API at http://127.0.0.1:9: HTTP 503"
+    with capture_logs() as captured:
+        shown = LogProgress(interval=1.0, clock=clock)
+        clock.now += 1.5
+        shown.update(Snapshot(jobs_done=0, jobs_listed=0, retries=7, retrying=retrying))
+        clock.now += 1.5
+        shown.update(Snapshot(jobs_done=3, jobs_listed=3, retries=7))  # the origin is back
+    assert [(e["log_level"], e.get("retrying")) for e in captured] == [
+        ("warning", retrying),
+        ("info", None),
+    ]
+
+
 def test_the_choice_of_display(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.delenv("STOOK_PROGRESS", raising=False)
     monkeypatch.delenv("STOOK_PROGRESS_INTERVAL", raising=False)

@@ -23,16 +23,13 @@ if TYPE_CHECKING:
         IncompleteBodyError,
         NotFoundError,
         OriginUnavailableError,
+        OriginUnreachableError,
         PresignedUrlExpiredError,
         RedirectedRefusalError,
         RetriesExhaustedError,
         RetryAfterTooLongError,
         StorageError,
         TransportError,
-    )
-    from stook.service.api._gate import (
-        GateStats,
-        OriginGate,
     )
     from stook.service.api._job_logs import (
         ExecutionStep,
@@ -77,21 +74,17 @@ if TYPE_CHECKING:
         register_secret,
     )
     from stook.service.api._retry import (
+        Origin,
         RetryPolicy,
-    )
-    from stook.service.api._stats import (
-        TransferStats,
     )
     from stook.service.api._storage import (
         StorageClient,
-    )
-    from stook.service.api._tls import (
-        import_aiohttp_without_tls_defaults,
     )
     from stook.service.api._transport import (
         BodyCap,
         HttpTransport,
         Response,
+        TransferStats,
         Transport,
         body_cap_mb,
     )
@@ -111,14 +104,13 @@ else:
             "IncompleteBodyError": "stook.service.api._errors",
             "NotFoundError": "stook.service.api._errors",
             "OriginUnavailableError": "stook.service.api._errors",
+            "OriginUnreachableError": "stook.service.api._errors",
             "PresignedUrlExpiredError": "stook.service.api._errors",
             "RedirectedRefusalError": "stook.service.api._errors",
             "RetriesExhaustedError": "stook.service.api._errors",
             "RetryAfterTooLongError": "stook.service.api._errors",
             "StorageError": "stook.service.api._errors",
             "TransportError": "stook.service.api._errors",
-            "GateStats": "stook.service.api._gate",
-            "OriginGate": "stook.service.api._gate",
             "ExecutionStep": "stook.service.api._job_logs",
             "JobLog": "stook.service.api._job_logs",
             "LogType": "stook.service.api._job_logs",
@@ -151,10 +143,10 @@ else:
             "redact_text": "stook.service.api._redact",
             "redact_url": "stook.service.api._redact",
             "register_secret": "stook.service.api._redact",
+            "Origin": "stook.service.api._retry",
             "RetryPolicy": "stook.service.api._retry",
-            "TransferStats": "stook.service.api._stats",
+            "TransferStats": "stook.service.api._transport",
             "StorageClient": "stook.service.api._storage",
-            "import_aiohttp_without_tls_defaults": "stook.service.api._tls",
             "body_cap_mb": "stook.service.api._transport",
             "BodyCap": "stook.service.api._transport",
             "HttpTransport": "stook.service.api._transport",
@@ -187,7 +179,6 @@ __all__ = [
     "ExecutionStep",
     "ExperienceTag",
     "FixedLimit",
-    "GateStats",
     "HttpTransport",
     "IdLike",
     "IncompleteBodyError",
@@ -201,8 +192,9 @@ __all__ = [
     "MetricsDataStorageType",
     "NestedLimit",
     "NotFoundError",
-    "OriginGate",
+    "Origin",
     "OriginUnavailableError",
+    "OriginUnreachableError",
     "PresignedUrlExpiredError",
     "RedirectedRefusalError",
     "Report",
@@ -218,7 +210,6 @@ __all__ = [
     "body_cap_mb",
     "configure_logging",
     "get_logger",
-    "import_aiohttp_without_tls_defaults",
     "redact_event",
     "redact_text",
     "redact_url",

@@ -42,15 +42,14 @@ from stook.service.api._models import (
 )
 from stook.service.api._paging import ListingGuard
 from stook.service.api._redact import redact_url, register_secret
-from stook.service.api._retry import RetryPolicy, new_gate
-from stook.service.api._retrying import call_with_retries, sent_at_once
-from stook.service.api._stats import TransferStats
+from stook.service.api._retry import Origin, RetryPolicy, send
 from stook.service.api._storage import DEFAULT_CONCURRENCY, StorageClient, answer_retry_after
 from stook.service.api._transport import (
     USER_AGENT,
     BodyCap,
     HttpTransport,
     Response,
+    TransferStats,
     Transport,
     body_cap_mb,
 )
@@ -150,7 +149,7 @@ class ApiClient:
         # when it holds _MAX_IDS_KEPT, so it does not grow with the run.
         self._ids: dict[str, uuid.UUID] = {}
         # Shared by every API request: when the API fails, they wait together.
-        self.gate = new_gate("the API", self._policy)
+        self.origin = Origin("the API", self._policy, setting="apiURL")
         if concurrency < 1:
             raise ValueError(f"concurrency must be at least 1, got {concurrency}")
         self.limiter: ConcurrencyLimit = limiter or FixedLimit(concurrency)
@@ -241,30 +240,7 @@ class ApiClient:
         the worker and the transport saves a frame's resumption at every step of its
         request.
         """
-        # The first attempt in this frame (see sent_at_once); the rest, if any, retried.
-        gate = self.gate
-        first: tuple[Exception, int] | None = None
-        sent_in = sent_at_once(gate)
-        if sent_in is not None:
-            try:
-                response = await self._transport.get(url)
-                if not 200 <= response.status < 300:  # not `ok`: a property is a call
-                    raise _api_error(response, self._base.origin())
-            except Exception as exc:
-                first = (exc, sent_in)
-            else:
-                if not gate.quiet:  # else there is nothing to tell it
-                    gate.answered(sent_in)
-        if sent_in is None or first is not None:
-            response = await call_with_retries(
-                lambda: self._get_once(url),
-                self._policy,
-                stats=self.stats,
-                method="GET",
-                url=url,
-                gate=gate,
-                first=first,
-            )
+        response = await send(lambda: self._get_once(url), self.origin, url=url, stats=self.stats)
         try:
             document = _loads(response.body)
         except (UnicodeDecodeError, json.JSONDecodeError) as exc:

@@ -10,7 +10,7 @@ reason third-party exceptions (whose text may hold a full URL) are never chained
 
 from __future__ import annotations
 
-from typing import Final
+from typing import Final, Literal
 
 from yarl import URL
 
@@ -23,9 +23,11 @@ __all__ = [
     "ApiStatusError",
     "AuthError",
     "BodyTooLargeError",
+    "FailureKind",
     "IncompleteBodyError",
     "NotFoundError",
     "OriginUnavailableError",
+    "OriginUnreachableError",
     "PresignedUrlExpiredError",
     "RedirectedRefusalError",
     "RetriesExhaustedError",
@@ -37,6 +39,12 @@ __all__ = [
 ]
 
 _EXCERPT_CHARS: Final = 200
+
+#: What kind of failure kept an answer from arriving: the host's name did not resolve
+#: ("dns"), no connection was made ("connect"), one was made and broke ("broken"), the
+#: request timed out ("timeout"), or a failure another attempt cannot fix ("permanent": a
+#: certificate, an invalid URL, a redirect loop, a body over its cap).
+FailureKind = Literal["dns", "connect", "broken", "timeout", "permanent"]
 
 
 def body_excerpt(body: bytes, limit: int = _EXCERPT_CHARS) -> str:
@@ -141,16 +149,21 @@ class PresignedUrlExpiredError(StorageError):
 class TransportError(ApiError):
     """No complete answer arrived: connection refused or reset, timeout, truncated body.
 
-    ``reason`` is the failure without the URL (for retry logs); ``retryable`` is False for
-    failures that another attempt cannot fix (a bad certificate, an invalid URL, too many
-    redirects).
+    ``reason`` is the failure without the URL (for retry logs); ``kind`` what kind of
+    failure it was (see `FailureKind`), which says whether another attempt may help.
     """
 
-    def __init__(self, *, method: str, url: str | URL, reason: str, retryable: bool = True) -> None:
+    def __init__(
+        self, *, method: str, url: str | URL, reason: str, kind: FailureKind = "broken"
+    ) -> None:
         self.url = redact_url(url)
         self.reason = redact_text(reason)
-        self.retryable = retryable
+        self.kind: FailureKind = kind
         super().__init__(f"{method} {self.url} failed: {self.reason}")
+
+    @property
+    def retryable(self) -> bool:
+        return self.kind != "permanent"
 
 
 class IncompleteBodyError(TransportError):
@@ -175,7 +188,7 @@ class BodyTooLargeError(TransportError):
             method=method,
             url=url,
             reason=f"the answer is larger than {_megabytes(cap)} (the {setting} cap)",
-            retryable=False,
+            kind="permanent",
         )
 
 
@@ -225,6 +238,20 @@ class OriginUnavailableError(ApiError):
         super().__init__(
             f"{label} at {self.origin} was unavailable for {retry_for:g} s, the whole "
             f"[fetch] retry_for budget; last error: {self.last_reason}"
+        )
+
+
+class OriginUnreachableError(ApiError):
+    """An origin never answered the first contact: its host name does not resolve, or no
+    connection could be made for the short first-contact budget. A wrong URL, most likely:
+    the message names the setting it came from."""
+
+    def __init__(self, *, label: str, origin: str | URL, setting: str, reason: str) -> None:
+        self.label = label
+        self.origin = redact_url(origin).rstrip("/")
+        self.reason = redact_text(reason)
+        super().__init__(
+            f"{label} at {self.origin} cannot be reached ({self.reason}); check {setting}"
         )
 
 

@@ -17,14 +17,19 @@ from yarl import URL
 from stook.service.api._errors import PresignedUrlExpiredError, StorageError
 from stook.service.api._limits import ConcurrencyLimit
 from stook.service.api._redact import redact_url
-from stook.service.api._retry import RETRYABLE_STATUSES, RetryPolicy, new_gate, parse_retry_after
-from stook.service.api._retrying import call_with_retries, sent_at_once
-from stook.service.api._stats import TransferStats
+from stook.service.api._retry import (
+    RETRYABLE_STATUSES,
+    Origin,
+    RetryPolicy,
+    parse_retry_after,
+    send,
+)
 from stook.service.api._transport import (
     USER_AGENT,
     BodyCap,
     HttpTransport,
     Response,
+    TransferStats,
     Transport,
     body_cap_mb,
 )
@@ -65,7 +70,7 @@ class StorageClient:
     ) -> None:
         self._policy = retry or RetryPolicy()
         # Shared by every storage request: when storage fails, they wait together.
-        self.gate = new_gate("object storage", self._policy)
+        self.origin = Origin("object storage", self._policy, setting="the URLs the API listed")
         if transport is None:
             transport = HttpTransport(
                 name="storage",
@@ -104,29 +109,8 @@ class StorageClient:
         target = URL(url, encoded=True)
         if target.scheme not in ("http", "https") or not target.raw_host:
             raise StorageError("not an http(s) URL", url=url)
-        # The first attempt in this frame (see sent_at_once), and its first hop too: nearly
-        # every object is answered at once, and each coroutine layer is crossed on every
-        # resumption of the request. The rest, if any, retried.
-        gate = self.gate
-        first: tuple[Exception, int] | None = None
-        sent_in = sent_at_once(gate)
-        if sent_in is not None:
-            try:
-                response = await self._transport.get(target)
-                body = response.body if response.ok else await self._follow(response, target)
-            except Exception as exc:
-                first = (exc, sent_in)
-            else:
-                gate.answered(sent_in)
-                return body
-        return await call_with_retries(
-            lambda: self._fetch_once(target),
-            self._policy,
-            stats=self.stats,
-            method="GET",
-            url=url,
-            gate=gate,
-            first=first,
+        return await send(
+            lambda: self._fetch_once(target), self.origin, url=target, stats=self.stats
         )
 
     async def _fetch_once(self, url: URL) -> bytes:

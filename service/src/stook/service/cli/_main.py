@@ -10,7 +10,7 @@ from __future__ import annotations
 import os
 import sys
 
-from stook.service.cli import _collector, _fast_exit, _signals
+from stook.service.cli import _fast_exit, _signals
 from stook.service.cli._signals import Interrupted
 
 # typing.TYPE_CHECKING without importing typing, which alone costs milliseconds before the
@@ -276,8 +276,6 @@ _ADD_ARGUMENTS: dict[str, Callable[[argparse.ArgumentParser], None]] = {
 
 def main(argv: Sequence[str] | None = None) -> None:
     _signals.install()  # first: a signal from here on ends in one line, imports included
-    if argv is None:  # the process's entry point: no collection during the imports
-        _collector.pause()
     voice: Voice | None = None
     try:
         voice = Voice(argv)
@@ -485,10 +483,6 @@ def _testing_tool(command: str, module: str) -> Any:
 def _dispatch(args: argparse.Namespace, voice: Voice) -> int:
     match args.command:
         case "run":
-            from stook.service.api import import_aiohttp_without_tls_defaults
-
-            # First: aiohttp's own TLS contexts would cost ~55 ms of every start-up.
-            import_aiohttp_without_tls_defaults()
             from stook.service.cli._run import resolve_options, run
             from stook.service.modes import Tally, event_loop_factory, for_stream
 
@@ -504,18 +498,15 @@ def _dispatch(args: argparse.Namespace, voice: Voice) -> int:
             voice.progress = Tally(for_stream(label="jobs"))
             loop_factory = event_loop_factory()  # before the run: a bad choice is exit 2
             _fast_exit.arm()
-            _collector.resume()  # the imports done: the ones left are the mode's own
             _signals.run(run(options, progress=voice.progress), loop_factory=loop_factory)
             return 0
         case "demo":
             from pathlib import Path
 
             demo = _testing_tool("demo", "stook.testing._demo")
-            _collector.resume()
             return int(demo.run_demo(jobs=args.jobs, output=Path(args.output), seed=args.seed))
         case "emulate":
             emulator_cli = _testing_tool("emulate", "stook.emulator._cli")
-            _collector.resume()
             return int(_signals.run(emulator_cli.emulate(args)))
         case "bench":
             from pathlib import Path
@@ -524,7 +515,6 @@ def _dispatch(args: argparse.Namespace, voice: Voice) -> int:
 
             check_probe_flags(args)
             bench = _testing_tool("bench", "stook.bench")
-            _collector.resume()
             if args.probe:
                 return run_probe(bench, args)
             if args.engines:
@@ -535,21 +525,17 @@ def _dispatch(args: argparse.Namespace, voice: Voice) -> int:
         case "preview":
             from stook.service.cli._preview import preview_files
 
-            _collector.resume()
             return preview_files(args.files, args.output, open_browser=args.open)
         case "metrics-config":
             from stook.service.cli import _metrics_config
 
-            _collector.resume()
             return _metrics_config.run(args)
         case "validate":
             from stook.service.cli._inspect import validate_file
 
-            _collector.resume()
             return validate_file(args.file)
         case "show":
             from stook.service.cli._inspect import show_file
 
-            _collector.resume()
             return show_file(args.file, full=args.full)
     raise AssertionError(f"unhandled command {args.command!r}")  # argparse restricts it

@@ -10,6 +10,11 @@ existed before it are frozen (never scanned: they live for the whole process any
 a young collection waits for 20,000 allocations. Cycles are still collected, later; the
 memory they can hold meanwhile is bounded by that threshold, not by the batch's size.
 Both are undone when the last fetch running ends.
+
+The one place stook tunes the collector, kept because it measured more than 5 % of the
+standard run: whole `stook run` processes, 400 jobs at 10 ms, 5 interleaved runs, 0.84 s
+of CPU with it against 0.99 s without (-15 %). A pause of the collector during the
+start-up imports, beside it, measured nothing more (0.838 s without it) and is gone.
 """
 
 from __future__ import annotations

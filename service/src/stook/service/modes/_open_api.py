@@ -42,6 +42,8 @@ class Traffic:
     requests: int = 0
     retries: int = 0
     bytes_received: int = 0
+    # Requests being retried now: the origins and their last failure ("" when none).
+    retrying: str = ""
     limiters: Mapping[str, ConcurrencyLimit] = field(default_factory=dict, compare=False)
 
     @classmethod
@@ -50,6 +52,11 @@ class Traffic:
             requests=api.stats.requests + api.storage.stats.requests,
             retries=api.stats.retries + api.storage.stats.retries,
             bytes_received=api.stats.bytes_received + api.storage.stats.bytes_received,
+            retrying="; ".join(
+                f"{origin.label} at {origin.url}: {origin.last_failure}"
+                for origin in (api.origin, api.storage.origin)
+                if origin.retrying
+            ),
             limiters=api.limiters,
         )
 
@@ -60,6 +67,7 @@ class Traffic:
             requests=self.requests + other.requests,
             retries=self.retries + other.retries,
             bytes_received=self.bytes_received + other.bytes_received,
+            retrying=other.retrying or self.retrying,
             limiters=other.limiters or self.limiters,
         )
 

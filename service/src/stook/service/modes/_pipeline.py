@@ -266,6 +266,7 @@ def show_progress(shown: Progress, snapshot: Snapshot, traffic: Traffic) -> None
             requests=traffic.requests,
             retries=traffic.retries,
             bytes_received=traffic.bytes_received,
+            retrying=traffic.retrying,
         )
     )
 

@@ -8,7 +8,8 @@ start-up does not pay for it.
 
 Off a terminal (`LogProgress`, the platform's log view): one ``fetch progress`` event every
 ``interval`` seconds (jobs done of total, requests/s, retries, elapsed), so that a long run
-shows life between its first and last lines.
+shows life between its first and last lines; at warning level, naming the origin and its
+last failure, while requests are being retried.
 
 ``STOOK_PROGRESS`` picks one by hand (``bar``, ``log`` or ``none``; default ``auto``) and
 ``STOOK_PROGRESS_INTERVAL`` sets the seconds between progress events (default 10).
@@ -47,6 +48,8 @@ class Snapshot:
     requests: int = 0
     retries: int = 0
     bytes_received: int = 0
+    # Requests being retried now: the origins and their last failure ("" when none).
+    retrying: str = ""
 
     @property
     def total(self) -> int | None:
@@ -145,7 +148,8 @@ class TerminalProgress:
             self._jobs,
             completed=snapshot.jobs_done,
             total=snapshot.total,
-            stats=f"{rate:,.0f} req/s  {snapshot.retries:,} {retries}",
+            stats=f"{rate:,.0f} req/s  {snapshot.retries:,} {retries}"
+            + (f"  retrying {snapshot.retrying}" if snapshot.retrying else ""),
         )
 
     def _make(self, *, report: bool) -> RichProgress:
@@ -235,7 +239,10 @@ class LogProgress:
             if 0 < snapshot.jobs_done < total:
                 remaining = elapsed * (total - snapshot.jobs_done) / snapshot.jobs_done
                 fields["eta_s"] = round(remaining, 1)
-        self._log.info(
+        if snapshot.retrying:  # said louder: the run is waiting for an origin
+            fields["retrying"] = snapshot.retrying
+        emit = self._log.warning if snapshot.retrying else self._log.info
+        emit(
             "fetch progress",
             progress=snapshot.of_total(),
             jobs_done=snapshot.jobs_done,
