@@ -135,10 +135,8 @@ def test_the_command_imports_structlog_without_rich_yet_rich_still_draws() -> No
 
 
 # Imports a batch run needs only once answers arrive: the writer and its data constructors
-# (for the output), the reader, the typed metric views and protobuf (for downloaded blobs);
-# tenacity only once a request fails.
+# (for the output), the reader, the typed metric views and protobuf (for downloaded blobs).
 AFTER_THE_FIRST_ANSWERS = (
-    "tenacity",
     "google.protobuf",
     "stook.proto",
     "stook.sdk._writer",
