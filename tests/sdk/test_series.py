@@ -12,7 +12,6 @@ import pytest
 
 from stook.proto import metrics_pb2 as pb
 from stook.sdk import (
-    STATUS_DTYPE,
     JobMetricsView,
     ReadError,
     SeriesKind,
@@ -21,6 +20,7 @@ from stook.sdk import (
 )
 from stook.sdk._packed import packed_doubles
 from stook.sdk._series import doubles_array
+from stook.sdk.dtypes import STATUS_DTYPE
 from tests.sdk.support import bare_data
 
 # ---------------------------------------------------------------- a ReSim-written output
