@@ -17,7 +17,7 @@ from stook.sdk.aggregations._baseline import (
 )
 from stook.sdk.aggregations._by_tag import ByExperienceTag
 from stook.sdk.aggregations._category_totals import CategoryTotals
-from stook.sdk.aggregations._columns import JobColumns, ScalarColumn
+from stook.sdk.aggregations._columns import JobColumns, JobSummary, ScalarColumn
 from stook.sdk.aggregations._errors import JobDataError
 from stook.sdk.aggregations._event_counts import EventCounts
 from stook.sdk.aggregations._histogram import MergedHistogram
@@ -26,7 +26,6 @@ from stook.sdk.aggregations._record import (
     BatchRecord,
     JobEvent,
     JobRecord,
-    JobSummary,
     Scalar,
 )
 from stook.sdk.aggregations._registry import (

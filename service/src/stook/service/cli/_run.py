@@ -58,6 +58,7 @@ from stook.service.modes import (
     load,
     run_pipeline,
 )
+from stook.service.preview import PREVIEW_NAME, write_preview
 
 if TYPE_CHECKING:
     from stook.service.modes import ReportMode
@@ -184,9 +185,8 @@ def _preview(output: Path, options: RunOptions, config: StookConfig) -> None:
     """metrics.html beside the output when asked for (--preview, [output] preview)."""
     if not (options.preview or config.preview):
         return
-    from stook.service.cli._preview import write_run_preview
-
-    log.info("preview written", preview=str(write_run_preview(output)))
+    preview = write_preview([output], output.with_name(PREVIEW_NAME))
+    log.info("preview written", preview=str(preview))
 
 
 def _remove_stale_temp_files(output: Path) -> None:
