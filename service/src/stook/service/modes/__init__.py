@@ -5,10 +5,16 @@ the CLI): stook.toml (`parse`, `load`), the platform's inputs folder (`detect`),
 mode's run, the configured client of a run (`open_api`) and what its traffic was.
 """
 
-from stook.service.modes._batch import BatchMode, BatchResult, run_batch
-from stook.service.modes._config import ConfigError, FetchSettings, StookConfig, load, parse
-from stook.service.modes._engine_config import EngineSettings
-from stook.service.modes._engine_step import engine_for, fetch_step_for
+from stook.service.modes._batch import BatchResult, run_batch
+from stook.service.modes._config import (
+    ConfigError,
+    EngineSettings,
+    FetchSettings,
+    StookConfig,
+    engine_for,
+    load,
+    parse,
+)
 from stook.service.modes._event_loop import event_loop_factory, run_on_event_loop
 from stook.service.modes._inputs import (
     ApiAccess,
@@ -21,13 +27,6 @@ from stook.service.modes._inputs import (
 from stook.service.modes._library import fetch_batch, fetch_batch_frame, fetch_report
 from stook.service.modes._open_api import Traffic, open_api
 from stook.service.modes._outputs import OutputsError, check_outputs_folder
-from stook.service.modes._pipeline import (
-    OUTPUT_NAME,
-    MissingJobsError,
-    Mode,
-    RunResult,
-    run_pipeline,
-)
 from stook.service.modes._progress import (
     LogProgress,
     NoProgress,
@@ -38,14 +37,14 @@ from stook.service.modes._progress import (
     for_stream,
     human_bytes,
 )
-from stook.service.modes._report import ReportMode, ReportResult, run_report
+from stook.service.modes._report import ReportResult, run_report
+from stook.service.modes._steps import OUTPUT_NAME, MissingJobsError, RunResult
 from stook.service.modes._test_mode import UserFunctionError, run_test_mode
 
 __all__ = [
     "OUTPUT_NAME",
     "ApiAccess",
     "BatchInputs",
-    "BatchMode",
     "BatchResult",
     "ConfigError",
     "EngineSettings",
@@ -53,12 +52,10 @@ __all__ = [
     "InputsError",
     "LogProgress",
     "MissingJobsError",
-    "Mode",
     "NoProgress",
     "OutputsError",
     "Progress",
     "ReportInputs",
-    "ReportMode",
     "ReportResult",
     "RunResult",
     "Snapshot",
@@ -75,7 +72,6 @@ __all__ = [
     "fetch_batch",
     "fetch_batch_frame",
     "fetch_report",
-    "fetch_step_for",
     "for_stream",
     "human_bytes",
     "load",
@@ -83,7 +79,6 @@ __all__ = [
     "parse",
     "run_batch",
     "run_on_event_loop",
-    "run_pipeline",
     "run_report",
     "run_test_mode",
 ]
