@@ -25,10 +25,8 @@ import time
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from types import TracebackType
-from typing import Any, Final, Protocol, Self
+from typing import TYPE_CHECKING, Any, Final, Protocol, Self
 
-import aiohttp
-from aiohttp import hdrs
 from multidict import CIMultiDictProxy
 from yarl import URL
 
@@ -40,6 +38,11 @@ from stook.service.api._logging import get_logger
 from stook.service.api._redact import redact_text, redact_url
 from stook.service.api._stats import TransferStats
 from stook.service.api._tls import transport_tls
+
+if TYPE_CHECKING:
+    # aiohttp (~0.1 s to import) is imported by the functions that use it, so that
+    # importing stook.service (`stook --help`) does not pay for it.
+    import aiohttp
 
 __all__ = [
     "USER_AGENT",
@@ -59,7 +62,7 @@ _KEEPALIVE_S: Final = 30.0
 _DNS_CACHE_S: Final = 300
 _MAX_API_REDIRECTS: Final = 5
 _NO_BODY_STATUSES: Final = frozenset({204, 304})
-_CREDENTIAL_HEADERS: Final = (hdrs.AUTHORIZATION, hdrs.PROXY_AUTHORIZATION)
+_CREDENTIAL_HEADERS: Final = ("Authorization", "Proxy-Authorization")
 
 
 @dataclass(frozen=True, slots=True)
@@ -189,6 +192,8 @@ class HttpTransport:
         # Asked once per session, not per request: structlog's lazy logger binds a new
         # logger on every call (2% of the client's CPU at 0 ms), and debug logging costs a
         # redact_url per request. The log level does not change during a run.
+        import aiohttp
+
         self._debug = _log.is_enabled_for(logging.DEBUG)
         self._loop = asyncio.get_running_loop()
         self._deadlines = Deadlines(self._loop, self._timeout)
@@ -247,6 +252,8 @@ class HttpTransport:
         headers: Mapping[str, str] | None = None,
     ) -> Response:
         """Send one GET and read the whole body; any status is returned, not raised."""
+        import aiohttp
+
         session = self._session
         deadlines = self._deadlines
         if session is None or deadlines is None:
@@ -295,7 +302,7 @@ class HttpTransport:
                         declared is not None
                         and (cap is None or declared <= cap.max_bytes)
                         and answer.status not in _NO_BODY_STATUSES
-                        and hdrs.CONTENT_ENCODING not in answer.headers
+                        and "Content-Encoding" not in answer.headers
                     ):
                         # The length counts what the body holds, and aiohttp's parser ends
                         # the body there: exactly that many bytes, read from the stream in
@@ -382,7 +389,7 @@ class HttpTransport:
         if (
             declared is not None
             and declared > cap.max_bytes
-            and hdrs.CONTENT_ENCODING not in answer.headers
+            and "Content-Encoding" not in answer.headers
         ):
             answer.close()  # not worth reading: drop the connection instead
             raise BodyTooLargeError(
@@ -427,6 +434,8 @@ def _incomplete(
 
 def _env_proxy(url: URL) -> URL | None:
     """The proxy that HTTP(S)_PROXY / NO_PROXY name for `url`, if any."""
+    import aiohttp
+
     try:
         proxy, _auth = aiohttp.helpers.get_env_proxy_for_url(url)
     except LookupError:
@@ -446,6 +455,8 @@ def _describe(exc: BaseException) -> str:
 
 def is_transient_transport_failure(exc: BaseException) -> bool:
     """Whether an aiohttp or socket failure is the kind that heals: reset, refused, timeout."""
+    import aiohttp
+
     if isinstance(exc, aiohttp.ClientSSLError | aiohttp.InvalidURL | aiohttp.TooManyRedirects):
         # A certificate, URL or redirect-loop problem does not heal between attempts.
         return False

@@ -1,21 +1,19 @@
 """The `stook` command: run (the metrics-build entry point), demo, emulate, validate, show.
 
-Only the standard library and the signal guard are imported at the top: `main` takes
-SIGINT and SIGTERM before the heavy imports (polars, aiohttp, protobuf), so that a signal
-during those still ends in one line and not a traceback.
+`main` takes SIGINT and SIGTERM first thing; the heavy libraries (aiohttp, polars) are
+imported after it, by the command that needs them, so that a signal during those still ends
+in one line and not a traceback.
 """
 
 from __future__ import annotations
 
 import os
 import sys
+from typing import TYPE_CHECKING
 
-from stook.service.cli import _collector, _fast_exit, _signals
+from stook.service.cli import _signals
 from stook.service.cli._signals import Interrupted
 
-# typing.TYPE_CHECKING without importing typing, which alone costs milliseconds before the
-# handlers are in place; mypy and ruff read this constant the same way.
-TYPE_CHECKING = False
 if TYPE_CHECKING:
     import argparse
     from collections.abc import Callable, Sequence
@@ -270,16 +268,12 @@ _ADD_ARGUMENTS: dict[str, Callable[[argparse.ArgumentParser], None]] = {
 
 def main(argv: Sequence[str] | None = None) -> None:
     _signals.install()  # first: a signal from here on ends in one line, imports included
-    if argv is None:  # the process's entry point: no collection during the imports
-        _collector.pause()
     voice: Voice | None = None
     try:
         voice = Voice(argv)
         code = run_cli(argv, voice=voice)
     except Interrupted as stop:  # before run_cli took over, or a second signal in its end
         code = (voice or Voice(argv)).interrupted(stop)
-    if argv is None:  # the process's entry point: `stook run` skips the teardown
-        _fast_exit.exit_now_if_armed(code)
     sys.exit(code)
 
 
@@ -401,28 +395,9 @@ def run_cli(argv: Sequence[str] | None = None, *, voice: Voice | None = None) ->
 _QUIET_COMMANDS = ("show", "validate", "preview")
 
 
-def _import_structlog_without_rich() -> None:
-    """Import structlog with rich hidden from it.
-
-    When rich is installed (the progress bar draws with it), structlog imports it at once
-    for pretty tracebacks: ~50 ms of every `stook run` start-up, for tracebacks stook never
-    renders that way (a failure is one line). rich is imported for real when the bar first
-    draws. Only the `stook` command does this: a program using stook as a library keeps
-    structlog as it set it up.
-    """
-    if "structlog" in sys.modules or "rich" in sys.modules:
-        return
-    sys.modules["rich"] = None  # type: ignore[assignment]  # `import rich` now fails
-    try:
-        import structlog  # noqa: F401
-    finally:
-        del sys.modules["rich"]
-
-
 def _run_cli(argv: Sequence[str] | None, voice: Voice) -> int:
     args = _build_parser(_chosen_command(argv)).parse_args(argv)
     if hasattr(args, "log_format"):
-        _import_structlog_without_rich()
         from stook.service.api import configure_logging
 
         json_logs = None if args.log_format == "auto" else args.log_format == "json"
@@ -433,7 +408,6 @@ def _run_cli(argv: Sequence[str] | None, voice: Voice) -> int:
         json_logs = None if chosen not in ("json", "console") else chosen == "json"
 
         def set_up(json_logs: bool | None = json_logs) -> None:
-            _import_structlog_without_rich()
             from stook.service.api import configure_logging
 
             configure_logging(json=json_logs, level="warning")
@@ -497,25 +471,20 @@ def _dispatch(args: argparse.Namespace, voice: Voice) -> int:
             )
             voice.progress = Tally(for_stream(label="jobs"))
             loop_factory = event_loop_factory()  # before the run: a bad choice is exit 2
-            _fast_exit.arm()
-            _collector.resume()  # the imports done: the ones left are the mode's own
             _signals.run(run(options, progress=voice.progress), loop_factory=loop_factory)
             return 0
         case "demo":
             from pathlib import Path
 
             demo = _testing_tool("demo", "stook.testing._demo")
-            _collector.resume()
             return int(demo.run_demo(jobs=args.jobs, output=Path(args.output), seed=args.seed))
         case "emulate":
             emulator_cli = _testing_tool("emulate", "stook.emulator._cli")
-            _collector.resume()
             return int(_signals.run(emulator_cli.emulate(args)))
         case "bench":
             from pathlib import Path
 
             bench = _testing_tool("bench", "stook.bench")
-            _collector.resume()
             if args.engines:
                 bench.run_engine_bench(Path(args.out), quick=args.quick)
                 return 0
@@ -524,21 +493,17 @@ def _dispatch(args: argparse.Namespace, voice: Voice) -> int:
         case "preview":
             from stook.service.cli._preview import preview_files
 
-            _collector.resume()
             return preview_files(args.files, args.output, open_browser=args.open)
         case "metrics-config":
             from stook.service.cli import _metrics_config
 
-            _collector.resume()
             return _metrics_config.run(args)
         case "validate":
             from stook.service.cli._inspect import validate_file
 
-            _collector.resume()
             return validate_file(args.file)
         case "show":
             from stook.service.cli._inspect import show_file
 
-            _collector.resume()
             return show_file(args.file, full=args.full)
     raise AssertionError(f"unhandled command {args.command!r}")  # argparse restricts it

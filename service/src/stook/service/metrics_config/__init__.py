@@ -13,51 +13,22 @@ DuckDB in this process, custom templates are Liquid. The layer imports stook.sdk
 modes and the CLI import it.
 """
 
-TYPE_CHECKING = False
-if TYPE_CHECKING:
-    from stook.service.metrics_config._emissions import EmissionsSet, Tables
-    from stook.service.metrics_config._errors import (
-        EmissionsError,
-        MetricsConfigError,
-        QueryError,
-        TemplateError,
-    )
-    from stook.service.metrics_config._evaluate import Evaluation, evaluate
-    from stook.service.metrics_config._jobs import JobMeta
-    from stook.service.metrics_config._load import load_config
-    from stook.service.metrics_config._model import LEVELS, Level, Metric, MetricsConfig, Topic
-    from stook.service.metrics_config._offline import (
-        check_config,
-        read_emissions_paths,
-        stable_id,
-    )
-else:
-    from stook.service._lazy import lazy_exports
-
-    _E = "stook.service.metrics_config."
-    __getattr__, __dir__ = lazy_exports(
-        __name__,
-        {
-            "EmissionsSet": _E + "_emissions",
-            "Tables": _E + "_emissions",
-            "EmissionsError": _E + "_errors",
-            "MetricsConfigError": _E + "_errors",
-            "QueryError": _E + "_errors",
-            "TemplateError": _E + "_errors",
-            "Evaluation": _E + "_evaluate",
-            "evaluate": _E + "_evaluate",
-            "JobMeta": _E + "_jobs",
-            "load_config": _E + "_load",
-            "LEVELS": _E + "_model",
-            "Level": _E + "_model",
-            "Metric": _E + "_model",
-            "MetricsConfig": _E + "_model",
-            "Topic": _E + "_model",
-            "check_config": _E + "_offline",
-            "read_emissions_paths": _E + "_offline",
-            "stable_id": _E + "_offline",
-        },
-    )
+from stook.service.metrics_config._emissions import EmissionsSet, Tables
+from stook.service.metrics_config._errors import (
+    EmissionsError,
+    MetricsConfigError,
+    QueryError,
+    TemplateError,
+)
+from stook.service.metrics_config._evaluate import Evaluation, evaluate
+from stook.service.metrics_config._jobs import JobMeta
+from stook.service.metrics_config._load import load_config
+from stook.service.metrics_config._model import LEVELS, Level, Metric, MetricsConfig, Topic
+from stook.service.metrics_config._offline import (
+    check_config,
+    read_emissions_paths,
+    stable_id,
+)
 
 __all__ = [
     "LEVELS",
