@@ -33,6 +33,7 @@ def batch(tmp_path: Path, config: Path) -> tuple[Path, list[JobData]]:
     for k, meta in enumerate(BATCH_META):
         job = make_job(k)
         job.name = meta["experience_name"]
-        emit_job(folder / f"job-{k}", config, job, meta={**meta, "job_id": f"job-{k}"})
+        ids = {"job_id": f"job-{k}", "batch_id": "nightly-42"}  # names, not UUIDs
+        emit_job(folder / f"job-{k}", config, job, meta={**meta, **ids})
         jobs.append(job)
     return folder, jobs

@@ -34,7 +34,9 @@ BROKEN = """\
 version: 1
 topics:
   speed:
-    schema: {speed: float, mood: feelings}
+    schema: {speed: float, mood: feelings, Speed: int, timestamp: int}
+  Metadata:
+    schema: {x: int}
 metrics:
   A:
     type: test
@@ -58,6 +60,10 @@ metrics:
     type: test
     query_string: SELEC speed FROM
     template: table
+  F:
+    type: test
+    query_string: DROP TABLE speed
+    template: table
 metrics sets:
   core: {metrics: [A, Z]}
 """
@@ -71,11 +77,15 @@ def test_check_prints_one_line_per_problem(
     lines = _stderr(capsys).splitlines()
     expected = [
         "column 'mood' has unknown type 'feelings'",
+        "column 'Speed' is named twice (SQL ignores case)",
+        "column 'timestamp' is one every topic table adds",
+        "topics 'Metadata': the name is taken by the metadata table (SQL ignores case)",
         "metrics 'A': 'template' must be one of",
         "metrics 'B': 'type' must be one of test, batch, dashboard, not 'weekly'",
         "metrics 'C': the status query_string must have exactly 1 '?'",
         "metrics 'E': query_string does not parse: Invalid expression / Unexpected token "
         "(line 1, column 16)",
+        "metrics 'F': query_string does not parse: must be a query (SELECT ...), not DROP",
         "metrics sets 'core': names metric 'Z', which the config lacks",
         "metrics 'D': template",
     ]
@@ -185,6 +195,11 @@ def _eval(config: Path, emissions: Path, out: Path, level: str = "test") -> int:
             "topic 'weather' is not in the config",
         ),
         ("{not json", "not a JSON object"),
+        (
+            '{"$metadata": {"topic": "detections"}, '
+            '"$data": {"label": "car", "count": 18446744073709551615, "confident": true}}',
+            "topic 'detections', column 'count': the value does not fit a int (64 bits)",
+        ),
     ],
 )
 def test_a_bad_row_names_file_line_topic_and_column(
@@ -261,3 +276,34 @@ def test_an_unknown_metrics_set_is_exit_2(
     )
     assert code == 2
     assert "unknown metrics set 'nope' (known: core, overview)" in _stderr(capsys)
+
+
+def test_bytes_that_are_not_utf8_are_exit_4(
+    tmp_path: Path, config: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    emissions = tmp_path / "emissions.resim.jsonl"
+    emissions.write_bytes(b'{"$metadata": {"topic": "camera"}, "$data": {"frame": "\xe9"}}\n')
+    out = tmp_path / "out"
+    assert _eval(config, emissions, out) == 4
+    assert f"{emissions}: not UTF-8 JSON lines" in _stderr(capsys)
+    assert not out.exists()
+
+
+def test_an_image_whose_file_is_missing_is_exit_4(
+    tmp_path: Path, config: Path, one_job: tuple[Path, JobData], capsys: pytest.CaptureFixture[str]
+) -> None:
+    emissions, job = one_job
+    (emissions.parent / job.frame).unlink()
+    out = tmp_path / "out"
+    assert _eval(config, emissions, out) == 4
+    assert f"attached file {job.frame!r} is in no job's folder" in _stderr(capsys)
+    assert not out.exists()
+
+
+def test_check_parses_the_templates(config: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    (config.parent / "templates" / "speed_figure.liquid").write_text(
+        "{% for x in t %}{{ x }}", encoding="utf-8"
+    )
+    assert run_cli(["metrics-config", "check", str(config)]) == 2
+    (line,) = _stderr(capsys).splitlines()
+    assert "metrics 'Speed figure': template 'speed_figure.liquid' does not parse" in line

@@ -124,6 +124,10 @@ def test_test_level_metrics_equal_a_plain_computation(
     assert dropout is not None
     assert dropout.status is MetricStatus.NOT_APPLICABLE  # its blocking status did not run
     assert ("no_data", "true") in dropout.tags
+    samples = view.metric("Lidar samples", ScalarMetric)  # COUNT(*): a row of 0
+    assert samples.value == 0
+    assert samples.status is MetricStatus.FAIL_BLOCK
+    assert samples.view.blocking is True
 
     # the event topic's row became an event with its metric
     (event,) = view.events
@@ -138,9 +142,9 @@ def test_test_level_metrics_equal_a_plain_computation(
     impact = view.metrics_by_id[event.metric_ids[0]]
     assert (impact.name, impact.value, impact.unit) == ("impact speed", 3.5, "m/s")
 
-    # only the test level's metrics
+    # only the test level's metrics; the absent lidar's COUNT(*) blocks the test
     assert view.find_metric("Max speed per experience") is None
-    assert view.status is MetricStatus.PASSED
+    assert view.status is MetricStatus.FAIL_BLOCK
 
 
 def test_batch_level_joins_metadata_and_blocks(
@@ -245,3 +249,17 @@ def test_preview_is_written(tmp_path: Path, config: Path, one_job: tuple[Path, J
     out = tmp_path / "out"
     assert _eval(config, emissions, out, "test", "--preview") == 0
     assert "Speed over time" in (out / "metrics.html").read_text(encoding="utf-8")
+
+
+def test_templates_from_another_folder(
+    tmp_path: Path, config: Path, one_job: tuple[Path, JobData]
+) -> None:
+    emissions, _ = one_job
+    elsewhere = tmp_path / "elsewhere"
+    (config.parent / "templates").rename(elsewhere)
+    out = tmp_path / "out"
+    assert run_cli(["metrics-config", "check", str(config)]) == 2  # not beside the config
+    assert run_cli(["metrics-config", "check", str(config), "--templates", str(elsewhere)]) == 0
+    assert _eval(config, emissions, out, "test", "--templates", str(elsewhere)) == 0
+    view = read_job_metrics((out / "metrics.binproto").read_bytes())
+    assert view.find_metric("Speed figure") is not None

@@ -174,7 +174,7 @@ def evaluate_offline(
         output_id = batches[0] if one else stable_id("batches", ",".join(batches))
     else:
         output_id = stable_id("report", ",".join(sorted(j.meta.job_id for j in jobs)))
-    writer = MetricsWriter(output_id, deterministic=True)
+    writer = MetricsWriter(_as_uuid(output_id), deterministic=True)
     result = evaluate(config, emission_set.tables(), writer, level=level, metrics_set=metrics_set)
     attached = []
     for name in result.files:
@@ -195,3 +195,16 @@ def evaluate_offline(
 
         write_preview([written], written.with_name(PREVIEW_NAME))
     return written
+
+
+def _as_uuid(text: str) -> str:
+    """The output's ID: job.json may name a job or batch by any text, the output needs a
+    UUID (one derived from the text, stable, when it is not one)."""
+    import uuid
+
+    from stook.service.metrics_config import stable_id
+
+    try:
+        return str(uuid.UUID(text))
+    except ValueError:
+        return stable_id("output", text)

@@ -68,7 +68,7 @@ class EmissionsSet:
         self._jobs.append(meta)
         self._names.append(label)
         if data and data.strip():
-            self._lines.append(_read_lines(data, index))
+            self._lines.append(_read_lines(data, index, label))
 
     def tables(self) -> dict[str, pl.DataFrame]:
         """The topic frames and the metadata frame (see `Tables`)."""
@@ -85,39 +85,60 @@ class EmissionsSet:
             con.register("raw_lines", lines)
             con.register("jobs", metadata.with_row_index("job"))
             self._check(con)
-            frames = {name: _topic_frame(con, topic) for name, topic in topics.items()}
+            frames = {name: self._topic_frame(con, topic) for name, topic in topics.items()}
         finally:
             con.close()
         return {**frames, METADATA_TABLE: metadata}
 
+    def _topic_frame(self, con: duckdb.DuckDBPyConnection, topic: Topic) -> pl.DataFrame:
+        frame = _topic_frame(con, topic)
+        # The check refused nulls, so a null here is a value that did not convert: an
+        # int beyond 64 bits.
+        for column in topic.schema:
+            unconverted = frame.filter(pl.col(column).is_null())
+            if unconverted.height:
+                job, line_no = unconverted.row(0)[-2:]
+                raise EmissionsError(
+                    f"{self._where(job, line_no)}: topic {topic.name!r}, column {column!r}: "
+                    f"the value does not fit a {topic.schema[column]} (64 bits)"
+                )
+        return frame.drop("job", "line_no")
+
     def _check(self, con: duckdb.DuckDBPyConnection) -> None:
         """Raise EmissionsError for the first bad row (by job, then line)."""
-        bad = con.execute(
+        invalid = con.execute(
             "SELECT job, line_no FROM raw_lines WHERE NOT json_valid(line) "
             "ORDER BY job, line_no LIMIT 1"
         ).fetchone()
-        if bad is not None:
-            raise EmissionsError(f"{self._where(bad[0], bad[1])}: not a JSON object")
+        if invalid is not None:
+            raise EmissionsError(f"{self._where(invalid[0], invalid[1])}: not a JSON object")
         con.execute(
             "CREATE TEMP TABLE lines AS SELECT job, line_no, line, "
             "json_extract_string(line, '/$metadata/topic') AS topic, "
             "json_structure(line) AS structure FROM raw_lines"
         )
         groups = con.execute("SELECT DISTINCT topic, structure FROM lines").fetchall()
-        problems: list[tuple[int, int, str]] = []
+        bad: dict[tuple[str | None, str], str] = {}
         for topic, structure in groups:
             problem = self._row_problem(topic, json.loads(structure))
             if problem is not None:
-                first = con.execute(
-                    "SELECT job, line_no FROM lines WHERE topic IS NOT DISTINCT FROM ? AND "
-                    "structure = ? ORDER BY job, line_no LIMIT 1",
-                    [topic, structure],
-                ).fetchone()
-                assert first is not None
-                problems.append((first[0], first[1], problem))
-        if problems:
-            job, line_no, problem = min(problems)
-            raise EmissionsError(f"{self._where(job, line_no)}: {problem}")
+                bad[(topic, structure)] = problem
+        if not bad:
+            return
+        # One query for the earliest bad line, however many kinds of bad rows there are.
+        kinds = pl.DataFrame(
+            {"topic": [k[0] for k in bad], "structure": [k[1] for k in bad]},
+            schema={"topic": pl.String, "structure": pl.String},
+        )
+        con.register("bad_kinds", kinds)
+        first = con.execute(
+            "SELECT l.job, l.line_no, l.topic, l.structure FROM lines AS l JOIN bad_kinds AS b "
+            "ON l.topic IS NOT DISTINCT FROM b.topic AND l.structure = b.structure "
+            "ORDER BY l.job, l.line_no LIMIT 1"
+        ).fetchone()
+        assert first is not None
+        job, line_no, topic, structure = first
+        raise EmissionsError(f"{self._where(job, line_no)}: {bad[(topic, structure)]}")
 
     def _where(self, job: int, line_no: int) -> str:
         return f"{self._names[job]} line {line_no}"
@@ -150,15 +171,18 @@ class EmissionsSet:
         return None
 
 
-def _read_lines(data: bytes, job: int) -> pl.DataFrame:
-    frame = pl.read_csv(
-        io.BytesIO(data),
-        has_header=False,
-        separator="\x1f",
-        quote_char=None,
-        new_columns=["line"],
-        schema=_LINES_SCHEMA,
-    )
+def _read_lines(data: bytes, job: int, label: str) -> pl.DataFrame:
+    try:
+        frame = pl.read_csv(
+            io.BytesIO(data),
+            has_header=False,
+            separator="\x1f",
+            quote_char=None,
+            new_columns=["line"],
+            schema=_LINES_SCHEMA,
+        )
+    except pl.exceptions.ComputeError as exc:
+        raise EmissionsError(f"{label}: not UTF-8 JSON lines ({exc})") from None
     return (
         frame.with_row_index("line_no", offset=1)
         .filter(pl.col("line").str.strip_chars().str.len_bytes() > 0)
@@ -202,11 +226,12 @@ def _topic_frame(con: duckdb.DuckDBPyConnection, topic: Topic) -> pl.DataFrame:
     columns.append('s."$metadata".timestamp AS timestamp')
     shape = "'" + json.dumps(structure).replace("'", "''") + "'"
     query = (
-        f"SELECT {', '.join(columns)}, j.job_id, j.batch_id, j.experience_name, j.build_version "
+        f"SELECT {', '.join(columns)}, j.job_id, j.batch_id, j.experience_name, j.build_version, "
+        "job, line_no "
         f"FROM (SELECT job, line_no, json_transform(line, {shape}) AS s FROM lines "
         "WHERE topic = ?) JOIN jobs AS j USING (job) ORDER BY job, line_no"
     )
     # (duckdb's stubs do not type the relation a query is)
     relation: Any = con.sql(query, params=[topic.name])
     frame: pl.DataFrame = relation.pl()
-    return frame.cast(_topic_schema(topic))
+    return frame.cast(_topic_schema(topic))  # job and line_no keep their types

@@ -19,13 +19,30 @@ def _json_filter(value: Any) -> str:
     return json.dumps(plain(value))
 
 
-def render_figure(metric: Metric, text: str, result: Result) -> dict[str, Any]:
-    """The figure the template prints for `result`; TemplateError names the template."""
+def _environment() -> Any:
     from liquid import Environment
-    from liquid.exceptions import LiquidError
 
     env = Environment()
     env.filters["json"] = _json_filter
+    return env
+
+
+def template_problem(name: str, text: str) -> str | None:
+    """Why the Liquid template does not parse (None: it does)."""
+    from liquid.exceptions import LiquidError
+
+    try:
+        _environment().from_string(text)
+    except LiquidError as exc:
+        return f"template {name!r} does not parse: {' '.join(str(exc).split())}"
+    return None
+
+
+def render_figure(metric: Metric, text: str, result: Result) -> dict[str, Any]:
+    """The figure the template prints for `result`; TemplateError names the template."""
+    from liquid.exceptions import LiquidError
+
+    env = _environment()
     columns = {name: [plain(v) for v in result.column(i)] for i, name in enumerate(result.columns)}
     where = f"metric {metric.name!r}: template {metric.template_file!r}"
     try:

@@ -67,26 +67,35 @@ def _topics(
     raw: Mapping[str, Any], origin: Mapping[str, Path], problems: list[str]
 ) -> dict[str, Topic]:
     topics: dict[str, Topic] = {}
+    # SQL names are case-insensitive: `Speed` and `speed` would be one table.
+    folded: dict[str, str] = {METADATA_TABLE: "the metadata table"}
     for name, body in raw.items():
         where = _where(origin, "topics", name)
         if not isinstance(name, str) or not name:
             problems.append(f"{where}: a topic name is a non-empty string")
             continue
-        if name.lower() == METADATA_TABLE:
-            problems.append(f"{where}: the name is taken by the metadata table")
+        if name.lower() in folded:
+            taken = folded[name.lower()]
+            problems.append(f"{where}: the name is taken by {taken} (SQL ignores case)")
             continue
+        folded[name.lower()] = f"topic {name!r}"
         if not isinstance(body, dict) or not isinstance(body.get("schema"), dict):
             problems.append(f"{where}: needs a 'schema' mapping of column: type")
             continue
         schema: dict[str, str] = {}
+        seen: set[str] = set()
         for column, kind in body["schema"].items():
-            if kind not in COLUMN_TYPES and kind not in LIST_TYPES:
+            lowered = str(column).lower()
+            if lowered in TOPIC_EXTRA_COLUMNS:
+                problems.append(f"{where}: column {column!r} is one every topic table adds")
+            elif lowered in seen:
+                problems.append(f"{where}: column {column!r} is named twice (SQL ignores case)")
+            elif kind not in COLUMN_TYPES and kind not in LIST_TYPES:
                 known = ", ".join(COLUMN_TYPES + LIST_TYPES)
                 problems.append(f"{where}: column {column!r} has unknown type {kind!r} ({known})")
-            elif column in TOPIC_EXTRA_COLUMNS:
-                problems.append(f"{where}: column {column!r} is one every topic table adds")
             else:
                 schema[str(column)] = kind
+            seen.add(lowered)
         event = body.get("event", False)
         if not isinstance(event, bool):
             problems.append(f"{where}: 'event' must be true or false")

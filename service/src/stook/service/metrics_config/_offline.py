@@ -13,6 +13,7 @@ from stook.service.metrics_config._emissions import EmissionsSet
 from stook.service.metrics_config._engine import QueryEngine
 from stook.service.metrics_config._errors import EmissionsError
 from stook.service.metrics_config._jobs import JobMeta
+from stook.service.metrics_config._liquid import template_problem
 from stook.service.metrics_config._model import MetricsConfig
 
 EMISSIONS_NAME = "emissions.resim.jsonl"
@@ -29,8 +30,14 @@ def stable_id(kind: str, name: str) -> str:
 
 def check_config(config: MetricsConfig) -> list[str]:
     """Every metric query (and status query) that does not bind against the topics'
-    schemas, one line each; load_config has checked the rest."""
+    schemas and every custom template that does not parse, one line each; load_config
+    has checked the rest."""
     problems = []
+    for metric in config.metrics.values():
+        if metric.template_file is not None and metric.template_file in config.templates:
+            why = template_problem(metric.template_file, config.templates[metric.template_file])
+            if why:
+                problems.append(f"{metric.source}: metrics {metric.name!r}: {why}")
     with QueryEngine(EmissionsSet(config).tables()) as engine:
         for metric in config.metrics.values():
             where = f"{metric.source}: metrics {metric.name!r}"
@@ -84,7 +91,6 @@ def _job(emissions: Path, folder: Path, name: str, *, batch: str | None = None) 
         values = loaded
     values.setdefault("job_id", stable_id("job", name))
     values.setdefault("batch_id", stable_id("batch", batch or name))
-    values.setdefault("experience_name", name)
     return OfflineJob(JobMeta.from_mapping(values, source=str(meta_file)), emissions, folder)
 
 

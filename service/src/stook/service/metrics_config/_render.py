@@ -93,18 +93,17 @@ def _line(writer: MetricsWriter, metric: Metric, result: Result, options: Metric
         x_at, y_at, grouped = 0, 1, {cols[1]: result.rows}
     else:
         x_at, y_at, grouped = 1, 2, _groups(result.rows, 0)
-    xs, ys = [], []
+    xs, ys, legend = [], [], []
     for series, rows in grouped.items():
-        rows = [r for r in rows if r[x_at] is not None and r[y_at] is not None]
-        if not rows:
+        points = [r for r in rows if r[x_at] is not None and r[y_at] is not None]
+        if not points:
             continue
         prefix = f"{metric.name} / {series}"
-        xs.append(
-            data.doubles(f"{prefix} / x", _numbers(metric, [r[x_at] for r in rows], cols[x_at]))
-        )
-        ys.append(
-            data.doubles(f"{prefix} / y", _numbers(metric, [r[y_at] for r in rows], cols[y_at]))
-        )
+        x_values = _numbers(metric, [r[x_at] for r in points], cols[x_at])
+        y_values = _numbers(metric, [r[y_at] for r in points], cols[y_at])
+        xs.append(data.doubles(f"{prefix} / x", x_values))
+        ys.append(data.doubles(f"{prefix} / y", y_values))
+        legend.append(series)
     if not xs:
         raise _bad(metric, "every point has a NULL x or y")
     writer.line_plot(
@@ -113,11 +112,7 @@ def _line(writer: MetricsWriter, metric: Metric, result: Result, options: Metric
         ys,
         x_axis_name=_setting(metric, "x_axis_name", cols[x_at]),
         y_axis_name=_setting(metric, "y_axis_name", cols[y_at]),
-        legend=[
-            k
-            for k, rows in grouped.items()
-            if any(r[x_at] is not None and r[y_at] is not None for r in rows)
-        ],
+        legend=legend,
         **options,
     )
 

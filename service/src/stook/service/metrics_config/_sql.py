@@ -16,6 +16,9 @@ def parse_problem(query: str, *, placeholders: int | None = None) -> str | None:
         return _describe(exc)
     if len(statements) != 1:
         return f"must be one statement, not {len(statements)}"
+    if not isinstance(statements[0], exp.Query):
+        # A metric reads the tables; a DROP or an INSERT would change them for the next.
+        return f"must be a query (SELECT ...), not {statements[0].key.upper()}"
     if placeholders is not None:
         found = sum(1 for _ in statements[0].find_all(exp.Placeholder))
         if found != placeholders:

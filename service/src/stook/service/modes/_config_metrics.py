@@ -27,7 +27,7 @@ from stook.service.api import ApiClient, Batch, Job, RetryPolicy
 from stook.service.fetch import fetch_deadline, fetch_emissions
 from stook.service.modes._config import FetchSettings, StookConfig
 from stook.service.modes._inputs import ApiAccess
-from stook.service.modes._open_api import open_api
+from stook.service.modes._open_api import Traffic, open_api
 
 if TYPE_CHECKING:
     from stook.sdk import MetricsWriter
@@ -124,6 +124,7 @@ async def _write(
         with_log = await _add_in_order(
             api, access.project_id, jobs, emissions, settings.concurrency
         )
+        traffic = Traffic.of(api)  # its own client's: not in the run's final counts
     result = evaluate(
         loaded, emissions.tables(), writer, level=scope.level, metrics_set=metrics_set
     )
@@ -134,6 +135,9 @@ async def _write(
         jobs_with_emissions=with_log,
         metrics=len(result.written),
         hidden=len(result.hidden),
+        requests=traffic.requests,
+        retries=traffic.retries,
+        received_bytes=traffic.bytes_received,
     )
 
 

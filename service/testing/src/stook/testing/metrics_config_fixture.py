@@ -140,6 +140,16 @@ metrics:
       query_string: SELECT 1 FROM lidar HAVING COUNT(*) < ?
       block: 1
 
+  Lidar samples:
+    type: test
+    description: COUNT(*) always has a row, so its status blocks on absence
+    query_string: SELECT COUNT(*) AS "Samples" FROM lidar
+    template_type: system
+    template: scalar
+    status:
+      query_string: SELECT 1 FROM lidar HAVING COUNT(*) < ?
+      block: 1
+
   Max speed per experience:
     type: batch
     query_string: |
