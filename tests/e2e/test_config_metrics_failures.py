@@ -33,13 +33,17 @@ def emu() -> Iterator[Emulator]:
 
 
 def _run(
-    capsys: pytest.CaptureFixture[str], tmp_path: Path, emu: Emulator, yaml_text: str
+    capsys: pytest.CaptureFixture[str],
+    tmp_path: Path,
+    emu: Emulator,
+    yaml_text: str,
+    extra_toml: str = "",
 ) -> tuple[int, list[str], Path]:
     inputs, outputs = tmp_path / "inputs", tmp_path / "outputs"
     write_batch_inputs(inputs, emu)
     (tmp_path / "config.resim.yml").write_text(yaml_text)
     toml = tmp_path / "stook.toml"
-    toml.write_text('[metrics_config]\npaths = ["config.resim.yml"]\n')
+    toml.write_text('[metrics_config]\npaths = ["config.resim.yml"]\n' + extra_toml)
     argv = ["run", "--inputs", str(inputs), "--outputs", str(outputs), "--config", str(toml)]
     code = run_cli([*argv, "--log-format", "json"])
     err = capsys.readouterr().err
@@ -71,6 +75,22 @@ def test_a_bad_config_is_refused_before_the_first_request(
     assert code == 2
     assert len(lines) == 1
     assert "config.resim.yml" in lines[0]
+    assert emu.stats.requests["api"] == before
+    assert outputs_left(outputs) == []
+
+
+def test_an_unknown_metrics_set_is_refused_before_the_first_request(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path, emu: Emulator
+) -> None:
+    before = emu.stats.requests["api"]
+    code, lines, outputs = _run(
+        capsys, tmp_path, emu, EMISSIONS_CONFIG_YAML, 'metrics_set = "nightly-typo"\n'
+    )
+    assert code == 2
+    assert lines == [
+        f"stook: error: {tmp_path / 'stook.toml'}: [metrics_config] metrics_set "
+        "'nightly-typo' is not a metrics set of the config (known: nightly, trends)"
+    ]
     assert emu.stats.requests["api"] == before
     assert outputs_left(outputs) == []
 

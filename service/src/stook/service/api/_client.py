@@ -431,7 +431,7 @@ class ApiClient:
         document = await self.get_json(f"/projects/{_id(project_id)}/builds/{_id(build_id)}")
         return Build.from_json(document)
 
-    def list_job_logs(
+    async def list_job_logs(
         self,
         project_id: IdLike,
         batch_id: IdLike,
@@ -448,7 +448,8 @@ class ApiClient:
         if name is not None:
             params["name"] = name
         path = self._job_path(project_id, batch_id, job_id) + "/logs"
-        return self._list(path, "logs", JobLog.from_json, params)
+        async for item in self.paginate(path, "logs", params):
+            yield JobLog.from_json(item)
 
     # -- internals -----------------------------------------------------------------------
 

@@ -25,7 +25,7 @@ import structlog
 
 from stook.service.api import ApiClient, Batch, Job, RetryPolicy
 from stook.service.fetch import fetch_deadline, fetch_emissions
-from stook.service.modes._config import FetchSettings, StookConfig
+from stook.service.modes._config import ConfigError, FetchSettings, StookConfig
 from stook.service.modes._inputs import ApiAccess
 from stook.service.modes._open_api import Traffic, open_api
 
@@ -78,6 +78,14 @@ def config_metrics_step(
     # Relative paths are read from stook.toml's folder.
     base = config.file.parent if config.file is not None else None
     loaded = load_config(settings.config_paths(base), templates=settings.templates_path(base))
+    chosen = settings.metrics_set
+    if chosen is not None and chosen not in loaded.metrics_sets:
+        # Found now, not after the fetch: the set is only looked up by the evaluation.
+        known = ", ".join(sorted(loaded.metrics_sets)) or "none"
+        raise ConfigError(
+            f"{config.source}: [metrics_config] metrics_set {chosen!r} is not a metrics set "
+            f"of the config (known: {known})"
+        )
     scope = (
         _Scope("batch", batch_id=batch_id) if batch_id else _Scope("dashboard", report_id=report_id)
     )
