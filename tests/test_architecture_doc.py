@@ -19,7 +19,7 @@ MODULE = re.compile(r"`(\w+)\.py`")
 
 
 def modules_in_the_tree() -> set[str]:
-    found = set()
+    found: set[str] = set()
     for root in SOURCES:
         for path in root.rglob("*.py"):
             if path.name != "__init__.py":
@@ -28,7 +28,7 @@ def modules_in_the_tree() -> set[str]:
 
 
 def modules_in_the_doc() -> set[str]:
-    found = set()
+    found: set[str] = set()
     package = None
     for line in (REPO / "docs" / "architecture.md").read_text().splitlines():
         if HEADING.match(line):
