@@ -52,6 +52,7 @@ from stook.sdk.aggregations import (
     ReportAggregation,
     build_all,
 )
+from stook.service.modes._baseline_config import BaselineConfigError, parse_baseline
 from stook.service.modes._user_code import add_import_folders
 
 if TYPE_CHECKING:
@@ -288,8 +289,6 @@ def parse(doc: Mapping[str, Any], *, source: str = "stook.toml") -> StookConfig:
 def _baseline(table: Any, source: str) -> BaselineSettings | None:
     if table is None:
         return None
-    from stook.service.modes._baseline_config import BaselineConfigError, parse_baseline
-
     try:
         return parse_baseline(table)
     except BaselineConfigError as exc:
