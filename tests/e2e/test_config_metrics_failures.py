@@ -1,5 +1,6 @@
-"""Config-defined metrics in batch mode, when something is wrong: one line, the documented
-exit code, no output, and a bad config refused before the first request."""
+"""Config-defined metrics in batch mode through `stook run`: each job's metadata row, and,
+when something is wrong, one line, the documented exit code, no output, and a bad config
+refused before the first request."""
 
 from __future__ import annotations
 
@@ -11,7 +12,7 @@ from pathlib import Path
 import pytest
 
 from stook.emulator import EMISSIONS_CONFIG_YAML, Emulator
-from stook.sdk import PlotlyMetric
+from stook.sdk import PlotlyMetric, TextMetric
 from stook.service.cli import run_cli
 from tests.e2e.support import (
     OUTPUT_NAME,
@@ -125,3 +126,35 @@ def test_a_query_that_fails_names_the_metric(
     assert "Total distance driven" in lines[0]
     assert outputs_left(outputs) == []
     assert json.dumps(lines)  # one plain line each
+
+
+def test_each_jobs_metadata_row_is_filled_from_the_listings(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path, emu: Emulator
+) -> None:
+    with_metadata = EMISSIONS_CONFIG_YAML.replace(
+        "metrics:\n",
+        "metrics:\n"
+        "  Metadata rows:\n"
+        "    type: batch\n"
+        "    query_string: |\n"
+        "      SELECT job_id, batch_id, project_id, experience_name, build_version, branch,\n"
+        "             job_status, job_conflated_status, ARRAY_JOIN(tags, '+') AS tags\n"
+        "      FROM metadata ORDER BY job_id\n"
+        "    template_type: system\n"
+        "    template: table\n",
+        1,
+    )
+    code, _, outputs = _run(capsys, tmp_path, emu, with_metadata)
+    assert code == 0
+    text = read_output(outputs / OUTPUT_NAME).metric("Metadata rows", TextMetric).text
+    ds = emu.dataset
+    batch = ds.batch(emu.batch_id)
+    assert batch is not None
+    version = ds.builds[batch.build_id].version
+    expected = [
+        f"| {job.id} | {emu.batch_id} | {emu.project_id} | {job.experience.name} | {version} "
+        f"| main | {job.job_status} | {job.conflated_status} "
+        f"| {'+'.join(sorted(t.name for t in job.experience.tags))} |"
+        for job in sorted(ds.jobs(emu.batch_id), key=lambda j: str(j.id))
+    ]
+    assert text.splitlines()[2:] == expected

@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import json
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
@@ -307,3 +308,36 @@ def test_check_parses_the_templates(config: Path, capsys: pytest.CaptureFixture[
     assert run_cli(["metrics-config", "check", str(config)]) == 2
     (line,) = _stderr(capsys).splitlines()
     assert "metrics 'Speed figure': template 'speed_figure.liquid' does not parse" in line
+
+
+@pytest.mark.parametrize(
+    ("make", "problem"),
+    [
+        (lambda root: root / "nowhere.jsonl", "no such file or folder"),
+        (lambda root: root, "no job folder in it holds emissions.resim.jsonl"),
+    ],
+)
+def test_a_bad_emissions_path_is_exit_2(
+    tmp_path: Path,
+    config: Path,
+    capsys: pytest.CaptureFixture[str],
+    make: Callable[[Path], Path],
+    problem: str,
+) -> None:
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    path = make(empty)
+    assert _eval(config, path, tmp_path / "out", "batch") == 2
+    assert f"{path}: {problem}" in _stderr(capsys)
+
+
+def test_a_bad_job_json_is_exit_2(
+    tmp_path: Path, config: Path, one_job: tuple[Path, JobData], capsys: pytest.CaptureFixture[str]
+) -> None:
+    emissions, _ = one_job
+    batch = tmp_path / "batch"
+    (batch / "job-a").mkdir(parents=True)
+    (batch / "job-a" / "emissions.resim.jsonl").write_bytes(emissions.read_bytes())
+    (batch / "job-a" / "job.json").write_text('{"job_id": "a", "colour": "red"}')
+    assert _eval(config, batch, tmp_path / "out", "batch") == 2
+    assert "unknown key(s) 'colour'" in _stderr(capsys)

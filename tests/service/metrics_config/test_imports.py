@@ -1,5 +1,5 @@
-"""Start-up: the engine's libraries (DuckDB, sqlglot, PyYAML, python-liquid, pyarrow) are
-imported only by the runs that evaluate a config."""
+"""Start-up: the engine's libraries (polars, DuckDB, sqlglot, PyYAML, python-liquid,
+pyarrow) are imported only by the runs that evaluate a config."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import sys
 
 import pytest
 
-HEAVY = ("duckdb", "sqlglot", "yaml", "liquid", "pyarrow")
+HEAVY = ("duckdb", "sqlglot", "yaml", "liquid", "pyarrow", "polars")
 
 
 @pytest.mark.parametrize(

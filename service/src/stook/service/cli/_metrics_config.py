@@ -155,15 +155,22 @@ def evaluate_offline(
     from stook.service.cli._run import UsageError
     from stook.service.metrics_config import (
         EmissionsError,
+        EmissionsSet,
         evaluate,
+        find_jobs,
         load_config,
-        read_emissions_paths,
         stable_id,
     )
 
     config = load_config(configs, templates)
     config.metrics_for(level, metrics_set)  # an unknown set: exit 2 before any work
-    emission_set, jobs = read_emissions_paths(emissions, config)
+    try:
+        jobs = find_jobs(emissions)
+    except EmissionsError as exc:  # a path or a job.json: bad input, before any work
+        raise UsageError(str(exc)) from None
+    emission_set = EmissionsSet(config)
+    for job in jobs:
+        emission_set.add_job(job.meta, job.emissions)
     if level == "test" and len(jobs) != 1:
         raise UsageError(f"--level test evaluates one job's emissions, {len(jobs)} were given")
     if level == "test":

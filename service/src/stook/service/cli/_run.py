@@ -1,6 +1,6 @@
 """`stook run`: detect the mode from the inputs folder, run it, map failures to exit codes.
 
-Exit codes (also in the README):
+Exit codes (also in docs/cli.md):
   0  metrics.binproto written
   1  an unexpected error, or the user's own test-metrics function raised
   2  bad usage, config or inputs (malformed JSON, missing key, non-UUID ID, bad TOML,

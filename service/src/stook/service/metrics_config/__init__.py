@@ -13,6 +13,8 @@ DuckDB in this process, custom templates are Liquid. The layer imports stook.sdk
 modes and the CLI import it.
 """
 
+# Eager: each module imports its heavy libraries (polars, DuckDB, sqlglot, PyYAML,
+# python-liquid) inside the functions that use them, so importing the package is cheap.
 from stook.service.metrics_config._emissions import EmissionsSet, Tables
 from stook.service.metrics_config._errors import (
     EmissionsError,
@@ -24,11 +26,7 @@ from stook.service.metrics_config._evaluate import Evaluation, evaluate
 from stook.service.metrics_config._jobs import JobMeta
 from stook.service.metrics_config._load import load_config
 from stook.service.metrics_config._model import LEVELS, Level, Metric, MetricsConfig, Topic
-from stook.service.metrics_config._offline import (
-    check_config,
-    read_emissions_paths,
-    stable_id,
-)
+from stook.service.metrics_config._offline import OfflineJob, check_config, find_jobs, stable_id
 
 __all__ = [
     "LEVELS",
@@ -40,13 +38,14 @@ __all__ = [
     "Metric",
     "MetricsConfig",
     "MetricsConfigError",
+    "OfflineJob",
     "QueryError",
     "Tables",
     "TemplateError",
     "Topic",
     "check_config",
     "evaluate",
+    "find_jobs",
     "load_config",
-    "read_emissions_paths",
     "stable_id",
 ]

@@ -14,21 +14,19 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-import polars as pl
-
 from stook.service.metrics_config._errors import EmissionsError
 from stook.service.metrics_config._jobs import METADATA_COLUMNS, JobMeta
 from stook.service.metrics_config._model import METADATA_TABLE, MetricsConfig, Topic
-from stook.service.metrics_config._schema import DUCKDB_TYPES, POLARS_TYPES, value_problem
+from stook.service.metrics_config._schema import DUCKDB_TYPES, polars_type, value_problem
 
 if TYPE_CHECKING:
     import duckdb
+    import polars as pl
 
-Tables = Mapping[str, pl.DataFrame]
+Tables = Mapping[str, "pl.DataFrame"]
 """One frame per topic (its schema's columns, then timestamp, job_id, batch_id,
 experience_name, build_version), and `metadata`, one row per job."""
 
-_LINES_SCHEMA = {"line": pl.String}
 # Emissions of one job beyond this many lines are refused (a line's number is a u32).
 _MAX_LINE = 2**32 - 1
 
@@ -79,6 +77,8 @@ class EmissionsSet:
         if not self._lines:
             frames = {name: _empty_topic(topic) for name, topic in topics.items()}
             return {**frames, METADATA_TABLE: metadata}
+        import polars as pl
+
         lines = pl.concat(self._lines, rechunk=True)
         con = duckdb.connect(":memory:")
         try:
@@ -91,6 +91,8 @@ class EmissionsSet:
         return {**frames, METADATA_TABLE: metadata}
 
     def _topic_frame(self, con: duckdb.DuckDBPyConnection, topic: Topic) -> pl.DataFrame:
+        import polars as pl
+
         frame = _topic_frame(con, topic)
         # The check refused nulls, so a null here is a value that did not convert: an
         # int beyond 64 bits.
@@ -126,6 +128,8 @@ class EmissionsSet:
         if not bad:
             return
         # One query for the earliest bad line, however many kinds of bad rows there are.
+        import polars as pl
+
         kinds = pl.DataFrame(
             {"topic": [k[0] for k in bad], "structure": [k[1] for k in bad]},
             schema={"topic": pl.String, "structure": pl.String},
@@ -172,6 +176,8 @@ class EmissionsSet:
 
 
 def _read_lines(data: bytes, job: int, label: str) -> pl.DataFrame:
+    import polars as pl
+
     try:
         frame = pl.read_csv(
             io.BytesIO(data),
@@ -179,7 +185,7 @@ def _read_lines(data: bytes, job: int, label: str) -> pl.DataFrame:
             separator="\x1f",
             quote_char=None,
             new_columns=["line"],
-            schema=_LINES_SCHEMA,
+            schema={"line": pl.String},
         )
     except pl.exceptions.ComputeError as exc:
         raise EmissionsError(f"{label}: not UTF-8 JSON lines ({exc})") from None
@@ -191,6 +197,8 @@ def _read_lines(data: bytes, job: int, label: str) -> pl.DataFrame:
 
 
 def _metadata_frame(jobs: list[JobMeta]) -> pl.DataFrame:
+    import polars as pl
+
     schema: dict[str, pl.DataType] = {c: pl.String() for c in METADATA_COLUMNS}
     schema["tags"] = pl.List(pl.String())
     columns: dict[str, list[Any]] = {c: [] for c in METADATA_COLUMNS}
@@ -202,7 +210,9 @@ def _metadata_frame(jobs: list[JobMeta]) -> pl.DataFrame:
 
 
 def _topic_schema(topic: Topic) -> pl.Schema:
-    schema: dict[str, pl.DataType] = {c: POLARS_TYPES[k] for c, k in topic.schema.items()}
+    import polars as pl
+
+    schema: dict[str, pl.DataType] = {c: polars_type(k) for c, k in topic.schema.items()}
     schema["timestamp"] = pl.Int64()
     for column in ("job_id", "batch_id", "experience_name", "build_version"):
         schema[column] = pl.String()
@@ -210,6 +220,8 @@ def _topic_schema(topic: Topic) -> pl.Schema:
 
 
 def _empty_topic(topic: Topic) -> pl.DataFrame:
+    import polars as pl
+
     return pl.DataFrame(schema=_topic_schema(topic))
 
 

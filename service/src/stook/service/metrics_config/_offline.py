@@ -92,14 +92,3 @@ def _job(emissions: Path, folder: Path, name: str, *, batch: str | None = None) 
     values.setdefault("job_id", stable_id("job", name))
     values.setdefault("batch_id", stable_id("batch", batch or name))
     return OfflineJob(JobMeta.from_mapping(values, source=str(meta_file)), emissions, folder)
-
-
-def read_emissions_paths(
-    paths: Sequence[Path], config: MetricsConfig
-) -> tuple[EmissionsSet, list[OfflineJob]]:
-    """The emissions of every job PATHs hold, added to a new EmissionsSet."""
-    jobs = find_jobs(paths)
-    emissions = EmissionsSet(config)
-    for job in jobs:
-        emissions.add_job(job.meta, job.emissions)
-    return emissions, jobs

@@ -7,9 +7,10 @@ grouped: a file has few distinct structures), so the check is exact -- `true` is
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-import polars as pl
+if TYPE_CHECKING:
+    import polars as pl
 
 # DuckDB's json_structure names of a value, per column type.
 _ACCEPTED: dict[str, tuple[str, ...]] = {
@@ -37,17 +38,20 @@ DUCKDB_TYPES = {
     "metric[]": "JSON[]",
 }
 
-POLARS_TYPES: dict[str, pl.DataType] = {
-    "boolean": pl.Boolean(),
-    "int": pl.Int64(),
-    "float": pl.Float64(),
-    "string": pl.String(),
-    "status": pl.String(),
-    "image": pl.String(),
-    "video": pl.String(),
-    "string[]": pl.List(pl.String()),
-    "metric[]": pl.List(pl.String()),
-}
+
+def polars_type(kind: str) -> pl.DataType:
+    """The polars type of a column of this type."""
+    import polars as pl
+
+    if kind == "boolean":
+        return pl.Boolean()
+    if kind == "int":
+        return pl.Int64()
+    if kind == "float":
+        return pl.Float64()
+    if kind in ("string[]", "metric[]"):
+        return pl.List(pl.String())
+    return pl.String()  # string, status, image, video
 
 
 def value_problem(kind: str, structure: Any) -> str | None:

@@ -1,10 +1,9 @@
-"""The README's stook.toml example builds the job-data built-ins it shows, as written."""
+"""The configuration page's stook.toml example builds the job-data built-ins it shows, as
+written."""
 
 from __future__ import annotations
 
-import re
 import tomllib
-from pathlib import Path
 
 from stook.sdk.aggregations import (
     ByExperienceTag,
@@ -14,14 +13,13 @@ from stook.sdk.aggregations import (
     ParameterSweep,
     build_all,
 )
+from tests.docs_examples import block
 
-README = Path(__file__).resolve().parents[3] / "README.md"
 KINDS = ("histogram", "category_totals", "events", "sweep", "by_tag")
 
 
-def test_the_readme_tables_build() -> None:
-    blocks = re.findall(r"```toml\n(.*?)```", README.read_text(encoding="utf-8"), re.S)
-    config = tomllib.loads(next(b for b in blocks if "[[batch.sweep]]" in b))
+def test_the_config_page_tables_build() -> None:
+    config = tomllib.loads(block("docs/configuration.md", "[[batch.sweep]]", "toml"))
     tables = {kind: config["batch"][kind] for kind in KINDS}
     built = build_all(tables, section="batch")
     by_type = {type(a): a for a in built}
