@@ -1,8 +1,16 @@
 """Start-up: which heavy libraries a module pulls in when imported (how long start-up
-takes is measured in `stook bench`, not here)."""
+takes is measured in `stook bench`, not here).
+
+Every package re-exports its names plainly, except `stook.service`, whose names are
+imported on first use (the console script's path runs it first); the `stook` command
+imports each command's modules when it runs that command; the heavy third-party
+libraries are imported by the functions that need them, never at a module's top. These
+tests keep them out of the start-up of each command.
+"""
 
 from __future__ import annotations
 
+import ast
 import subprocess
 import sys
 import uuid
@@ -12,9 +20,24 @@ import pytest
 
 from stook.sdk.example import every_metric_type
 
-# What `stook run` imports before its first request, without polars or numpy: those come
-# with the first series decoded. `stook show` and `validate` import stook.sdk alone.
-MODULES = ["stook.sdk", "stook.sdk.aggregations", "stook.service.modes", "stook.service.fetch"]
+# Imported by the functions that need them: frames and series (polars, numpy), statistics
+# (scipy), change points (ruptures), previews (plotly), the Ray engine (ray), and
+# config-defined metrics (duckdb, sqlglot, liquid).
+HEAVY = ("polars", "numpy", "scipy", "ruptures", "plotly", "ray", "duckdb", "sqlglot", "liquid")
+
+PACKAGES = [
+    "stook.sdk",
+    "stook.sdk.aggregations",
+    "stook.sdk.aggregations.report",
+    "stook.sdk.stats",
+    "stook.service",
+    "stook.service.api",
+    "stook.service.fetch",
+    "stook.service.modes",
+    "stook.service.cli",
+    "stook.service.preview",
+    "stook.service.metrics_config",
+]
 
 
 def _printed_by(script: str) -> str:
@@ -26,12 +49,67 @@ def _printed_by(script: str) -> str:
     return done.stdout
 
 
-@pytest.mark.parametrize("module", MODULES)
-def test_importing_does_not_import_polars_or_numpy(module: str) -> None:
+def _heavy_after(code: str) -> str:
+    return code + f"\nprint(sorted(m for m in {HEAVY!r} if m in sys.modules))\n"
+
+
+@pytest.mark.parametrize("package", PACKAGES)
+def test_importing_a_package_imports_no_heavy_library(package: str) -> None:
+    assert _printed_by(_heavy_after(f"import sys, {package}")) == "[]\n"
+
+
+# The library below the command: what `stook --help` must not load, nor `show` and
+# `validate` beyond the SDK's reader.
+LIBRARY = (
+    "stook.service.api",
+    "stook.service.fetch",
+    "stook.service.modes",
+    "stook.service.metrics_config",
+    "stook.sdk.aggregations",
+    "structlog",
+    "aiohttp",
+)
+
+
+def test_importing_stook_service_imports_none_of_its_layers() -> None:
     script = (
-        f"import sys, {module}\nprint(sorted(m for m in ('polars', 'numpy') if m in sys.modules))\n"
+        "import sys, stook.service\nprint([m for m in sys.modules if m.startswith('stook.')])\n"
     )
-    assert _printed_by(script) == "[]\n"
+    assert _printed_by(script) == "['stook.service']\n"
+
+
+def test_stook_service_resolves_each_name_from_its_layer() -> None:
+    import stook.service
+    from stook.service import api, fetch, modes
+
+    homes = {name: layer for layer in (api, fetch, modes) for name in layer.__all__}
+    for name in stook.service.__all__:
+        assert getattr(stook.service, name) is getattr(homes[name], name), name
+
+
+def test_stook_service_types_every_name_it_exports() -> None:
+    # What type checkers read (the imports under TYPE_CHECKING) is what `__all__` exports.
+    import stook.service
+
+    tree = ast.parse(Path(stook.service.__file__).read_text())
+    guarded = next(
+        n
+        for n in tree.body
+        if isinstance(n, ast.If) and ast.unparse(n.test) == "typing.TYPE_CHECKING"
+    )
+    imported = [a.name for n in guarded.body if isinstance(n, ast.ImportFrom) for a in n.names]
+    assert sorted(imported) == sorted(stook.service.__all__)
+
+
+@pytest.mark.parametrize("flag", ["--help", "--version"])
+def test_help_and_version_import_no_module_of_the_library(flag: str) -> None:
+    library = (*LIBRARY, "stook.sdk", "stook.proto")
+    script = (
+        "import sys\nfrom stook.service.cli import main\n"
+        f"try:\n    main([{flag!r}])\nexcept SystemExit:\n    pass\n"
+        f"print(sorted(m for m in {library!r} if m in sys.modules))\n"
+    )
+    assert _printed_by(script).splitlines()[-1] == "[]"
 
 
 def test_building_aggregations_lists_no_plugins_before_a_kind_needs_it() -> None:
@@ -45,48 +123,22 @@ def test_building_aggregations_lists_no_plugins_before_a_kind_needs_it() -> None
     assert _printed_by(script) == "False\n"
 
 
-def test_a_local_batch_run_imports_only_what_it_uses() -> None:
-    # A batch run builds the default batch aggregations and those of its config: the report
-    # aggregations (~30 ms), the baseline settings, comparison and statistics are imported only
-    # by the runs that use them; the sharded engines' machinery, the report fetch and the
-    # fetch library only by the runs and programs that use those; tomllib only with a file.
+def test_a_local_batch_run_builds_its_aggregations_without_a_heavy_library() -> None:
+    # The baseline's statistics (scipy), the report's change points (ruptures) and the
+    # Ray engine come with the runs that use them.
     script = (
         "import sys, stook.service.cli._run\n"
-        "from stook.service.modes import engine_for, fetch_step_for, parse\n"
+        "from stook.service.modes import engine_for, parse\n"
         "from stook.sdk.aggregations import default_batch_aggregations\n"
         "default_batch_aggregations()\n"
         "config = parse({'batch': {'pass_rate': [{}]}, 'report': {'top_n': 3}})\n"
         "config.batch_aggregations()\n"
-        "fetch_step_for(engine_for(config), None)\n"
-        "unused = ('stook.sdk.aggregations.report', 'stook.sdk.aggregations._baseline',\n"
-        "          'stook.sdk.stats', 'stook.sdk.aggregations._histogram',\n"
-        "          'stook.service.modes._engine', 'stook.service.modes._library',\n"
-        "          'stook.service.fetch._report_fetch', 'stook.service.fetch._baseline_find',\n"
-        "          'stook.service.modes._baseline_config', 'tomllib')\n"
-        "print(sorted(m for m in unused if m in sys.modules))\n"
+        "engine_for(config)\n"
     )
-    assert _printed_by(script) == "[]\n"
+    assert _printed_by(_heavy_after(script)) == "[]\n"
 
 
-def test_show_and_validate_import_neither_the_writer_nor_the_data_constructors() -> None:
-    # `stook show` and `validate` read a file: stook.sdk hands out its names on first use,
-    # so the writer (with secrets, for its temporary files) is not imported for them, and
-    # the rules only by `validate`.
-    script = (
-        "import sys\nfrom stook.service.cli._inspect import show_file, validate_file\n"
-        "unused = ('stook.sdk._writer', 'stook.sdk._atomic', 'stook.sdk._data', 'secrets',\n"
-        "          'stook.sdk._validate')\n"
-        "print(sorted(m for m in unused if m in sys.modules))\n"
-    )
-    assert _printed_by(script) == "[]\n"
-
-
-def test_show_and_validate_import_neither_pathlib_nor_the_typed_metric_views(
-    tmp_path: Path,
-) -> None:
-    # The typed metric views (fourteen dataclasses) are imported by `JobMetricsView.metric`
-    # alone, and these commands take the file's name as given: both cost milliseconds of
-    # every `stook validate`.
+def test_show_and_validate_import_no_heavy_library(tmp_path: Path) -> None:
     from stook.sdk import MetricsWriter
 
     writer = MetricsWriter(uuid.UUID(int=1))
@@ -95,8 +147,7 @@ def test_show_and_validate_import_neither_pathlib_nor_the_typed_metric_views(
     script = (
         "import sys\nfrom stook.service.cli import run_cli\n"
         f"codes = [run_cli(['validate', {path!r}]), run_cli(['show', {path!r}])]\n"
-        "unused = ('pathlib', 'stook.sdk._metric_views', 'importlib.metadata')\n"
-        "print(codes, sorted(m for m in unused if m in sys.modules))\n"
+        f"print(codes, sorted(m for m in {HEAVY + LIBRARY!r} if m in sys.modules))\n"
     )
     assert _printed_by(script).splitlines()[-1] == "[0, 0] []"
 
@@ -117,34 +168,9 @@ def test_previewing_imports_neither_plotly_nor_polars(tmp_path: Path) -> None:
     assert _printed_by(script) == "[]\n"
 
 
-def test_the_command_imports_structlog_without_rich_yet_rich_still_draws() -> None:
-    # structlog imports rich (~50 ms) for tracebacks stook never draws; the `stook` command
-    # hides it from structlog, and the progress bar imports it for real later.
-    code = (
-        "import sys\n"
-        "from stook.service.cli._main import _import_structlog_without_rich\n"
-        "_import_structlog_without_rich()\n"
-        "import structlog.dev\n"
-        "assert structlog.dev.rich is None, 'structlog imported rich'\n"
-        "assert 'rich' not in sys.modules\n"
-        "import rich.progress\n"
-        "print('ok')\n"
-    )
-    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=False)
-    assert done.stdout.strip() == "ok", done.stderr
-
-
-# Imports a batch run needs only once answers arrive: the writer and its data constructors
-# (for the output), the reader, the typed metric views and protobuf (for downloaded blobs).
-AFTER_THE_FIRST_ANSWERS = (
-    "google.protobuf",
-    "stook.proto",
-    "stook.sdk._writer",
-    "stook.sdk._data",
-    "stook.sdk._reader",
-    "stook.sdk._metric_views",
-    "stook.service.fetch._job_blobs",
-)
+# What a batch run imports only once answers arrive: polars and numpy with the first
+# series decoded (tenacity sends every request, the first one too).
+AFTER_THE_FIRST_ANSWERS = ("polars", "numpy")
 
 # `stook run` until a signal, then the modules of AFTER_THE_FIRST_ANSWERS it has imported.
 RUN_UNTIL_SIGNALLED = """
@@ -158,7 +184,7 @@ main(["run", "--inputs", {inputs!r}, "--outputs", {outputs!r}])
 """
 
 
-def test_a_batch_run_sends_its_first_request_before_the_writer_reader_or_protobuf(
+def test_a_batch_run_sends_its_first_request_before_polars_or_numpy(
     tmp_path: Path,
 ) -> None:
     # A server that never answers: `stook run` (default config, with the batch summary) is

@@ -43,7 +43,7 @@ def test_the_commands_are_timed_with_stooks_modules_byte_compiled() -> None:
     import importlib.util
     from pathlib import Path
 
-    import stook.sdk._lazy as module
+    import stook.sdk._enums as module
     from stook.bench._startup import byte_compile_stook
 
     cached = Path(importlib.util.cache_from_source(module.__file__))

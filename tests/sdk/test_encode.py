@@ -14,7 +14,8 @@ import polars as pl
 import pytest
 
 from stook.proto import metrics_pb2 as pb
-from stook.sdk import STATUS_DTYPE, MetricStatus, MetricsWriter, SeriesKind, data, read_job_metrics
+from stook.sdk import MetricStatus, MetricsWriter, SeriesKind, data, read_job_metrics
+from stook.sdk.dtypes import STATUS_DTYPE
 from tests.sdk.support import JOB, T0, T0_NS, float_bits, resim_accepts, statuses_of, written
 
 # ---------------------------------------------------------------- every data kind

@@ -16,8 +16,6 @@ import pytest
 
 PUBLIC_API: dict[str, list[str]] = {
     "stook.sdk": [
-        "KIND_DTYPE",
-        "STATUS_DTYPE",
         "BarChartMetric",
         "BatchwiseBarChartMetric",
         "Bucket",
@@ -64,6 +62,10 @@ PUBLIC_API: dict[str, list[str]] = {
         "remove_stale_temp_files",
         "validate_job_metrics",
         "write_atomic",
+    ],
+    "stook.sdk.dtypes": [
+        "KIND_DTYPE",
+        "STATUS_DTYPE",
     ],
     "stook.sdk.data": [
         "MetricsData",
@@ -181,8 +183,6 @@ def test_every_exported_name_resolves(package: str) -> None:
 @pytest.mark.parametrize("package", PACKAGES)
 def test_nothing_public_is_left_out_of_all(package: str) -> None:
     module = importlib.import_module(package)
-    for name in module.__all__:  # some are made on first use (the polars dtypes)
-        getattr(module, name)
     # Subpackages become attributes when imported (stook.sdk.aggregations, example);
     # they are reached by their dotted name, not through __all__.
     public = {

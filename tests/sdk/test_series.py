@@ -12,15 +12,14 @@ import pytest
 
 from stook.proto import metrics_pb2 as pb
 from stook.sdk import (
-    STATUS_DTYPE,
     JobMetricsView,
     ReadError,
     SeriesKind,
     parse_metrics_data,
     read_metrics_data,
 )
-from stook.sdk._packed import packed_doubles
 from stook.sdk._series import doubles_array
+from stook.sdk.dtypes import STATUS_DTYPE
 from tests.sdk.support import bare_data
 
 # ---------------------------------------------------------------- a ReSim-written output
@@ -160,43 +159,3 @@ def test_doubles_array_matches_the_series_bit_for_bit(length: int) -> None:
     assert got.dtype == "float64"
     assert got.tobytes() == struct.pack(f"<{length}d", *values)
     assert got.tobytes() == view.series().to_numpy().tobytes()
-    assert packed_doubles(view.raw.series) == got.tobytes()
-
-
-def test_doubles_array_with_unknown_fields_falls_back_to_copying() -> None:
-    d = bare_data(pb.DOUBLE_SERIES_DATA_TYPE)
-    d.series.doubles.series.extend(float(i) for i in range(1000))
-    d.series.doubles.MergeFromString(b"\x10\x07")
-    view = read_metrics_data(d.SerializeToString())
-    assert doubles_array(view.raw.series.doubles).tolist() == [float(i) for i in range(1000)]
-    packed = packed_doubles(view.raw.series)
-    assert packed == struct.pack("<1000d", *(float(i) for i in range(1000)))
-
-
-@pytest.mark.parametrize("length", [0, 1, 15, 16, 17, 63, 64, 2047, 2048, 2049, 70_000])
-def test_packed_doubles_are_the_values_bit_for_bit_at_any_length(length: int) -> None:
-    # Around the lengths where the wire's length varint grows a byte (16 and 2048 doubles).
-    special = [0.0, -0.0, math.inf, -math.inf, 5e-324, math.nan]
-    values = [special[i % len(special)] if i % 7 == 0 else i * 0.1 - 7.0 for i in range(length)]
-    d = bare_data(pb.DOUBLE_SERIES_DATA_TYPE)
-    d.series.doubles.series.extend(values)
-    series = read_metrics_data(d.SerializeToString()).raw.series
-    assert packed_doubles(series) == struct.pack(f"<{length}d", *values)
-    series.doubles.MergeFromString(b"\x10\x07")  # an unknown field beside them: element by element
-    assert packed_doubles(series) == struct.pack(f"<{length}d", *values)
-
-
-@pytest.mark.parametrize("length", [0, 1, 300])
-def test_packed_doubles_of_a_series_with_an_unknown_field_beside_its_doubles(length: int) -> None:
-    values = [i * 0.5 for i in range(length)]
-    d = bare_data(pb.DOUBLE_SERIES_DATA_TYPE)
-    d.series.doubles.series.extend(values)
-    series = read_metrics_data(d.SerializeToString()).raw.series
-    series.MergeFromString(b"\x30\x07")  # field 6 of Series, which it does not have
-    assert packed_doubles(series) == struct.pack(f"<{length}d", *values)
-
-
-def test_packed_doubles_of_a_series_of_other_elements_is_empty() -> None:
-    series = pb.Series()
-    series.strings.series.extend(["a" * 40] * 3)
-    assert packed_doubles(series) == b""

@@ -9,13 +9,12 @@ import pytest
 
 from stook.proto import metrics_pb2 as pb
 from stook.sdk import (
-    KIND_DTYPE,
-    STATUS_DTYPE,
     JobMetricsView,
     MetricsWriter,
     SeriesKind,
     read_job_metrics,
 )
+from stook.sdk.dtypes import KIND_DTYPE, STATUS_DTYPE
 from tests.sdk.resim_output import JOB_ID
 
 # ---------------------------------------------------------------- a ReSim-written output

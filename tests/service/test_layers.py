@@ -51,7 +51,7 @@ API_ORDER = [
     "_client",
 ]
 # Modules of the package root: the facade (__init__) and what every layer may use.
-ROOT_MODULES = {PACKAGE: "facade", f"{PACKAGE}._lazy": "base"}
+ROOT_MODULES = {PACKAGE: "facade"}
 
 
 def module_name(path: Path) -> str:

@@ -3,22 +3,18 @@
 ``stook.service`` re-exports what a program built on the library needs (clients, retry
 policy, limiters, errors, models, fetch cores); each layer's package lists its own public
 names. Adding or removing one is a deliberate act: the lists are written out below.
-``stook.service``, ``stook.service.api`` and ``stook.service.cli`` import their names on
-first use, so importing them stays cheap; that is checked here too.
+Every package re-exports its names plainly; heavy libraries are imported by the
+functions that use them, so importing the packages stays cheap: that is checked here too.
 """
 
 from __future__ import annotations
 
-import ast
 import importlib
 import inspect
 import subprocess
 import sys
-from pathlib import Path
 
 import pytest
-
-SERVICE = Path(__file__).resolve().parents[2] / "service" / "src" / "stook" / "service"
 
 PUBLIC_API: dict[str, list[str]] = {
     "stook.service": [
@@ -141,7 +137,6 @@ PUBLIC_API: dict[str, list[str]] = {
         "OUTPUT_NAME",
         "ApiAccess",
         "BatchInputs",
-        "BatchMode",
         "BatchResult",
         "ConfigError",
         "EngineSettings",
@@ -149,12 +144,10 @@ PUBLIC_API: dict[str, list[str]] = {
         "InputsError",
         "LogProgress",
         "MissingJobsError",
-        "Mode",
         "NoProgress",
         "OutputsError",
         "Progress",
         "ReportInputs",
-        "ReportMode",
         "ReportResult",
         "RunResult",
         "Snapshot",
@@ -171,7 +164,6 @@ PUBLIC_API: dict[str, list[str]] = {
         "fetch_batch",
         "fetch_batch_frame",
         "fetch_report",
-        "fetch_step_for",
         "for_stream",
         "human_bytes",
         "load",
@@ -179,7 +171,6 @@ PUBLIC_API: dict[str, list[str]] = {
         "parse",
         "run_batch",
         "run_on_event_loop",
-        "run_pipeline",
         "run_report",
         "run_test_mode",
     ],
@@ -207,18 +198,7 @@ PUBLIC_API: dict[str, list[str]] = {
     ],
     "stook.service.cli": ["Voice", "build_parser", "main", "run_cli", "summary_lines"],
 }
-LAZY = [
-    "stook.service",
-    "stook.service.api",
-    "stook.service.cli",
-    "stook.service.fetch",
-    "stook.service.modes",
-]
 PACKAGES = sorted(PUBLIC_API)
-
-
-def source_of(package: str) -> Path:
-    return SERVICE.joinpath(*package.split(".")[2:], "__init__.py")
 
 
 @pytest.mark.parametrize("package", PACKAGES)
@@ -234,7 +214,7 @@ def test_every_exported_name_resolves(package: str) -> None:
     assert set(module.__all__) <= set(dir(module))
 
 
-@pytest.mark.parametrize("package", sorted(set(PACKAGES) - set(LAZY)))
+@pytest.mark.parametrize("package", PACKAGES)
 def test_nothing_public_is_left_out_of_all(package: str) -> None:
     module = importlib.import_module(package)
     public = {
@@ -243,45 +223,6 @@ def test_nothing_public_is_left_out_of_all(package: str) -> None:
         if not name.startswith("_") and not inspect.ismodule(value)
     }
     assert sorted(public) == sorted(module.__all__)
-
-
-def lazy_tables(package: str) -> tuple[dict[str, str], dict[str, str]]:
-    """What a lazy package imports for mypy (TYPE_CHECKING) and what it imports at run
-    time (the lazy_exports table): name -> module, each."""
-    tree = ast.parse(source_of(package).read_text())
-    checked: dict[str, str] = {}
-    runtime: dict[str, str] = {}
-    for node in ast.walk(tree):
-        if isinstance(node, ast.If) and isinstance(node.test, ast.Name):
-            assert node.test.id == "TYPE_CHECKING"
-            for statement in node.body:
-                assert isinstance(statement, ast.ImportFrom)
-                assert statement.module
-                checked.update((alias.name, statement.module) for alias in statement.names)
-        if (
-            isinstance(node, ast.Call)
-            and isinstance(node.func, ast.Name)
-            and node.func.id == "lazy_exports"
-        ):
-            table = node.args[1]
-            assert isinstance(table, ast.Dict)
-            runtime = {
-                ast.literal_eval(k): ast.literal_eval(v)
-                for k, v in zip(table.keys, table.values, strict=True)
-                if k
-            }
-    return checked, runtime
-
-
-@pytest.mark.parametrize("package", LAZY)
-def test_a_lazy_package_imports_for_mypy_what_it_imports_at_run_time(package: str) -> None:
-    checked, runtime = lazy_tables(package)
-    assert checked == runtime
-    assert sorted(runtime) == sorted(PUBLIC_API[package])
-    # Nothing else is public in the package: only what __getattr__ hands out.
-    module = importlib.import_module(package)
-    with pytest.raises(AttributeError, match="has no attribute 'NoSuchName'"):
-        _ = module.NoSuchName
 
 
 def modules_after(code: str) -> set[str]:
@@ -315,7 +256,13 @@ def test_importing_the_service_stays_cheap(code: str) -> None:
     assert modules_after(code).isdisjoint({"aiohttp", "polars", "tenacity"})
 
 
-def test_using_a_name_imports_its_layer() -> None:
-    imported = modules_after("from stook.service import ApiClient")
+def test_opening_a_client_imports_aiohttp() -> None:
+    imported = modules_after(
+        "import asyncio\nfrom stook.service import ApiClient\n"
+        "async def main():\n"
+        "    async with ApiClient('http://127.0.0.1:9', 'token'):\n"
+        "        pass\n"
+        "asyncio.run(main())"
+    )
     assert "aiohttp" in imported
     assert "tenacity" in imported  # every request's attempts run through it

@@ -297,7 +297,7 @@ def test_version() -> None:
 
 # What `show` and `validate` must not import: they read a file, with protobuf alone. (How
 # fast they start is measured in `stook bench`, not here.)
-_HEAVY = ("polars", "numpy", "aiohttp", "structlog")
+_HEAVY = ("polars", "numpy", "aiohttp")
 
 
 @pytest.mark.parametrize("command", ["show", "validate", "--version", "--help"])

@@ -8,9 +8,8 @@ from typing import Any
 import pytest
 
 from stook.sdk.aggregations import BaselineComparison
-from stook.service.modes import BatchMode
+from stook.service.modes._batch import batch_aggregations
 from stook.service.modes._config import ConfigError, parse
-from stook.service.modes._inputs import ApiAccess, BatchInputs
 
 BATCH = "0b0b0b0b-1111-4222-8333-444444444444"
 
@@ -58,12 +57,11 @@ def test_defaults_and_the_other_two_choices() -> None:
 
 def test_the_comparison_joins_batch_mode_and_its_needs() -> None:
     config = parse(baseline(previous=True, metrics=["Max speed"]))
-    access = ApiAccess("http://127.0.0.1:9", "token", uuid.UUID(int=1))
-    mode = BatchMode(BatchInputs(access, uuid.UUID(BATCH)), config)
-    assert mode.comparison is not None
-    assert mode.comparison in mode.aggregations
-    assert mode.comparison.needs().scalars == frozenset({"Max speed"})
-    assert BatchMode(BatchInputs(access, uuid.UUID(BATCH)), parse({})).comparison is None
+    aggregations = batch_aggregations(config)
+    assert aggregations.comparison is not None
+    assert aggregations.comparison in aggregations.all
+    assert aggregations.comparison.needs().scalars == frozenset({"Max speed"})
+    assert batch_aggregations(parse({})).comparison is None
 
 
 @pytest.mark.parametrize(

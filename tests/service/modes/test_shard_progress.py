@@ -5,9 +5,10 @@ from __future__ import annotations
 
 import asyncio
 
+from stook.service.modes._engine import LiveShards
 from stook.service.modes._open_api import Traffic
 from stook.service.modes._progress import Snapshot
-from stook.service.modes._shard_progress import LiveShards, ShardProgress, reporting
+from stook.service.modes._shards import ShardProgress, reporting
 
 
 def test_running_shards_add_their_jobs_and_traffic() -> None:

@@ -2,14 +2,11 @@
 
 from __future__ import annotations
 
-import uuid
-
 import pytest
 
 from stook.sdk.aggregations import BatchSummaryWriter
-from stook.service.modes._batch import BatchMode
+from stook.service.modes._batch import batch_aggregations
 from stook.service.modes._config import ConfigError, StookConfig, parse
-from stook.service.modes._inputs import ApiAccess, BatchInputs
 
 
 def test_on_by_default() -> None:
@@ -37,14 +34,9 @@ def test_a_bad_value_is_a_config_error(doc: dict[str, object], message: str) -> 
         parse(doc)
 
 
-def _inputs() -> BatchInputs:
-    access = ApiAccess("https://api.example/v1", "token", uuid.UUID(int=1))
-    return BatchInputs(access, uuid.UUID(int=2))
-
-
 @pytest.mark.parametrize("on", [True, False])
 def test_batch_mode_folds_the_summary_only_when_on(on: bool) -> None:
-    mode = BatchMode(_inputs(), parse({"output": {"summary": on}}))
-    writers = [a for a in mode.aggregations if isinstance(a, BatchSummaryWriter)]
+    aggregations = batch_aggregations(parse({"output": {"summary": on}}))
+    writers = [a for a in aggregations.all if isinstance(a, BatchSummaryWriter)]
     assert len(writers) == int(on)
-    assert (mode.summary is not None) == on
+    assert (aggregations.summary is not None) == on

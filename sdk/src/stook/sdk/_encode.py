@@ -10,7 +10,6 @@ equal inputs give equal bytes.
 from __future__ import annotations
 
 import uuid
-from array import array
 from collections.abc import Mapping, Sequence
 from typing import Any
 
@@ -66,45 +65,12 @@ def data_to_proto(data: MetricsData, ids: Mapping[str, uuid.UUID]) -> pb.Metrics
 
 
 def _fill_series(series: pb.Series, kind: SeriesKind, values: Sequence[Any]) -> None:
-    field = SERIES_FIELD[kind]
-    target = getattr(series, field)
+    target = getattr(series, SERIES_FIELD[kind])
     target.SetInParent()
     match kind:
-        case SeriesKind.DOUBLE if isinstance(values, array):
-            # Parsing the packed wire form is a memcpy in C; extend() would box every value.
-            raw = values.tobytes()
-            target.MergeFromString(b"\x0a" + _varint(len(raw)) + raw)
-        case SeriesKind.STATUS if (packed := _status_bytes(values)) is not None:
-            # The same, each status's varint being one byte: extend() converted each
-            # value (a status series stands beside every value series the writer makes).
-            target.MergeFromString(b"\x0a" + _varint(len(packed)) + packed)
         case SeriesKind.TIMESTAMP:
             target.series.extend(timestamp_proto(v) for v in values)
         case SeriesKind.UUID:
             target.series.extend(uuid_pb2.UUID(data=v) for v in values)
         case _:
             target.series.extend(values)
-
-
-def _status_bytes(values: Sequence[Any]) -> bytes | None:
-    """The packed wire form of statuses that are all below 128 (every `MetricStatus`
-    is), whose varints are then their own bytes; None for any other values.
-
-    A list or tuple only (what the SDK's constructors make): `bytes` of anything with a
-    buffer (an array, a numpy array) is its memory, not its values."""
-    if type(values) is not list and type(values) is not tuple:
-        return None
-    try:
-        raw = bytes(values)
-    except (TypeError, ValueError):
-        return None
-    return raw if raw and raw.isascii() else None
-
-
-def _varint(n: int) -> bytes:
-    out = bytearray()
-    while n > 0x7F:
-        out.append((n & 0x7F) | 0x80)
-        n >>= 7
-    out.append(n)
-    return bytes(out)

@@ -25,6 +25,7 @@ from stook.sdk._enums import MetricImportance, MetricStatus, MetricType, SeriesK
 from stook.sdk._errors import WriterError
 from stook.sdk._handle import MetricHandle, MetricOptions, status_of
 from stook.sdk._ids import IdScheme
+from stook.sdk._validate import validate_job_metrics
 
 _B = TypeVar("_B", bound="OutputBuilder")
 _P = ParamSpec("_P")
@@ -237,8 +238,6 @@ class OutputBuilder:
         is written and InvalidMetricsError says which metric breaks which rule."""
         msg = self.to_proto()
         if validate:
-            from stook.sdk._validate import validate_job_metrics
-
             validate_job_metrics(msg)
         return write_atomic(path, msg.SerializeToString(deterministic=True))
 

@@ -18,7 +18,6 @@ import polars as pl
 from stook.proto import metrics_pb2 as pb
 from stook.sdk._enums import NANOS_PER_SECOND, MetricStatus, SeriesKind
 from stook.sdk._errors import MalformedError
-from stook.sdk._packed import packed_header
 
 STATUS_DTYPE = pl.Enum([s.name for s in MetricStatus])
 """dtype of status values in frames; ``NO_METRIC_STATUS`` (unset) and a status this
@@ -65,35 +64,16 @@ def to_polars(series: pb.Series, kind: SeriesKind, name: str) -> pl.Series:
     return statuses.replace_strict(_STATUS_NAMES, default=None, return_dtype=STATUS_DTYPE)
 
 
-# Measured with polars 2.1, numpy 2.4, protobuf 7.36 (was 400 when the packed path cost
-# ~20 µs): break-even at 40-50 doubles; 300 doubles take 6.4 µs instead of 11.7.
-_PACKED_PATH_MIN = 64
-
-
 def _doubles(doubles: pb.DoubleSeries, name: str) -> pl.Series:
-    # Handing polars the repeated field element by element costs ~5 µs plus ~22 ns per
-    # double; below a few dozen values that is still the faster way.
-    if len(doubles.series) < _PACKED_PATH_MIN:
-        return pl.Series(name, doubles.series, dtype=pl.Float64)
     return pl.Series(name, doubles_array(doubles))
 
 
 def doubles_array(doubles: pb.DoubleSeries) -> np.ndarray[Any, np.dtype[np.float64]]:
     """The doubles as a read-only float64 array, bit for bit, without building polars
     objects (for aggregations that reduce the values with numpy)."""
-    # The packed wire form already is the little-endian array numpy wants: re-serialize
-    # it (a memcpy in upb) and view it, ~1.5 µs whatever the length.
-    n = len(doubles.series)
-    if n >= _PACKED_PATH_MIN:
-        wire = doubles.SerializeToString()
-        header = packed_header(n * 8)
-        if len(wire) == len(header) + n * 8 and wire.startswith(header):
-            # Positional: frombuffer's keywords cost more than the view itself (~1 µs).
-            return np.frombuffer(wire, _LITTLE_ENDIAN_F8, n, len(header))
-    return np.array(doubles.series, dtype=np.float64)
-
-
-_LITTLE_ENDIAN_F8 = np.dtype("<f8")
+    values = np.array(doubles.series, dtype=np.float64)
+    values.flags.writeable = False
+    return values
 
 
 def _timestamps(timestamps: pb.TimestampSeries, name: str) -> pl.Series:

@@ -17,8 +17,10 @@ from functools import cache
 from typing import TYPE_CHECKING, Any, Literal, TypeVar, overload
 
 from stook.proto import metrics_pb2 as pb
+from stook.sdk._elements import plain_values
 from stook.sdk._enums import MetricImportance, MetricStatus, MetricType, SeriesKind
 from stook.sdk._errors import MalformedError, read_error
+from stook.sdk._metric_views import not_found, typed_metric
 
 if TYPE_CHECKING:
     import polars as pl
@@ -203,7 +205,6 @@ class MetricsDataView:
         return self.kind
 
     def _plain(self, series: pb.Series) -> tuple[Any, ...]:
-        from stook.sdk._elements import plain_values
 
         try:
             return plain_values(series, self._check_has_series())
@@ -295,8 +296,6 @@ class JobMetricsView:
         KeyError (naming close names) when there is no such metric; `MissingDataError`
         when it references data this output does not hold.
         """
-        from stook.sdk._metric_views import not_found, typed_metric
-
         found = self.find_metric(name)
         if found is None:
             raise not_found(name, self.metric_names())

@@ -21,6 +21,7 @@ from typing import Self
 from stook.sdk._enums import MetricStatus
 from stook.sdk._writer import MetricsWriter
 from stook.sdk.aggregations._base import Aggregation, Needs
+from stook.sdk.aggregations._baseline_output import write_comparison
 from stook.sdk.aggregations._record import JobRecord
 from stook.sdk.stats import (
     Better,
@@ -403,7 +404,6 @@ class BaselineComparison(Aggregation[JobRecord]):
     # ---- writing ----
 
     def finish(self, writer: MetricsWriter) -> None:
-        from stook.sdk.aggregations._baseline_output import write_comparison
 
         result = self.result()
         if result is None:

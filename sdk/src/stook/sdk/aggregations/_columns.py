@@ -14,13 +14,26 @@ from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, TypeVar, overload
 
-from stook.sdk.aggregations._record import JobSummary
-
 if TYPE_CHECKING:
     import numpy as np
 
 _T = TypeVar("_T")
 _NO_ID = bytes(16)
+
+
+@dataclass(frozen=True, slots=True)
+class JobSummary:
+    """One job of a report's batch: what report aggregations read of it.
+
+    `scalars` holds the job's SCALAR job metric values by name when the plan asks for job
+    metrics (`Needs.job_metrics`), as `BatchRecord.job_scalars` pools them; else empty.
+    """
+
+    job_id: uuid.UUID
+    experience_name: str
+    conflated_status: str
+    experience_id: uuid.UUID | None = None
+    scalars: Mapping[str, float] = field(default_factory=dict, hash=False)
 
 
 def experience_key(name: str, experience_id: uuid.UUID | None) -> tuple[str, bytes]:

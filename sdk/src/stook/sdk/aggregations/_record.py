@@ -8,6 +8,15 @@ from dataclasses import dataclass, field
 from datetime import datetime
 from typing import TYPE_CHECKING, TypeVar, overload
 
+from stook.sdk.aggregations._columns import (
+    JobColumns,
+    JobSummaries,
+    JobSummary,
+    PooledScalars,
+    StatusList,
+    columns_of,
+)
+
 if TYPE_CHECKING:
     import polars as pl
 
@@ -15,7 +24,6 @@ if TYPE_CHECKING:
     # `stook run` builds its aggregations, which name records, before its first request.
     from stook.sdk._metric_views import TypedMetric
     from stook.sdk._views import JobMetricsView, MetricsDataView
-    from stook.sdk.aggregations._columns import JobColumns
 
 _T = TypeVar("_T", bound="TypedMetric")
 
@@ -117,21 +125,6 @@ class JobRecord:
 
 
 @dataclass(frozen=True, slots=True)
-class JobSummary:
-    """One job of a report's batch: what report aggregations read of it.
-
-    `scalars` holds the job's SCALAR job metric values by name when the plan asks for job
-    metrics (`Needs.job_metrics`), as `BatchRecord.job_scalars` pools them; else empty.
-    """
-
-    job_id: uuid.UUID
-    experience_name: str
-    conflated_status: str
-    experience_id: uuid.UUID | None = None
-    scalars: Mapping[str, float] = field(default_factory=dict, hash=False)
-
-
-@dataclass(frozen=True, slots=True)
 class BatchRecord:
     """One batch folded into report aggregations.
 
@@ -176,8 +169,6 @@ class BatchRecord:
     ) -> BatchRecord:
         """A record whose job data is `columns`; its per-job fields are made from them
         only when read."""
-        from stook.sdk.aggregations._columns import JobSummaries, PooledScalars, StatusList
-
         return cls(
             batch_id=batch_id,
             name=name,
@@ -197,6 +188,4 @@ class BatchRecord:
         """The batch's job data as columns: `columns`, or made from the per-job fields."""
         if self.columns is not None:
             return self.columns
-        from stook.sdk.aggregations._columns import columns_of
-
         return columns_of(self.jobs, self.job_scalars, self.job_metric_statuses)

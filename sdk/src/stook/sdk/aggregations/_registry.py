@@ -16,6 +16,19 @@ from typing import Any
 
 from stook.sdk._errors import StookError
 from stook.sdk.aggregations._base import Aggregation
+from stook.sdk.aggregations._scalar_defaults import ScalarDefaults
+from stook.sdk.aggregations._status_counts import JobStatusCounts, MetricStatusCounts, PassRate
+from stook.sdk.aggregations.report import (
+    BatchMetricStatusCounts,
+    ChangePoints,
+    FlakyExperiences,
+    JobMetricStatusCounts,
+    JobScalarDistributions,
+    MostFailedExperiences,
+    ScalarLines,
+    TestStatusOverTime,
+    UnstableExperiences,
+)
 
 ENTRY_POINT_GROUP = "stook.aggregations"
 ENTRY_POINT_GROUPS = {"batch": ENTRY_POINT_GROUP, "report": "stook.report_aggregations"}
@@ -82,13 +95,6 @@ class AggregationConfigError(StookError):
 
 def default_batch_aggregations() -> list[Aggregation[Any]]:
     """What every batch gets, with or without a config."""
-    from stook.sdk.aggregations._scalar_defaults import ScalarDefaults
-    from stook.sdk.aggregations._status_counts import (
-        JobStatusCounts,
-        MetricStatusCounts,
-        PassRate,
-    )
-
     return [ScalarDefaults(), JobStatusCounts(), MetricStatusCounts(), PassRate()]
 
 
@@ -104,18 +110,6 @@ def default_report_aggregations(
     unstable_experiences: bool = True,
 ) -> list[Aggregation[Any]]:
     """What every report gets; the arguments are the ``[report]`` settings."""
-    from stook.sdk.aggregations.report import (
-        BatchMetricStatusCounts,
-        ChangePoints,
-        FlakyExperiences,
-        JobMetricStatusCounts,
-        JobScalarDistributions,
-        MostFailedExperiences,
-        ScalarLines,
-        TestStatusOverTime,
-        UnstableExperiences,
-    )
-
     aggregations: list[Aggregation[Any]] = [
         ScalarLines(
             window=regression_window,

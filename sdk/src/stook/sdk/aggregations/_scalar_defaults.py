@@ -11,6 +11,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Self
 
+from stook.sdk import _data
 from stook.sdk._buckets import histogram_buckets
 from stook.sdk._errors import WriterError
 from stook.sdk.aggregations._base import Aggregation, Needs
@@ -121,7 +122,6 @@ class ScalarDefaults(Aggregation[JobRecord]):
             mine.units.update(theirs.units)
 
     def finish(self, writer: MetricsWriter) -> None:
-        from stook.sdk import _data  # as the writer is: once the metrics are written
 
         self._add_waiting()
         for metric in sorted(self.columns):

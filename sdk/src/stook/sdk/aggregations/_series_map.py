@@ -4,7 +4,7 @@ A fetch hands every job's plain double data to its aggregations as `JobRecord.se
 Building a polars Series per job cost more than some aggregations' whole update (the
 merged histogram bins the values with numpy), so the series are made on first access
 and kept; `values_of` gives the same values as a numpy array without polars, and
-`packed_of` as the little-endian bytes of their wire form, without numpy either.
+`packed_of` as their little-endian float64 bytes.
 """
 
 from __future__ import annotations
@@ -14,7 +14,6 @@ from collections.abc import Callable, Iterator, Mapping
 from typing import TYPE_CHECKING, Any
 
 from stook.sdk._enums import SeriesKind
-from stook.sdk._packed import packed_doubles
 
 if TYPE_CHECKING:
     import numpy as np
@@ -76,10 +75,8 @@ class SeriesByName(Mapping[str, "pl.Series"]):
         """The values of `name` as little-endian float64 bytes (None without such data),
         bit for bit the series' values: for an aggregation that joins many jobs' values
         into one array, rather than make an array per job."""
-        view = self._views.get(name)
-        if view is None:
-            return None
-        return packed_doubles(view.raw.series)
+        values = self.values_of(name)
+        return None if values is None else values.astype("<f8", copy=False).tobytes()
 
 
 @functools.cache

@@ -35,6 +35,7 @@ from dataclasses import dataclass, field
 from itertools import chain, repeat
 from typing import TYPE_CHECKING, Any, Final, Literal, Self
 
+from stook.sdk._data import strings
 from stook.sdk._errors import StookError
 from stook.sdk.aggregations._base import Aggregation, Needs
 from stook.sdk.aggregations._columns import JobColumns, ScalarColumn
@@ -537,6 +538,4 @@ class BatchSummaryWriter(Aggregation[JobRecord]):
     def finish(self, writer: MetricsWriter) -> None:
         if self.skipped is not None:
             return
-        from stook.sdk._data import strings  # as the writer is: once the metrics are written
-
         writer.add_data(strings(SUMMARY_DATA_NAME, [self.text()]))

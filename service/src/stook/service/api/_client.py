@@ -15,7 +15,6 @@ from collections.abc import AsyncIterator, Awaitable, Callable, Mapping
 from types import ModuleType, TracebackType
 from typing import Any, Final, Self, TypeVar
 
-from aiohttp import hdrs
 from yarl import URL
 
 from stook.service.api._errors import (
@@ -182,9 +181,9 @@ class ApiClient:
                 proxy_for=self._base,
                 request_timeout=self._policy.request_timeout,
                 headers={
-                    hdrs.AUTHORIZATION: f"Bearer {token}",
-                    hdrs.ACCEPT: "application/json",
-                    hdrs.USER_AGENT: USER_AGENT,
+                    "Authorization": f"Bearer {token}",
+                    "Accept": "application/json",
+                    "User-Agent": USER_AGENT,
                 },
             )
         self._transport = transport

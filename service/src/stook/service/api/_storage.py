@@ -11,7 +11,6 @@ import re
 from types import TracebackType
 from typing import Final, Self
 
-from aiohttp import hdrs
 from yarl import URL
 
 from stook.service.api._errors import PresignedUrlExpiredError, StorageError
@@ -77,7 +76,7 @@ class StorageClient:
                 body_cap=body_cap or body_cap_mb(DEFAULT_MAX_BODY_MB, "max_body_mb"),
                 concurrency=concurrency,
                 request_timeout=self._policy.request_timeout,
-                headers={hdrs.USER_AGENT: USER_AGENT},
+                headers={"User-Agent": USER_AGENT},
                 follow_redirects=False,
                 credentials_allowed=False,
                 limiter=limiter,
@@ -122,14 +121,14 @@ class StorageClient:
         redirects (each hop sent through the transport, so each is checked), or the error
         the answer stands for."""
         for _hop in range(_MAX_STORAGE_REDIRECTS):
-            location = response.headers.get(hdrs.LOCATION)
+            location = response.headers.get("Location")
             if response.status not in _REDIRECT_STATUSES or not location:
                 raise _storage_error(response)
             url = url.join(URL(location, encoded=True))
             response = await self._transport.get(url)
             if response.ok:
                 return response.body
-        if response.status in _REDIRECT_STATUSES and response.headers.get(hdrs.LOCATION):
+        if response.status in _REDIRECT_STATUSES and response.headers.get("Location"):
             raise StorageError(
                 f"more than {_MAX_STORAGE_REDIRECTS} redirects from object storage", url=url
             )
@@ -140,7 +139,7 @@ def answer_retry_after(response: Response) -> float | None:
     """The pause a throttling or failing answer asked for (``Retry-After``), if any."""
     if response.status not in RETRYABLE_STATUSES:
         return None
-    return parse_retry_after(response.headers.get(hdrs.RETRY_AFTER))
+    return parse_retry_after(response.headers.get("Retry-After"))
 
 
 def _storage_error(response: Response) -> StorageError:

@@ -15,8 +15,10 @@ from stook.sdk import (
     MetricView,
     ReadError,
     SeriesKind,
+    find_problems,
     read_job_metrics,
 )
+from stook.service.cli._run import UsageError
 
 EXIT_INVALID = 4
 
@@ -33,8 +35,6 @@ def _read(path: FileName) -> JobMetricsView:
             payload = file.read()
     except FileNotFoundError:
         # A file that is not there is the user's to fix (exit 2), not invalid data (4).
-        from stook.service.cli._run import UsageError
-
         raise UsageError(f"{name!r}: no such file") from None
     except OSError as exc:
         raise ReadError(f"could not read JobMetrics from {name!r}: {exc.strerror}") from None
@@ -43,8 +43,6 @@ def _read(path: FileName) -> JobMetricsView:
 
 def validate_file(path: FileName, out: TextIO | None = None) -> int:
     """Print every rule the file breaks; exit 0 when there is none, 4 otherwise."""
-    from stook.sdk import find_problems  # the rules: for `validate`, not `show`
-
     stream = out or sys.stdout
     view = _read(path)
     problems = find_problems(view.raw)

@@ -198,9 +198,9 @@ def evaluate_offline(
         shutil.copyfile(path, outputs / path.name)
     written = writer.write(outputs / "metrics.binproto")
     if preview:
-        from stook.service.cli._preview import write_run_preview
+        from stook.service.preview import PREVIEW_NAME, write_preview
 
-        write_run_preview(written)
+        write_preview([written], written.with_name(PREVIEW_NAME))
     return written
 
 

@@ -1,4 +1,4 @@
-"""`stook preview FILE... [-o OUT.html] [--open]`, and the preview `stook run` writes."""
+"""`stook preview FILE... [-o OUT.html] [--open]`."""
 
 from __future__ import annotations
 
@@ -7,7 +7,8 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import TextIO
 
-from stook.service.preview import PREVIEW_NAME, write_preview
+from stook.service.cli._run import UsageError
+from stook.service.preview import write_preview
 
 DEFAULT_SEVERAL = Path("preview.html")
 
@@ -27,8 +28,6 @@ def preview_files(
     open_browser: bool = False,
     out: TextIO | None = None,
 ) -> int:
-    from stook.service.cli._run import UsageError
-
     for file in files:
         # Checked before reading any: a typo in the third name fails at once, exit 2.
         if not file.exists():
@@ -45,8 +44,3 @@ def preview_files(
 
         webbrowser.open(written.resolve().as_uri())
     return 0
-
-
-def write_run_preview(output: Path) -> Path:
-    """metrics.html beside the metrics.binproto a run wrote, atomically."""
-    return write_preview([output], output.with_name(PREVIEW_NAME))

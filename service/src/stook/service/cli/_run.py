@@ -24,7 +24,7 @@ import os
 import uuid
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import structlog
 
@@ -40,7 +40,6 @@ from stook.service.api import ApiError, AuthError
 from stook.service.modes import (
     OUTPUT_NAME,
     BatchInputs,
-    BatchMode,
     ConfigError,
     InputsError,
     OutputsError,
@@ -52,15 +51,14 @@ from stook.service.modes import (
     check_outputs_folder,
     detect,
     engine_for,
-    fetch_step_for,
     for_stream,
     human_bytes,
     load,
-    run_pipeline,
+    run_batch,
+    run_report,
+    run_test_mode,
 )
-
-if TYPE_CHECKING:
-    from stook.service.modes import ReportMode
+from stook.service.preview import PREVIEW_NAME, write_preview
 
 log = structlog.get_logger("stook.run")
 
@@ -150,31 +148,32 @@ async def run(options: RunOptions, *, progress: Progress | None = None) -> Path:
     output = options.outputs / OUTPUT_NAME
     _remove_stale_temp_files(output)
     if isinstance(mode, TestInputs):
-        from stook.service.modes import run_test_mode
-
         log.info("test mode", config=config.source)
         written = await run_test_mode(mode, config, output)
         _preview(written, options, config)
         return written
-    pieces: BatchMode | ReportMode
+    progress = progress or for_stream(label="jobs")
+    result: RunResult[Any]
     if isinstance(mode, BatchInputs):
-        pieces = BatchMode(mode, config)
+        log.info("batch mode", batch_id=str(mode.batch_id), config=config.source)
+        result = await run_batch(
+            mode,
+            config,
+            options.outputs,
+            allow_missing_jobs=options.allow_missing_jobs,
+            progress=progress,
+            engine=engine,
+        )
     else:
-        from stook.service.modes import ReportMode  # and the report fetch: report mode's own
-
-        pieces = ReportMode(mode, config)
-    log.info(
-        f"{pieces.kind} mode", **{f"{pieces.kind}_id": str(pieces.output_id)}, config=config.source
-    )
-    result: RunResult[Any] = await run_pipeline(
-        pieces,
-        mode.access,
-        config.fetch,
-        options.outputs,
-        allow_missing_jobs=options.allow_missing_jobs,
-        progress=progress or for_stream(label="jobs"),
-        fetch=fetch_step_for(engine, config.file),
-    )
+        log.info("report mode", report_id=str(mode.report_id), config=config.source)
+        result = await run_report(
+            mode,
+            config,
+            options.outputs,
+            allow_missing_jobs=options.allow_missing_jobs,
+            progress=progress,
+            engine=engine,
+        )
     _log_written(result)
     _preview(result.output, options, config)
     return result.output
@@ -184,9 +183,8 @@ def _preview(output: Path, options: RunOptions, config: StookConfig) -> None:
     """metrics.html beside the output when asked for (--preview, [output] preview)."""
     if not (options.preview or config.preview):
         return
-    from stook.service.cli._preview import write_run_preview
-
-    log.info("preview written", preview=str(write_run_preview(output)))
+    preview = write_preview([output], output.with_name(PREVIEW_NAME))
+    log.info("preview written", preview=str(preview))
 
 
 def _remove_stale_temp_files(output: Path) -> None:

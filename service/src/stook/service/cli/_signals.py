@@ -17,8 +17,8 @@ later signals: the process is leaving anyway. When `install` took the process's
 signals, a watchdog also ends the process `GRACE_S` after the first signal, should
 the unwinding itself ever get stuck.
 
-Only the standard library is imported here: this module is loaded before `stook`'s
-heavy imports, so that a signal during those ends in one line too.
+Only the standard library is imported here: `main` installs the handlers before the
+commands import aiohttp or polars, so that a signal during those ends in one line too.
 """
 
 from __future__ import annotations
@@ -28,9 +28,8 @@ import os
 import signal
 import threading
 import time
+from typing import TYPE_CHECKING
 
-# typing.TYPE_CHECKING without importing typing (see cli.py).
-TYPE_CHECKING = False
 if TYPE_CHECKING:
     import asyncio
     from collections.abc import Callable, Coroutine, Iterator
@@ -115,6 +114,9 @@ class _Guard:
         if self.on_give_up is not None:
             with contextlib.suppress(Exception):
                 self.on_give_up(stop)
+        # The one hard exit: the main thread is stuck (that is why we are here), so
+        # sys.exit from this thread could not end the process; `stook` promises to end
+        # within 2 s of a signal, whatever the run was doing.
         os._exit(stop.exit_code)
 
     def quiet_after_signal(self, loop: asyncio.AbstractEventLoop, context: dict[str, Any]) -> None:

@@ -33,7 +33,6 @@ from stook.service.api import (
     OriginUnavailableError,
 )
 from stook.service.fetch._collector import fewer_collections
-from stook.service.fetch._decoders import start_importing
 from stook.service.fetch._job_extras import ExperienceTags, job_event
 from stook.service.fetch._scalars import is_scalar, read_scalars
 
@@ -110,8 +109,6 @@ class BatchFetcher:
         job: a slow consumer slows the fetch instead of piling records up.
         """
         queue = _JobQueue(room=2 * self._workers, low=self._workers)
-        if self._needs.data:
-            start_importing()  # the series' decoders, while the first requests are out
         try:
             with fewer_collections():
                 await self._run(queue, on_job)

@@ -32,7 +32,6 @@ from stook.sdk import (
 )
 from stook.sdk.aggregations import Needs, SeriesByName
 from stook.service.api import ApiMetric, ApiMetricsData, PresignedUrlExpiredError, StorageClient
-from stook.service.fetch._decoders import decoders_loaded, decoders_ready
 from stook.service.fetch._presigned import fetch_listed, fetch_relisted
 
 if TYPE_CHECKING:
@@ -122,20 +121,14 @@ class JobBlobs:
             views = [self._views[item.data_id] for item in named]
         data: dict[str, MetricsDataView] = {}
         doubles: dict[str, MetricsDataView] = {}
-        has_doubles = False
         for item, view in zip(named, views, strict=True):
             if indexed and item.data_id in indexed and view.index_id is not None:
                 view = view.with_index(self._views[view.index_id])
             data[item.name] = view
-            if view.kind is _DOUBLE:
-                has_doubles = True
-                # Per-category data keeps its categories in `data`: no single series of
-                # it. Made into polars Series only when an aggregation asks (see
-                # `SeriesByName`).
-                if not view.per_category:
-                    doubles[item.name] = view
-        if has_doubles and not decoders_loaded():
-            await decoders_ready()  # polars, imported off the loop's thread
+            # Per-category data keeps its categories in `data`: no single series of it.
+            # Made into polars Series only when an aggregation asks (see `SeriesByName`).
+            if view.kind is _DOUBLE and not view.per_category:
+                doubles[item.name] = view
         job_metrics = self._job_metrics(metric_views) if wants_metrics else None
         return JobBlobsResult(data, SeriesByName(doubles), job_metrics)
 

@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING
 
 import structlog
 
+from stook.sdk.aggregations import BaselineInfo
 from stook.service.api import ApiClient
 from stook.service.fetch import BatchFetcher, FetchOutcome, failure_directions, find_baseline
 from stook.service.modes._baseline_config import BaselineSettings
@@ -104,8 +105,6 @@ async def fetch_baseline(
     log.info("baseline found", baseline_id=str(baseline.batch_id), chosen_as=found.chosen_as)
     fetcher = BatchFetcher(api, project_id, baseline.batch_id, comparison.needs(), workers=workers)
     outcome = await fetcher.run(comparison.update_baseline)
-    from stook.sdk.aggregations import BaselineInfo
-
     comparison.set_baseline(
         BaselineInfo(
             batch_id=baseline.batch_id,

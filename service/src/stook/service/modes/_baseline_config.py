@@ -18,6 +18,8 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
+from stook.sdk.aggregations import BaselineComparison
+
 if TYPE_CHECKING:
     # Imported by the config that has a [batch.baseline] (comparison), not by every run.
     from stook.sdk.aggregations import BaselineComparison
@@ -59,8 +61,6 @@ class BaselineSettings:
 
     def comparison(self) -> BaselineComparison:
         """A fresh comparison aggregation with these options."""
-        from stook.sdk.aggregations import BaselineComparison
-
         return BaselineComparison(
             metrics=self.metrics,
             better=dict(self.better),

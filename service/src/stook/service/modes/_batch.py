@@ -1,42 +1,167 @@
-"""Batch mode: every job of one batch, folded into the batch aggregations (see _pipeline)."""
+"""Batch mode: every job of one batch, folded into the batch aggregations, written once."""
 
 from __future__ import annotations
 
+import asyncio
 import difflib
-import uuid
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING
 
-from stook.sdk import MetricStatus
-from stook.sdk.aggregations import default_batch_aggregations
+from stook.sdk import MetricStatus, MetricsWriter
+from stook.sdk.aggregations import (
+    BaselineComparison,
+    BatchAggregation,
+    BatchSummaryWriter,
+    Needs,
+    default_batch_aggregations,
+)
 from stook.service.api import ApiClient, RetryPolicy
-from stook.service.fetch import BatchFetcher, FetchOutcome, MissingJob
-from stook.service.modes._config import ConfigError, StookConfig
+from stook.service.fetch import BatchFetcher, FetchOutcome
+from stook.service.modes._baseline import ComparedFetcher
+from stook.service.modes._config import ConfigError, EngineSettings, StookConfig
+from stook.service.modes._config_metrics import config_metrics_step, write_config_metrics
+from stook.service.modes._engine import BatchPlan, fold_sharded
 from stook.service.modes._inputs import BatchInputs
-from stook.service.modes._pipeline import RunResult, run_pipeline
-from stook.service.modes._progress import Progress, Snapshot
-
-if TYPE_CHECKING:
-    from stook.sdk import MetricsWriter
-
-    # The baseline comparison and the summary are imported by the runs that have them.
-    from stook.sdk.aggregations import (
-        BaselineComparison,
-        BatchAggregation,
-        BatchSummaryWriter,
-        Needs,
-    )
-    from stook.service.modes._baseline import ComparedFetcher
-    from stook.service.modes._config_metrics import ConfigMetricsStep
+from stook.service.modes._progress import NoProgress, Progress, Snapshot
+from stook.service.modes._steps import (
+    FetchRun,
+    RunResult,
+    fold_here,
+    needs_of,
+    write_missing_jobs,
+    write_output,
+)
 
 BatchResult = RunResult[FetchOutcome]
 
 
-def aggregations_for(config: StookConfig) -> list[BatchAggregation]:
-    defaults = default_batch_aggregations() if config.batch_defaults else []
-    return defaults + config.batch_aggregations()
+@dataclass(slots=True)
+class BatchAggregations:
+    """A batch run's aggregations: the defaults, the config's, and, when configured, the
+    baseline comparison and the batch's summary (both among `all` too)."""
+
+    all: list[BatchAggregation] = field(default_factory=list)
+    comparison: BaselineComparison | None = None
+    summary: BatchSummaryWriter | None = None
+
+
+def batch_aggregations(config: StookConfig) -> BatchAggregations:
+    found = BatchAggregations(default_batch_aggregations() if config.batch_defaults else [])
+    found.all += config.batch_aggregations()
+    if config.baseline is not None:
+        found.comparison = config.baseline.comparison()
+        found.all.append(found.comparison)
+    if config.summary:
+        found.summary = BatchSummaryWriter()  # for later reports ([output] summary)
+        found.all.append(found.summary)
+    return found
+
+
+async def run_batch(
+    inputs: BatchInputs,
+    config: StookConfig,
+    outputs_dir: Path,
+    *,
+    allow_missing_jobs: float = 0.0,
+    retry: RetryPolicy | None = None,
+    progress: Progress | None = None,
+    engine: EngineSettings | None = None,
+) -> BatchResult:
+    """Fetch every job of the batch, fold it into the aggregations, write the output.
+
+    `engine` is where the fetch and fold runs (default: the config's `[engine]`)."""
+    started = asyncio.get_running_loop().time()
+    aggregations = batch_aggregations(config)
+    # [metrics_config]: its config loaded and checked now, before the first request.
+    config_metrics = config_metrics_step(config, inputs.access, batch_id=inputs.batch_id)
+    needs = needs_of(aggregations.all)
+    run = FetchRun(
+        kind="batch",
+        output_id=inputs.batch_id,
+        aggregations=aggregations.all,
+        needs=needs,
+        access=inputs.access,
+        settings=config.fetch,
+        retry=retry,
+        progress=progress or NoProgress(),
+        snapshot_of=batch_snapshot,
+        how_far=lambda outcome, _folded: batch_snapshot(outcome).of_total(),
+        started=started,
+    )
+    engine = engine or config.engine
+    if engine.kind == "local":
+        fetcher_for = _fetcher_for(inputs, config, needs, aggregations.comparison)
+        outcome, traffic = await fold_here(run, fetcher_for)
+    else:
+        plan = BatchPlan(inputs, config, aggregations.comparison)
+        outcome, traffic = await fold_sharded(run, plan, engine, config.file)
+
+    check_names(needs, outcome, config.source)
+    writer = MetricsWriter(inputs.batch_id, deterministic=True)
+    write_missing_jobs(writer, outcome.missing, outcome.jobs_listed, allow_missing_jobs)
+    if aggregations.summary is not None and outcome.missing:
+        # A summary without some jobs would make reports wrong; they list this batch.
+        aggregations.summary.skip(f"{len(outcome.missing)} jobs' metrics could not be read")
+    if outcome.jobs_listed == 0:
+        writer.text(
+            "Batch summary",
+            "The batch has no jobs, so there is nothing to aggregate.",
+            status=MetricStatus.NOT_APPLICABLE,
+        )
+        writer.override_status(MetricStatus.NOT_APPLICABLE)
+    await write_config_metrics(config_metrics, writer, config.fetch, retry, started=started)
+    output = write_output(writer, aggregations.all, outputs_dir)
+    return RunResult(
+        kind="batch",
+        output=output,
+        outcome=outcome,
+        metrics_written=[m.name for m in writer.metrics],
+        status=writer.status,
+        traffic=traffic,
+        counts={"jobs": outcome.jobs_listed, "jobs_missing": len(outcome.missing)},
+        seconds=asyncio.get_running_loop().time() - started,
+    )
+
+
+def _fetcher_for(
+    inputs: BatchInputs,
+    config: StookConfig,
+    needs: Needs,
+    comparison: BaselineComparison | None,
+) -> Callable[[ApiClient, Callable[[FetchOutcome], None]], BatchFetcher | ComparedFetcher]:
+    """The batch's fetcher, with the baseline's beside it when there is a comparison."""
+    project_id, batch_id = inputs.access.project_id, inputs.batch_id
+    workers = config.fetch.concurrency
+
+    def fetcher_for(
+        api: ApiClient, on_progress: Callable[[FetchOutcome], None]
+    ) -> BatchFetcher | ComparedFetcher:
+        if comparison is not None and config.baseline is not None:
+            return ComparedFetcher(
+                api,
+                project_id,
+                batch_id,
+                needs,
+                comparison,
+                config.baseline,
+                workers=workers,
+                on_progress=on_progress,
+            )
+        return BatchFetcher(
+            api, project_id, batch_id, needs, workers=workers, on_progress=on_progress
+        )
+
+    return fetcher_for
+
+
+def batch_snapshot(outcome: FetchOutcome) -> Snapshot:
+    """Jobs done, listed and in all so far, for the progress display."""
+    return Snapshot(
+        jobs_done=outcome.jobs_done + len(outcome.missing),
+        jobs_listed=outcome.jobs_listed,
+        jobs_total=outcome.jobs_total,
+    )
 
 
 def check_names(needs: Needs, outcome: FetchOutcome, source: str) -> None:
@@ -52,119 +177,3 @@ def check_names(needs: Needs, outcome: FetchOutcome, source: str) -> None:
             close = difflib.get_close_matches(name, sorted(seen), n=1)
             hint = f"; did you mean {close[0]!r}?" if close else ""
             raise ConfigError(f"{source}: no job in the batch has a {kind} named {name!r}{hint}")
-
-
-@dataclass(slots=True)
-class BatchMode:
-    """The batch-mode pieces of the pipeline."""
-
-    inputs: BatchInputs
-    config: StookConfig
-    aggregations: list[BatchAggregation] = field(init=False)
-    kind: str = "batch"
-    # [batch.baseline]'s comparison, also among the aggregations; None without one.
-    comparison: BaselineComparison | None = field(init=False, default=None)
-    # The batch's summary for later reports ([output] summary); None when off.
-    summary: BatchSummaryWriter | None = field(init=False, default=None)
-    # The config-defined batch metrics ([metrics_config]); None without.
-    config_metrics: ConfigMetricsStep | None = field(init=False, default=None)
-
-    def __post_init__(self) -> None:
-        self.aggregations = aggregations_for(self.config)
-        if self.config.baseline is not None:
-            self.comparison = self.config.baseline.comparison()
-            self.aggregations.append(self.comparison)
-        if self.config.summary:
-            from stook.sdk.aggregations import BatchSummaryWriter
-
-            self.summary = BatchSummaryWriter()
-            self.aggregations.append(self.summary)
-        if self.config.metrics_config is not None:
-            # Its config loaded and checked now, before the first request.
-            from stook.service.modes._config_metrics import config_metrics_step
-
-            self.config_metrics = config_metrics_step(
-                self.config, self.inputs.access, batch_id=self.inputs.batch_id
-            )
-
-    @property
-    def output_id(self) -> uuid.UUID:
-        return self.inputs.batch_id
-
-    def fetcher(
-        self, api: ApiClient, needs: Needs, on_progress: Callable[[FetchOutcome], None]
-    ) -> BatchFetcher | ComparedFetcher:
-        if self.comparison is not None and self.config.baseline is not None:
-            # The baseline's search and its failure directions: for the runs that have one.
-            from stook.service.modes._baseline import ComparedFetcher
-
-            return ComparedFetcher(
-                api,
-                self.inputs.access.project_id,
-                self.inputs.batch_id,
-                needs,
-                self.comparison,
-                self.config.baseline,
-                workers=self.config.fetch.concurrency,
-                on_progress=on_progress,
-            )
-        return BatchFetcher(
-            api,
-            self.inputs.access.project_id,
-            self.inputs.batch_id,
-            needs,
-            workers=self.config.fetch.concurrency,
-            on_progress=on_progress,
-        )
-
-    def progress(self, outcome: FetchOutcome) -> Snapshot:
-        return Snapshot(
-            jobs_done=outcome.jobs_done + len(outcome.missing),
-            jobs_listed=outcome.jobs_listed,
-            jobs_total=outcome.jobs_total,
-        )
-
-    def how_far(self, outcome: FetchOutcome, folded: int) -> str:
-        return self.progress(outcome).of_total()
-
-    def counts(self, outcome: FetchOutcome) -> dict[str, int]:
-        return {"jobs": outcome.jobs_listed, "jobs_missing": len(outcome.missing)}
-
-    def missing(self, outcome: FetchOutcome) -> tuple[list[MissingJob], int]:
-        return outcome.missing, outcome.jobs_listed
-
-    def check(self, needs: Needs, outcome: FetchOutcome) -> None:
-        check_names(needs, outcome, self.config.source)
-
-    def preface(self, writer: MetricsWriter, outcome: FetchOutcome) -> None:
-        if self.summary is not None and outcome.missing:
-            # A summary without some jobs would make reports wrong; they list this batch.
-            self.summary.skip(f"{len(outcome.missing)} jobs' metrics could not be read")
-        if outcome.jobs_listed == 0:
-            writer.text(
-                "Batch summary",
-                "The batch has no jobs, so there is nothing to aggregate.",
-                status=MetricStatus.NOT_APPLICABLE,
-            )
-            writer.override_status(MetricStatus.NOT_APPLICABLE)
-
-
-async def run_batch(
-    inputs: BatchInputs,
-    config: StookConfig,
-    outputs_dir: Path,
-    *,
-    allow_missing_jobs: float = 0.0,
-    retry: RetryPolicy | None = None,
-    progress: Progress | None = None,
-) -> BatchResult:
-    """Fetch every job of the batch, fold it into the aggregations, write the output."""
-    return await run_pipeline(
-        BatchMode(inputs, config),
-        inputs.access,
-        config.fetch,
-        outputs_dir,
-        allow_missing_jobs=allow_missing_jobs,
-        retry=retry,
-        progress=progress,
-    )

@@ -11,7 +11,13 @@ max_body_mb = 256      # largest metrics data or metric download, decompressed
 max_api_body_mb = 16   # largest API answer (a JSON page), decompressed
 
 [engine]
-kind = "local"         # or "processes", "ray": shards folded elsewhere (_engine_config.py)
+kind = "local"         # "local" (one process), "processes" or "ray"
+workers = 8            # processes: worker processes (default: CPU count); ray: CPUs of
+                       #   the local instance started when no address is given
+shards = 8             # pieces the job (or batch) list is split into (default: processes,
+                       #   = workers; ray, 2 x workers or the cluster's CPUs)
+# address = "auto"     # ray only: the cluster to join ("auto", "ray://head:10001");
+                       #   absent: start a local instance
 
 [output]
 preview = false        # also write metrics.html (stook preview) beside metrics.binproto
@@ -31,10 +37,11 @@ weight = "Distance driven"
 from __future__ import annotations
 
 import dataclasses
+import importlib.util
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Final
 
 import structlog
 
@@ -45,7 +52,7 @@ from stook.sdk.aggregations import (
     ReportAggregation,
     build_all,
 )
-from stook.service.modes._engine_config import EngineConfigError, EngineSettings, parse_engine
+from stook.service.modes._baseline_config import BaselineConfigError, parse_baseline
 from stook.service.modes._user_code import add_import_folders
 
 if TYPE_CHECKING:
@@ -58,6 +65,79 @@ log = structlog.get_logger("stook.config")
 
 class ConfigError(StookError):
     """stook.toml is missing, malformed or names something that does not exist (exit 2)."""
+
+
+# [engine]: where one run's fetch and fold happens (checked before the first request,
+# including that Ray is installed for kind = "ray", without importing it).
+ENGINE_KINDS: Final = ("local", "processes", "ray")
+_KEYS: Final = {"kind", "workers", "shards", "address"}
+RAY_INSTALL_HINT: Final = 'pip install "stook[ray]"'
+
+
+class EngineConfigError(StookError):
+    """An unusable `[engine]` setting (turned into ConfigError, exit code 2)."""
+
+
+@dataclass(frozen=True, slots=True)
+class EngineSettings:
+    kind: str = "local"
+    workers: int | None = None  # None: the engine's default (see the module docstring)
+    shards: int | None = None
+    address: str | None = None
+
+
+def parse_engine(table: Mapping[str, Any]) -> EngineSettings:
+    """The `[engine]` table's settings; raises EngineConfigError naming the key at fault."""
+    extra = set(table) - _KEYS
+    if extra:
+        raise EngineConfigError(
+            f"unknown key {sorted(extra)[0]!r} in [engine] (known: {', '.join(sorted(_KEYS))})"
+        )
+    kind = table.get("kind", "local")
+    if kind not in ENGINE_KINDS:
+        raise EngineConfigError(
+            f"[engine] kind must be one of {', '.join(map(repr, ENGINE_KINDS))}, got {kind!r}"
+        )
+    address = table.get("address")
+    if address is not None:
+        if not isinstance(address, str) or not address.strip():
+            raise EngineConfigError(
+                '[engine] address must be a Ray address ("auto", "ray://head:10001")'
+            )
+        if kind != "ray":
+            raise EngineConfigError(f'[engine] address is for kind = "ray", not {kind!r}')
+    return EngineSettings(
+        kind=kind,
+        workers=_count(table, "workers"),
+        shards=_count(table, "shards"),
+        address=address,
+    )
+
+
+def _count(table: Mapping[str, Any], key: str) -> int | None:
+    value = table.get(key)
+    if value is None:
+        return None
+    if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+        raise EngineConfigError(
+            f"[engine] {key} must be a whole number of at least 1, got {value!r}"
+        )
+    return value
+
+
+def require_engine(settings: EngineSettings) -> None:
+    """Refuse an engine that cannot run here: Ray not installed (checked without importing it)."""
+    if settings.kind == "ray" and not _installed("ray"):
+        raise EngineConfigError(
+            f'[engine] kind = "ray" needs Ray, which is not installed: {RAY_INSTALL_HINT}'
+        )
+
+
+def _installed(name: str) -> bool:
+    try:
+        return importlib.util.find_spec(name) is not None
+    except (ImportError, ValueError):  # ValueError: a module in sys.modules without a spec
+        return False
 
 
 # The API spec's `pageSize` maximum; the API answers 400 to more.
@@ -115,7 +195,7 @@ class StookConfig:
     preview: bool = False
     # [output] summary: batch mode also writes the batch's summary (BatchSummaryWriter).
     summary: bool = True
-    # [engine]: where the fetch and fold runs (modes/_engine_config.py).
+    # [engine]: where the fetch and fold runs (modes/_engine.py).
     engine: EngineSettings = field(default_factory=EngineSettings)
     # [metrics_config]: the platform's config-defined metrics (None: none).
     metrics_config: MetricsConfigSettings | None = None
@@ -209,8 +289,6 @@ def parse(doc: Mapping[str, Any], *, source: str = "stook.toml") -> StookConfig:
 def _baseline(table: Any, source: str) -> BaselineSettings | None:
     if table is None:
         return None
-    from stook.service.modes._baseline_config import BaselineConfigError, parse_baseline
-
     try:
         return parse_baseline(table)
     except BaselineConfigError as exc:
@@ -359,3 +437,19 @@ def _fetch(table: Mapping[str, Any], source: str) -> FetchSettings:
         max_body_mb=positive("max_body_mb", float, defaults.max_body_mb),
         max_api_body_mb=positive("max_api_body_mb", float, defaults.max_api_body_mb),
     )
+
+
+def engine_for(config: StookConfig, kind: str | None = None) -> EngineSettings:
+    """`[engine]`, its kind replaced by `--engine` when given; refuses one that cannot run
+    here (Ray not installed) before the first request (ConfigError, exit 2)."""
+    engine = config.engine
+    if kind is not None and kind != engine.kind:
+        # The table's address is Ray's: it says nothing to another kind.
+        address = engine.address if kind == "ray" else None
+        engine = dataclasses.replace(engine, kind=kind, address=address)
+    try:
+        require_engine(engine)
+    except EngineConfigError as exc:
+        source = "--engine" if kind is not None else config.source
+        raise ConfigError(f"{source}: {exc}") from None
+    return engine

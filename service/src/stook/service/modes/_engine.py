@@ -2,17 +2,22 @@
 
 The driver (this process) lists what is split (the batch's jobs, the report's batches),
 cuts it into contiguous shards (`_shards.split`), and hands each shard, with fresh partial
-states of the run's aggregations, to a runner: local worker processes
-(`_engine_processes`) or Ray tasks (`_engine_ray`). Each shard runs the same asyncio fetch
-core as a local run, with `[fetch] concurrency` requests in flight *per worker* (what the
-API sees is workers x concurrency). The states come back and are merged into the run's
-aggregations in shard order, whatever order the shards finish in; the pipeline then checks
-names, applies the missing-jobs rule and finishes the aggregations once, as for a local run,
-so the output's bytes are the same.
+states of the run's aggregations, to a runner: local worker processes or Ray tasks
+(`_runners`). Each shard runs the same asyncio fetch core as a local run, with
+`[fetch] concurrency` requests in flight *per worker* (what the API sees is workers x
+concurrency). The states come back and are merged into the run's aggregations in shard
+order, whatever order the shards finish in; the mode's run then checks names, applies the
+missing-jobs rule and finishes the aggregations once, as for a local run, so the output's
+bytes are the same. What differs per mode (what is split, how the shards' outcomes add up)
+is the mode's plan: `BatchPlan`, `ReportPlan`.
+
+The shards' progress reports come back while they run; the driver (`LiveShards`) keeps the
+last report of each shard still running and adds them to what the finished shards gave; a
+finished shard's result supersedes its reports, so that nothing is counted twice.
 
 The `[fetch] deadline` covers the whole run. On the deadline, Ctrl-C or a failed shard the
 other shards are stopped (the runner is aborted) and the first failure is raised, with its
-own type and message (`_shard_errors`); nothing is written.
+own type and message (`_shards.RemoteError`); nothing is written.
 """
 
 from __future__ import annotations
@@ -21,25 +26,37 @@ import asyncio
 import contextlib
 import logging
 import pickle
+import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field, replace
+from pathlib import Path
 from typing import Any, Protocol, cast
 
 import structlog
 
-from stook.sdk.aggregations import Aggregation
-from stook.service.api import redact_text
-from stook.service.fetch import fetch_deadline
-from stook.service.modes._config import ConfigError
-from stook.service.modes._engine_config import EngineConfigError, EngineSettings
+from stook.sdk.aggregations import Aggregation, BaselineComparison, Needs
+from stook.service.api import ApiClient, Batch, Job, Report, redact_text
+from stook.service.fetch import FetchOutcome, ReportFetcher, ReportOutcome, fetch_deadline
+from stook.service.modes._baseline import fetch_baseline, set_directions
+from stook.service.modes._config import ConfigError, EngineConfigError, EngineSettings, StookConfig
+from stook.service.modes._inputs import BatchInputs, ReportInputs
 from stook.service.modes._open_api import Traffic, open_api
-from stook.service.modes._pipeline import FetchRun, show_progress, tick
-from stook.service.modes._shard_errors import ShardError
-from stook.service.modes._shard_plans import BatchPlan, ReportPlan, plan_for
-from stook.service.modes._shard_progress import LiveShards, ShardProgress
-from stook.service.modes._shards import LogSettings, ShardDone, ShardFailed, split
+from stook.service.modes._progress import Snapshot
+from stook.service.modes._runners import ProcessRunner, RayRunner
+from stook.service.modes._shards import (
+    BatchShard,
+    LogSettings,
+    ReportShard,
+    ShardDone,
+    ShardError,
+    ShardFailed,
+    ShardProgress,
+    split,
+)
+from stook.service.modes._steps import FetchRun, show_progress, tick
+from stook.service.modes._user_code import import_folders
 
-__all__ = ["ShardRunner", "ShardedFetch"]
+__all__ = ["BatchPlan", "ReportPlan", "fold_sharded"]
 
 log = structlog.get_logger("stook.engine")
 
@@ -54,7 +71,7 @@ class ShardRunner(Protocol):
 
     def listen(self, on_progress: Callable[[ShardProgress], None]) -> None:
         """Call `on_progress`, on the running event loop, with the running shards' reports
-        (`_shard_progress`); a runner that cannot send them never calls it."""
+        (`_shards.ShardProgress`); a runner that cannot send them never calls it."""
         ...
 
     def submit(self, task: bytes) -> asyncio.Future[bytes]: ...
@@ -64,63 +81,58 @@ class ShardRunner(Protocol):
         ...
 
 
-@dataclass(frozen=True, slots=True)
-class ShardedFetch:
-    engine: EngineSettings
-    folders: tuple[str, ...]  # where the user's modules are imported from, in every worker
+async def fold_sharded(
+    run: FetchRun[Any],
+    plan: BatchPlan | ReportPlan,
+    engine: EngineSettings,
+    config_file: Path | None,
+) -> tuple[Any, Traffic]:
+    """The fetch and fold split into shards, run by `engine`'s workers, merged here."""
+    check_states_pickle(run.aggregations)  # before the first request
+    # Where the user's modules are imported from, in every worker.
+    folders = tuple(str(f) for f in import_folders(config_file))
+    runner = _start_runner(engine, folders)
+    log.info(
+        f"{run.kind} fetch starting",
+        **{f"{run.kind}_id": str(run.output_id)},
+        engine=engine.kind,
+        workers=runner.workers,
+        concurrency_per_worker=run.settings.concurrency,
+        data=sorted(run.needs.data),
+    )
+    shards = Shards(run, plan, runner)
+    aborted = True
+    try:
+        async with fetch_deadline(
+            run.settings.deadline,
+            started=run.started,
+            progress=lambda: run.how_far(plan.outcome, shards.folded),
+        ):
+            await shards.run(engine.shards or _default_shards(engine, runner))
+        aborted = False
+    finally:
+        shards.stop_listening()  # reports still on their way would draw a closed display
+        runner.close(abort=aborted)
+        run.progress.close()
+    return plan.outcome, shards.traffic
 
-    async def __call__(self, run: FetchRun[Any, Any], /) -> tuple[Any, Traffic]:
-        mode = run.mode
-        plan = plan_for(mode, self.engine.kind)
-        check_states_pickle(mode.aggregations)  # before the first request
-        runner = self._runner()
-        log.info(
-            f"{mode.kind} fetch starting",
-            **{f"{mode.kind}_id": str(mode.output_id)},
-            engine=self.engine.kind,
-            workers=runner.workers,
-            concurrency_per_worker=run.settings.concurrency,
-            data=sorted(run.needs.data),
-        )
-        shards = Shards(run, plan, runner)
-        aborted = True
-        try:
-            async with fetch_deadline(
-                run.settings.deadline,
-                started=run.started,
-                progress=lambda: mode.how_far(plan.outcome, shards.folded),
-            ):
-                await shards.run(self.engine.shards or _default_shards(self.engine, runner))
-            aborted = False
-        finally:
-            shards.stop_listening()  # reports still on their way would draw a closed display
-            runner.close(abort=aborted)
-            run.progress.close()
-        return plan.outcome, shards.traffic
 
-    def _runner(self) -> ShardRunner:
-        try:
-            return self._start_runner()
-        except EngineConfigError as exc:
-            raise ConfigError(str(exc)) from None
-
-    def _start_runner(self) -> ShardRunner:
-        logs = _log_settings()
-        if self.engine.kind == "processes":
-            from stook.service.modes._engine_processes import ProcessRunner
-
-            return ProcessRunner(self.engine, self.folders, logs)
-        if self.engine.kind == "ray":
-            from stook.service.modes._engine_ray import RayRunner
-
-            return RayRunner(self.engine, self.folders, logs)
-        raise ValueError(f"unknown engine {self.engine.kind!r}")
+def _start_runner(engine: EngineSettings, folders: tuple[str, ...]) -> ShardRunner:
+    logs = _log_settings()
+    try:
+        if engine.kind == "processes":
+            return ProcessRunner(engine, folders, logs)
+        if engine.kind == "ray":
+            return RayRunner(engine, folders, logs)
+    except EngineConfigError as exc:
+        raise ConfigError(str(exc)) from None
+    raise ValueError(f"unknown engine {engine.kind!r}")
 
 
 class Shards:
     """One sharded run's driver: list, split, submit, and merge the results in shard order."""
 
-    def __init__(self, run: FetchRun[Any, Any], plan: BatchPlan | ReportPlan, runner: ShardRunner):
+    def __init__(self, run: FetchRun[Any], plan: BatchPlan | ReportPlan, runner: ShardRunner):
         self._run, self._plan, self._runner = run, plan, runner
         self.folded = 0  # records (jobs, or batches) whose shard is merged
         self.traffic = Traffic()  # the whole run's: the shards' and the driver's
@@ -139,7 +151,7 @@ class Shards:
         self._listening = False
 
     def _show(self) -> None:
-        snapshot = self._run.mode.progress(self._plan.outcome)
+        snapshot = self._run.snapshot_of(self._plan.outcome)
         show_progress(self._run.progress, *self._live.add_to(snapshot, self.traffic))
 
     async def run(self, shard_count: int) -> None:
@@ -171,7 +183,7 @@ class Shards:
 
     async def _run_shards(self, pieces: list[list[Any]]) -> None:
         run, plan = self._run, self._plan
-        aggregations = run.mode.aggregations
+        aggregations = run.aggregations
         shard_of: dict[asyncio.Future[bytes], int] = {}
         for index, piece in enumerate(pieces):
             states = [a.fresh() for a in aggregations]
@@ -213,7 +225,7 @@ class Shards:
         self._show()
 
     def _merge(self, result: ShardDone) -> None:
-        for aggregation, state in zip(self._run.mode.aggregations, result.states, strict=True):
+        for aggregation, state in zip(self._run.aggregations, result.states, strict=True):
             aggregation.merge(pickle.loads(state))
         self.folded += result.size
 
@@ -262,3 +274,194 @@ def _log_settings() -> LogSettings | None:
     except AttributeError:  # a wrapper class without levels
         return json, "info"
     return json, logging.getLevelName(level).lower()
+
+
+@dataclass(slots=True)
+class BatchPlan:
+    """The batch's jobs are sharded; with `[batch.baseline]` the baseline's jobs are
+    fetched here, on the driver, beside the shards: the comparison needs only their
+    listed scalars (one request a job), and its candidate side comes from the shards'
+    states like every other aggregation's."""
+
+    inputs: BatchInputs
+    config: StookConfig
+    comparison: BaselineComparison | None
+    outcome: FetchOutcome = field(default_factory=FetchOutcome)
+    _baseline: asyncio.Task[None] | None = None
+
+    async def listing(self, api: ApiClient, on_progress: Callable[[], None]) -> list[Job]:
+        inputs, outcome = self.inputs, self.outcome
+        comparison, settings = self.comparison, self.config.baseline
+        if comparison is not None and settings is not None:
+            self._baseline = asyncio.create_task(
+                fetch_baseline(
+                    api,
+                    inputs.access.project_id,
+                    inputs.batch_id,
+                    comparison,
+                    settings,
+                    workers=self.config.fetch.concurrency,
+                )
+            )
+
+        def total_is(total: int) -> None:
+            outcome.jobs_total = total
+
+        jobs = []
+        async for job in api.list_jobs(
+            inputs.access.project_id, inputs.batch_id, on_total=total_is
+        ):
+            jobs.append(job)
+            outcome.jobs_listed += 1
+            on_progress()
+        outcome.jobs_total = outcome.jobs_listed
+        return jobs
+
+    def shard(
+        self, run: FetchRun[Any], index: int, items: list[Job], states: list[Aggregation[Any]]
+    ) -> BatchShard:
+        return BatchShard(
+            index,
+            run.access,
+            run.settings,
+            run.retry,
+            run.needs,
+            states,
+            self.inputs.batch_id,
+            items,
+        )
+
+    def add(self, part: FetchOutcome | ReportOutcome) -> None:
+        if not isinstance(part, FetchOutcome):
+            raise TypeError(f"a batch shard's outcome is a FetchOutcome, not {type(part).__name__}")
+        outcome = self.outcome
+        outcome.jobs_done += part.jobs_done
+        outcome.jobs_with_metrics += part.jobs_with_metrics
+        outcome.missing.extend(part.missing)
+        outcome.scalar_names |= part.scalar_names
+        outcome.metric_names |= part.metric_names
+        outcome.data_names |= part.data_names
+        outcome.unnamed_data += part.unnamed_data
+
+    async def finish(self, api: ApiClient) -> None:
+        """Every shard is merged: the baseline's side too, then the comparison's directions."""
+        comparison, inputs = self.comparison, self.inputs
+        if self._baseline is None or comparison is None:
+            return
+        await self._baseline
+        await set_directions(api, inputs.access.project_id, inputs.batch_id, comparison)
+
+    def abort(self) -> None:
+        if self._baseline is not None:
+            self._baseline.cancel()
+
+    def complete(self) -> None:
+        """Every shard is in (the listing already fixed the job count)."""
+        self.outcome.seconds = time.monotonic() - self.outcome.started
+
+
+@dataclass(slots=True)
+class ReportPlan:
+    inputs: ReportInputs
+    config: StookConfig
+    outcome: ReportOutcome = field(default_factory=ReportOutcome)
+    _report: Report | None = None
+
+    async def listing(self, api: ApiClient, on_progress: Callable[[], None]) -> list[Batch]:
+        inputs = self.inputs
+        finder = ReportFetcher(api, inputs.access.project_id, inputs.report_id, Needs())
+        report, batches = await finder.find_batches()
+        self._report = report
+        outcome = self.outcome
+        outcome.report = report
+        outcome.batches = len(batches)
+        totals = [b.total_jobs for b in batches]
+        outcome.jobs_total = None if None in totals else sum(t or 0 for t in totals)
+        if batches:
+            outcome.first = batches[0].creation_timestamp
+            outcome.last = batches[-1].creation_timestamp
+        on_progress()
+        return batches
+
+    def shard(
+        self,
+        run: FetchRun[Any],
+        index: int,
+        items: list[Batch],
+        states: list[Aggregation[Any]],
+    ) -> ReportShard:
+        if self._report is None:
+            raise RuntimeError("shards are made after the report's batches are found")
+        inputs = self.inputs
+        return ReportShard(
+            index,
+            run.access,
+            run.settings,
+            run.retry,
+            run.needs,
+            states,
+            inputs.report_id,
+            self.config.report.use_summaries,
+            self._report,
+            items,
+        )
+
+    def add(self, part: FetchOutcome | ReportOutcome) -> None:
+        if not isinstance(part, ReportOutcome):
+            raise TypeError(
+                f"a report shard's outcome is a ReportOutcome, not {type(part).__name__}"
+            )
+        outcome = self.outcome
+        outcome.jobs += part.jobs
+        outcome.batches_done += part.batches_done
+        outcome.jobs_done += part.jobs_done
+        outcome.jobs_with_metrics += part.jobs_with_metrics
+        outcome.batches_summarised += part.batches_summarised
+        outcome.missing.extend(part.missing)
+        outcome.job_scalar_names |= part.job_scalar_names
+
+    async def finish(self, api: ApiClient) -> None:
+        """Nothing is fetched on the driver after the shards."""
+
+    def abort(self) -> None:
+        """Nothing runs on the driver beside the shards."""
+
+    def complete(self) -> None:
+        """Every shard is in: the job count is what the batches' listings proved."""
+        self.outcome.jobs_total = self.outcome.jobs
+        self.outcome.seconds = time.monotonic() - self.outcome.started
+
+
+class LiveShards:
+    """The driver's view of its running shards: the last report of each."""
+
+    def __init__(self) -> None:
+        self._running: dict[int, ShardProgress] = {}
+        self._finished: set[int] = set()
+
+    def reported(self, progress: ShardProgress) -> None:
+        if progress.index not in self._finished:  # late: the result is in already
+            self._running[progress.index] = progress
+
+    def finished(self, index: int) -> None:
+        """Shard `index`'s result is in: it counts from now on, its reports no longer."""
+        self._finished.add(index)
+        self._running.pop(index, None)
+
+    def add_to(self, snapshot: Snapshot, traffic: Traffic) -> tuple[Snapshot, Traffic]:
+        """What the finished shards (and the driver) did, with the running shards' reports."""
+        running = list(self._running.values())
+        if not running:
+            return snapshot, traffic
+        batches = snapshot.batches_done  # None: batch mode
+        if batches is not None:
+            batches += sum(p.batches_done for p in running)
+        snapshot = replace(
+            snapshot,
+            jobs_done=snapshot.jobs_done + sum(p.jobs_done for p in running),
+            jobs_listed=snapshot.jobs_listed + sum(p.jobs_listed for p in running),
+            batches_done=batches,
+        )
+        for progress in running:
+            traffic = traffic + progress.traffic
+        return snapshot, traffic

@@ -44,7 +44,7 @@ from stook.service.modes._inputs import (
     detect,
 )
 from stook.service.modes._open_api import open_api
-from stook.service.modes._pipeline import MissingJobsError
+from stook.service.modes._steps import MissingJobsError
 
 if TYPE_CHECKING:
     import polars as pl

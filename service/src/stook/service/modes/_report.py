@@ -1,33 +1,32 @@
-"""Report mode: a report's batches, folded into the report aggregations (see _pipeline)."""
+"""Report mode: a report's batches, folded into the report aggregations, written once."""
 
 from __future__ import annotations
 
-import dataclasses
+import asyncio
 import difflib
-import uuid
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
-
-import structlog
+from typing import Any
 
 from stook.sdk import MetricStatus, MetricsWriter
-from stook.sdk.aggregations import default_report_aggregations
+from stook.sdk.aggregations import Aggregation, default_report_aggregations
+from stook.sdk.aggregations.report import RegressionSummary, ScalarLines
 from stook.service.api import ApiClient, RetryPolicy
-from stook.service.fetch import MissingJob, ReportFetcher, ReportOutcome
-from stook.service.modes._config import ConfigError, StookConfig
+from stook.service.fetch import ReportFetcher, ReportOutcome
+from stook.service.modes._config import ConfigError, EngineSettings, StookConfig
+from stook.service.modes._config_metrics import config_metrics_step, write_config_metrics
+from stook.service.modes._engine import ReportPlan, fold_sharded
 from stook.service.modes._inputs import ReportInputs
-from stook.service.modes._pipeline import RunResult, run_pipeline
-from stook.service.modes._progress import Progress, Snapshot
-
-if TYPE_CHECKING:
-    # The report aggregations are imported by report mode, not by every run.
-    from stook.sdk.aggregations import Aggregation, Needs
-    from stook.sdk.aggregations.report import RegressionSummary
-    from stook.service.modes._config_metrics import ConfigMetricsStep
-
-log = structlog.get_logger("stook.report")
+from stook.service.modes._progress import NoProgress, Progress, Snapshot
+from stook.service.modes._steps import (
+    FetchRun,
+    RunResult,
+    fold_here,
+    needs_of,
+    write_missing_jobs,
+    write_output,
+)
 
 
 @dataclass(frozen=True, slots=True)
@@ -68,83 +67,6 @@ def check_job_metric_names(config: StookConfig, outcome: ReportOutcome) -> None:
             )
 
 
-@dataclass(slots=True)
-class ReportMode:
-    """The report-mode pieces of the pipeline."""
-
-    inputs: ReportInputs
-    config: StookConfig
-    aggregations: list[Aggregation[Any]] = field(init=False)
-    kind: str = "report"
-
-    # The config-defined dashboard metrics ([metrics_config]); None without.
-    config_metrics: ConfigMetricsStep | None = field(init=False, default=None)
-
-    def __post_init__(self) -> None:
-        self.aggregations = report_aggregations_for(self.config, str(self.inputs.access.project_id))
-        if self.config.metrics_config is not None:
-            # Its config loaded and checked now, before the first request.
-            from stook.service.modes._config_metrics import config_metrics_step
-
-            self.config_metrics = config_metrics_step(
-                self.config, self.inputs.access, report_id=self.inputs.report_id
-            )
-
-    @property
-    def output_id(self) -> uuid.UUID:
-        return self.inputs.report_id
-
-    def fetcher(
-        self, api: ApiClient, needs: Needs, on_progress: Callable[[ReportOutcome], None]
-    ) -> ReportFetcher:
-        return ReportFetcher(
-            api,
-            self.inputs.access.project_id,
-            self.inputs.report_id,
-            needs,
-            workers=self.config.fetch.concurrency,
-            on_progress=on_progress,
-            use_summaries=self.config.report.use_summaries,
-        )
-
-    def progress(self, outcome: ReportOutcome) -> Snapshot:
-        listed = outcome.jobs_total is not None or outcome.batches > 0
-        return Snapshot(
-            jobs_done=outcome.jobs_done,
-            jobs_listed=outcome.jobs,
-            jobs_total=outcome.jobs_total,
-            batches_done=outcome.batches_done,
-            batches_total=outcome.batches if listed else None,
-        )
-
-    def how_far(self, outcome: ReportOutcome, folded: int) -> str:
-        return f"{folded:,} of {outcome.batches:,} batches"
-
-    def counts(self, outcome: ReportOutcome) -> dict[str, int]:
-        return {
-            "batches": outcome.batches,
-            "jobs": outcome.jobs,
-            "jobs_missing": len(outcome.missing),
-            "batches_summarised": outcome.batches_summarised,
-        }
-
-    def missing(self, outcome: ReportOutcome) -> tuple[list[MissingJob], int]:
-        return outcome.missing, outcome.jobs
-
-    def check(self, needs: Needs, outcome: ReportOutcome) -> None:
-        check_job_metric_names(self.config, outcome)
-
-    def preface(self, writer: MetricsWriter, outcome: ReportOutcome) -> None:
-        write_summary(writer, outcome)
-
-    def regressions(self) -> RegressionSummary | None:
-        """What the default regression check found, read from the aggregation itself."""
-        from stook.sdk.aggregations.report import ScalarLines
-
-        lines = [a for a in self.aggregations if isinstance(a, ScalarLines)]
-        return lines[0].regressions() if lines else None
-
-
 async def run_report(
     inputs: ReportInputs,
     config: StookConfig,
@@ -153,20 +75,85 @@ async def run_report(
     allow_missing_jobs: float = 0.0,
     retry: RetryPolicy | None = None,
     progress: Progress | None = None,
+    engine: EngineSettings | None = None,
 ) -> ReportResult:
-    """Fetch the report's batches, fold them into the aggregations, write the output."""
-    mode = ReportMode(inputs, config)
-    result = await run_pipeline(
-        mode,
-        inputs.access,
-        config.fetch,
-        outputs_dir,
-        allow_missing_jobs=allow_missing_jobs,
+    """Fetch the report's batches, fold them into the aggregations, write the output.
+
+    `engine` is where the fetch and fold runs (default: the config's `[engine]`)."""
+    started = asyncio.get_running_loop().time()
+    aggregations = report_aggregations_for(config, str(inputs.access.project_id))
+    # [metrics_config]: its config loaded and checked now, before the first request.
+    config_metrics = config_metrics_step(config, inputs.access, report_id=inputs.report_id)
+    needs = needs_of(aggregations)
+    run = FetchRun(
+        kind="report",
+        output_id=inputs.report_id,
+        aggregations=aggregations,
+        needs=needs,
+        access=inputs.access,
+        settings=config.fetch,
         retry=retry,
-        progress=progress,
+        progress=progress or NoProgress(),
+        snapshot_of=report_snapshot,
+        how_far=lambda outcome, folded: f"{folded:,} of {outcome.batches:,} batches",
+        started=started,
     )
-    parts = {f.name: getattr(result, f.name) for f in dataclasses.fields(RunResult)}
-    return ReportResult(**parts, regressions=mode.regressions())
+    engine = engine or config.engine
+    if engine.kind == "local":
+
+        def fetcher_for(
+            api: ApiClient, on_progress: Callable[[ReportOutcome], None]
+        ) -> ReportFetcher:
+            return ReportFetcher(
+                api,
+                inputs.access.project_id,
+                inputs.report_id,
+                needs,
+                workers=config.fetch.concurrency,
+                on_progress=on_progress,
+                use_summaries=config.report.use_summaries,
+            )
+
+        outcome, traffic = await fold_here(run, fetcher_for)
+    else:
+        outcome, traffic = await fold_sharded(run, ReportPlan(inputs, config), engine, config.file)
+
+    check_job_metric_names(config, outcome)
+    writer = MetricsWriter(inputs.report_id, deterministic=True)
+    write_missing_jobs(writer, outcome.missing, outcome.jobs, allow_missing_jobs)
+    write_summary(writer, outcome)
+    await write_config_metrics(config_metrics, writer, config.fetch, retry, started=started)
+    output = write_output(writer, aggregations, outputs_dir)
+    lines = [a for a in aggregations if isinstance(a, ScalarLines)]
+    return ReportResult(
+        kind="report",
+        output=output,
+        outcome=outcome,
+        metrics_written=[m.name for m in writer.metrics],
+        status=writer.status,
+        traffic=traffic,
+        counts={
+            "batches": outcome.batches,
+            "jobs": outcome.jobs,
+            "jobs_missing": len(outcome.missing),
+            "batches_summarised": outcome.batches_summarised,
+        },
+        seconds=asyncio.get_running_loop().time() - started,
+        # What the default regression check found, read from the aggregation itself.
+        regressions=lines[0].regressions() if lines else None,
+    )
+
+
+def report_snapshot(outcome: ReportOutcome) -> Snapshot:
+    """Jobs and batches done, listed and in all so far, for the progress display."""
+    listed = outcome.jobs_total is not None or outcome.batches > 0
+    return Snapshot(
+        jobs_done=outcome.jobs_done,
+        jobs_listed=outcome.jobs,
+        jobs_total=outcome.jobs_total,
+        batches_done=outcome.batches_done,
+        batches_total=outcome.batches if listed else None,
+    )
 
 
 def write_summary(writer: MetricsWriter, outcome: ReportOutcome) -> None:

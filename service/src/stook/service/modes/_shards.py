@@ -1,4 +1,4 @@
-"""One shard of a run, and running it in a worker (a process of the pool, or a Ray task).
+"""What runs in a worker: one shard of a run, its progress reports and its failure.
 
 A shard is a contiguous piece of the batch's jobs (or of the report's batches), fetched by
 the same asyncio core as a local run (`BatchFetcher`, `ReportFetcher`, given the piece
@@ -8,40 +8,148 @@ the user's modules (`[[batch.custom]]`) are on the worker's import path before i
 aggregations are unpickled, and comes back as pickled bytes: the aggregations' states, one
 blob each (their sizes are what the driver logs), and what the fetch saw.
 
+While it runs, a shard sends a `ShardProgress` (jobs, or a report's batches, done so far
+and the shard client's traffic) every `EVERY_S` seconds while it changed: coalesced, never
+one message per job. Progress is best-effort: a report lost (a worker killed) changes only
+what is shown.
+
+A shard's failure comes back as plain values (`RemoteError`): exceptions do not reliably
+survive pickling (ours take keyword-only arguments, and a user's aggregation may raise
+anything). So a worker sends the error's class (by import path) and its one-line, already
+redacted message; the driver raises an instance of the same class with that message, so
+that the run's exit code and its one line are what a local run gives. Errors that are not
+stook's own also carry the worker's traceback, as a note, for the unexpected-error report.
+
 The token travels inside the shard's `ApiAccess`, whose repr hides it; it is in no log line.
 """
 
 from __future__ import annotations
 
+import asyncio
+import contextlib
+import importlib
 import pickle
 import signal
 import sys
 import time
+import traceback
 import uuid
-from collections.abc import Callable, Sequence
+from collections.abc import AsyncIterator, Callable, Sequence
 from dataclasses import dataclass
 from typing import Any, Protocol, TypeVar
 
+from stook.sdk import StookError
 from stook.sdk.aggregations import Aggregation, Needs
-from stook.service.api import ApiClient, Batch, Job, Report, RetryPolicy
+from stook.service.api import (
+    ApiClient,
+    Batch,
+    Job,
+    Report,
+    RetryPolicy,
+    configure_logging,
+    redact_text,
+)
 from stook.service.fetch import BatchFetcher, FetchOutcome, ReportFetcher, ReportOutcome
 from stook.service.modes._config import FetchSettings
 from stook.service.modes._event_loop import run_on_event_loop
 from stook.service.modes._inputs import ApiAccess
 from stook.service.modes._open_api import Traffic, open_api
-from stook.service.modes._shard_errors import RemoteError
-from stook.service.modes._shard_progress import Send, ShardProgress, reporting
 
-__all__ = [
-    "BatchShard",
-    "LogSettings",
-    "ReportShard",
-    "ShardDone",
-    "ShardFailed",
-    "init_worker",
-    "run_shard",
-    "split",
-]
+#: Seconds between a shard's reports: the display redraws at most 4 times a second.
+EVERY_S = 0.25
+
+
+@dataclass(frozen=True, slots=True)
+class ShardProgress:
+    index: int  # the shard's
+    jobs_done: int
+    jobs_listed: int = 0  # report mode: the jobs its batches' listings gave so far
+    batches_done: int = 0  # report mode
+    requests: int = 0
+    retries: int = 0
+    bytes_received: int = 0
+
+    @property
+    def traffic(self) -> Traffic:
+        return Traffic(
+            requests=self.requests, retries=self.retries, bytes_received=self.bytes_received
+        )
+
+
+#: Where a worker sends its reports (a queue's put); it must not block for long.
+Send = Callable[[ShardProgress], None]
+
+
+@contextlib.asynccontextmanager
+async def reporting(
+    read: Callable[[], ShardProgress], send: Send | None, every: float = EVERY_S
+) -> AsyncIterator[None]:
+    """While the block runs, `send` what `read` says every `every` seconds, if it changed."""
+    if send is None:
+        yield
+        return
+
+    async def report() -> None:
+        last = None
+        while True:
+            await asyncio.sleep(every)
+            now = read()
+            if now != last:
+                send(now)
+                last = now
+
+    task = asyncio.create_task(report())
+    try:
+        yield
+    finally:
+        task.cancel()
+        with contextlib.suppress(asyncio.CancelledError):
+            await task
+
+
+class ShardError(StookError):
+    """A shard failed in a way that names no error type of its own (exit code 1)."""
+
+
+@dataclass(frozen=True, slots=True)
+class RemoteError:
+    module: str
+    qualname: str
+    message: str
+    trace: str | None = None  # the worker's traceback, for errors that are not stook's
+
+    @classmethod
+    def of(cls, error: BaseException) -> RemoteError:
+        kind = type(error)
+        trace = None
+        if not isinstance(error, StookError):
+            trace = redact_text("".join(traceback.format_exception(error)))
+        return cls(kind.__module__, kind.__qualname__, redact_text(str(error)), trace)
+
+    def rebuild(self) -> Exception:
+        """An exception of the worker's class with its message (ShardError if it cannot be)."""
+        kind = _find(self.module, self.qualname)
+        error: Exception
+        if kind is not None and issubclass(kind, Exception):
+            # Not kind(message): constructors with keyword-only arguments would refuse it.
+            error = kind.__new__(kind, self.message)
+            Exception.__init__(error, self.message)
+        else:
+            error = ShardError(f"{self.qualname}: {self.message}")
+        if self.trace is not None:
+            error.add_note(f"in a worker:\n{self.trace}")
+        return error
+
+
+def _find(module: str, qualname: str) -> type | None:
+    try:
+        found: object = importlib.import_module(module)
+        for part in qualname.split("."):
+            found = getattr(found, part)
+    except (ImportError, AttributeError):
+        return None
+    return found if isinstance(found, type) else None
+
 
 _T = TypeVar("_T")
 _O = TypeVar("_O")
@@ -127,7 +235,7 @@ class BatchShard(_Shard):
         def progress_of(outcome: FetchOutcome, traffic: Traffic) -> ShardProgress:
             return ShardProgress(
                 self.index,
-                jobs_done=outcome.jobs_done + len(outcome.missing),  # as BatchMode shows
+                jobs_done=outcome.jobs_done + len(outcome.missing),  # as batch mode shows
                 requests=traffic.requests,
                 retries=traffic.retries,
                 bytes_received=traffic.bytes_received,
@@ -162,7 +270,7 @@ class ReportShard(_Shard):
         def progress_of(outcome: ReportOutcome, traffic: Traffic) -> ShardProgress:
             return ShardProgress(
                 self.index,
-                jobs_done=outcome.jobs_done,  # as ReportMode shows
+                jobs_done=outcome.jobs_done,  # as report mode shows
                 jobs_listed=outcome.jobs,
                 batches_done=outcome.batches_done,
                 requests=traffic.requests,
@@ -195,7 +303,7 @@ def init_worker(
     folders: Sequence[str], logs: LogSettings | None, progress: Send | None = None
 ) -> None:
     """A pool process's start: the user's folders on the path, logging as the driver's,
-    and where its shards' progress goes (`_shard_progress`).
+    and where its shards' progress goes (`ShardProgress`).
 
     SIGINT is the driver's to handle (Ctrl-C reaches the whole process group): it stops the
     workers itself, so they say nothing of their own.
@@ -249,7 +357,5 @@ def _prepare(folders: Sequence[str], logs: LogSettings | None) -> None:
         if folder not in sys.path:
             sys.path.insert(0, folder)
     if logs is not None:
-        from stook.service.api import configure_logging
-
         json, level = logs
         configure_logging(json=json, level=level)

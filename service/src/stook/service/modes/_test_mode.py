@@ -11,6 +11,7 @@ from typing import TYPE_CHECKING, Any
 
 import structlog
 
+from stook.sdk import MetricsWriter
 from stook.service.modes._config import ConfigError, StookConfig
 from stook.service.modes._inputs import TestInputs
 from stook.service.modes._user_code import add_import_folders, describe_search
@@ -55,7 +56,6 @@ def load_function(
 
 
 async def run_test_mode(inputs: TestInputs, config: StookConfig, output: Path) -> Path:
-    from stook.sdk import MetricsWriter
 
     writer = MetricsWriter(uuid.uuid4())
     config_metrics = None

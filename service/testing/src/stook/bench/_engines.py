@@ -60,15 +60,7 @@ ENGINES: Final[tuple[tuple[str, dict[str, Any]], ...]] = (
 def measure_engine(info: EmulatorInfo, engine: dict[str, Any]) -> dict[str, Any]:
     """One batch run as `stook run` does it with `engine`, in this (fresh) process."""
     from stook.service.api import configure_logging
-    from stook.service.modes import (
-        BatchInputs,
-        BatchMode,
-        detect,
-        fetch_step_for,
-        parse,
-        run_on_event_loop,
-        run_pipeline,
-    )
+    from stook.service.modes import BatchInputs, detect, parse, run_batch, run_on_event_loop
 
     events = io.StringIO()
     configure_logging(json=True, level="info", stream=events)
@@ -84,15 +76,7 @@ def measure_engine(info: EmulatorInfo, engine: dict[str, Any]) -> dict[str, Any]
         assert isinstance(batch, BatchInputs)
         started = time.perf_counter()
         cpu_before = _cpu_with_workers()
-        result = run_on_event_loop(
-            run_pipeline(
-                BatchMode(batch, config),
-                batch.access,
-                config.fetch,
-                Path(tmp) / "outputs",
-                fetch=fetch_step_for(config.engine, None),
-            )
-        )
+        result = run_on_event_loop(run_batch(batch, config, Path(tmp) / "outputs"))
         seconds = time.perf_counter() - started
         client_cpu = _cpu_with_workers() - cpu_before
         digest = hashlib.sha256(result.output.read_bytes()).hexdigest()

@@ -134,8 +134,7 @@ def run_stook(
     # before the clock starts, so this number stays the fetch alone, as before.
     importlib.import_module("polars")
     importlib.import_module("numpy")
-    # And what the run imports with them, off the loop's thread (see
-    # stook.service.fetch._decoders): numpy.ma, which polars imports lazily.
+    # And numpy.ma, which polars imports lazily with its first Series from an array.
     importlib.import_module("numpy.ma")
     event_loop_factory()  # and uvloop, which `stook run` imports before its loop starts
     doc = tomllib.loads(config_toml)
