@@ -7,7 +7,7 @@ VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.stook-installed
 
-.PHONY: setup test lint typecheck pytest demo proto bench clean
+.PHONY: setup test lint typecheck pytest docs demo proto bench clean
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -37,7 +37,12 @@ typecheck: setup
 pytest: setup
 	$(BIN)/pytest --cov --cov-report=term
 
-test: lint typecheck pytest
+# The docs site (mkdocs.yml): --strict, so a broken link or a missing page fails (not
+# --quiet: it hides the warnings that --strict counts).
+docs: setup
+	NO_MKDOCS_2_WARNING=1 $(BIN)/mkdocs build --strict
+
+test: lint typecheck pytest docs
 
 demo: setup
 	$(BIN)/stook demo
@@ -52,4 +57,4 @@ bench: setup
 	$(BIN)/pytest tests/bench --benchmark-enable --benchmark-only
 
 clean:
-	rm -rf $(VENV) demo-output .pytest_cache .mypy_cache .ruff_cache .hypothesis .coverage
+	rm -rf $(VENV) demo-output site .pytest_cache .mypy_cache .ruff_cache .hypothesis .coverage

@@ -18,8 +18,9 @@ import pytest
 from stook.sdk.example import every_metric_type
 
 # Imported by the functions that need them: frames and series (polars, numpy), statistics
-# (scipy), change points (ruptures), previews (plotly) and the Ray engine (ray).
-HEAVY = ("polars", "numpy", "scipy", "ruptures", "plotly", "ray")
+# (scipy), change points (ruptures), previews (plotly), the Ray engine (ray), and
+# config-defined metrics (duckdb, sqlglot, liquid).
+HEAVY = ("polars", "numpy", "scipy", "ruptures", "plotly", "ray", "duckdb", "sqlglot", "liquid")
 
 PACKAGES = [
     "stook.sdk",
@@ -32,6 +33,7 @@ PACKAGES = [
     "stook.service.modes",
     "stook.service.cli",
     "stook.service.preview",
+    "stook.service.metrics_config",
 ]
 
 

@@ -1,12 +1,11 @@
 """The fetch library against the emulator: what each plan costs in requests, what its
-records hold against the emulator's own data, early exits, errors, and the README's
-examples run as written."""
+records hold against the emulator's own data, early exits, errors, and the examples of
+the README and the library page run as written."""
 
 from __future__ import annotations
 
 import asyncio
 import contextlib
-import re
 import subprocess
 import sys
 import uuid
@@ -30,6 +29,7 @@ from stook.service import (
 from stook.service.fetch import DeadlineReachedError
 from stook.service.modes import ApiAccess, ConfigError, InputsError, MissingJobsError
 from stook.testing import emulated_batch
+from tests.docs_examples import block
 
 ROOT = Path(__file__).resolve().parents[2]
 JOBS = 24
@@ -261,29 +261,23 @@ async def test_fetch_report_hands_over_every_batch(tmp_path: Path) -> None:
     assert all(b.job_scalars for b in batches if b.jobs)
 
 
-# -- the README's examples, run as written against the emulator --------------------------
+# -- the README's and the library page's examples, run as written against the emulator --
 
-README = ROOT / "README.md"
-
-
-def _examples() -> dict[str, str]:
-    text = README.read_text(encoding="utf-8")
-    section = text.split("## Using stook as a library", 1)[1].split("\n## ", 1)[0]
-    blocks = re.findall(r"```python\n(.*?)```", section, re.S)
-    return {block.splitlines()[0].split(":")[0].lstrip("# "): block for block in blocks}
-
-
-def test_the_readme_shows_each_function() -> None:
-    assert sorted(_examples()) == ["fetch_batch", "fetch_batch_frame", "fetch_report"]
+EXAMPLES = {
+    "fetch_batch": block("docs/library.md", "# fetch_batch: "),
+    "fetch_batch_frame": block("docs/library.md", "# fetch_batch_frame: "),
+    "fetch_report": block("docs/library.md", "# fetch_report: "),
+    "readme": block("README.md", "# readme: the mean of each job's speeds"),
+}
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("example", ["fetch_batch", "fetch_batch_frame", "fetch_report"])
-async def test_readme_example_runs(tmp_path: Path, example: str) -> None:
+@pytest.mark.parametrize("example", sorted(EXAMPLES))
+async def test_docs_example_runs(tmp_path: Path, example: str) -> None:
     async with emulated_batch(tmp_path / "inputs", jobs_per_batch=6, seed=8) as emu:
         report_inputs = _report_inputs(emu, tmp_path)
         code = (
-            _examples()[example]
+            EXAMPLES[example]
             .replace("/tmp/resim/report-inputs", str(report_inputs))
             .replace("/tmp/resim/inputs", str(tmp_path / "inputs"))
         )
@@ -304,3 +298,5 @@ async def test_readme_example_runs(tmp_path: Path, example: str) -> None:
         assert any(HISTOGRAM in line for line in lines)
     if example == "fetch_batch_frame":
         assert "parameters.max_speed" in out.decode()
+    if example == "readme":
+        assert "mean speed" in out.decode()

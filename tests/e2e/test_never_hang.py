@@ -32,7 +32,7 @@ BIG: dict[str, Any] = {"jobs_per_batch": JOBS, "latency_ms": 30.0, "seed": 61}
 CORRUPT = 300  # a job well past the first 2 x 64 + 64 that fill the queue and the workers
 HUNG_S = 30.0  # a run still going after this long has hung (a whole clean run takes ~4 s)
 FEW_WORKERS = "[fetch]\nconcurrency = 4\n"
-SIGNAL_BOUND_S = 2.0  # what the README promises from a signal to the exit
+SIGNAL_BOUND_S = 2.0  # what docs/cli.md promises from a signal to the exit
 TEMP_FILE = re.compile(r"\.metrics\.binproto\.\w{8}\.tmp")
 
 # Test-only, put on the stook process's PYTHONPATH as sitecustomize (which Python imports

@@ -11,13 +11,14 @@ from __future__ import annotations
 
 from collections import Counter
 from dataclasses import dataclass
+from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
 import pytest
 
 from stook.emulator import Emulator
-from stook.emulator._quirks import FUTURE_CONFLATED_STATUS, FUTURE_METRIC_STATUS
+from stook.emulator._quirks import FUTURE_CONFLATED_STATUS, FUTURE_METRIC_STATUS, LEAP_SECOND
 from stook.sdk import MetricStatus
 from stook.service.api._client import ApiClient
 from stook.service.cli import run_cli
@@ -51,12 +52,18 @@ async def _run_batch(tmp: Path, toml: str, **emulator: Any) -> BatchRun:
 
 
 async def _null_scalars_listed(emu: Emulator) -> int:
-    """How many job metrics the emulator lists as SCALAR without a value, as a client sees."""
+    """How many job metrics the emulator lists as SCALAR without a value, as a client sees;
+    and with quirks, the job created in a leap second read as the instant before it."""
     count = 0
+    leap_seconds = 0
     async with ApiClient(emu.api_url, emu.token) as api:
         async for job in api.list_jobs(emu.project_id, emu.batch_id):
-            async for m in api.list_job_metrics(emu.project_id, emu.batch_id, job.job_id):
+            leap_seconds += job.creation_timestamp == datetime(
+                2016, 12, 31, 23, 59, 59, 999_999, tzinfo=UTC
+            )
+            for m in await api.list_job_metrics(emu.project_id, emu.batch_id, job.job_id):
                 count += m.type == "SCALAR" and m.value is None and not m.event_metric
+    assert leap_seconds == (1 if emu.config.spec_quirks else 0), LEAP_SECOND
     return count
 
 

@@ -129,10 +129,6 @@ PUBLIC_API: dict[str, list[str]] = {
         "summary_columns_from_data",
         "summary_from_data",
     ],
-    "stook.sdk.fastpaths": [
-        "hex_uuid",
-        "writable_twin",
-    ],
     "stook.sdk.testing": [
         "CHECK_JOB_ID",
         "MergeLaws",

@@ -8,6 +8,8 @@ dependency all the same. The layers, lowest first:
     fetch    the batch and report fetch cores, on top of api
     preview  metrics.binproto drawn as HTML; reads files with stook.sdk only, so it needs
              no layer below it, and the layers above it (run --preview, stook preview) use it
+    metrics_config  the platform's config-defined metrics (YAML, SQL on DuckDB, Liquid);
+             stook.sdk only below it; modes and the CLI use it
     modes    test, batch and report mode and what they run on, on top of fetch
     cli      the `stook` command, on top of modes
 
@@ -32,7 +34,7 @@ SERVICE = ROOT / "service" / "src" / "stook" / "service"
 TESTING = ROOT / "service" / "testing" / "src" / "stook"
 PACKAGE = "stook.service"
 
-LAYERS = ["api", "fetch", "preview", "modes", "cli"]
+LAYERS = ["api", "fetch", "preview", "metrics_config", "modes", "cli"]
 # Within the API layer, lowest first: each may import only those before it.
 API_ORDER = [
     "_redact",
@@ -43,7 +45,6 @@ API_ORDER = [
     "_limits",
     "_deadlines",
     "_models",
-    "_listing_items",
     "_paging",
     "_tls",
     "_transport",

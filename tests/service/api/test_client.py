@@ -30,7 +30,13 @@ from stook.service.api._errors import (
     TransportError,
 )
 from stook.service.api._limits import FixedLimit
-from stook.service.api._models import ConflatedJobStatus, Job
+from stook.service.api._models import (
+    ApiMetric,
+    ApiMetricsData,
+    ConflatedJobStatus,
+    Job,
+    MetricOwner,
+)
 from stook.service.api._retry import RetryPolicy
 from stook.service.api._stats import TransferStats
 from stook.service.api._storage import StorageClient
@@ -103,7 +109,7 @@ async def test_paginates_through_every_page_with_bearer_token(
     assert all(hit.headers["Authorization"] == f"Bearer {TOKEN}" for hit in hits)
 
 
-async def test_a_jobs_listings_as_lists_read_every_page_as_its_items_do(
+async def test_a_jobs_listings_as_lists_read_every_page(
     server: ScriptedServer, fast_policy: RetryPolicy
 ) -> None:
     job = uuid.UUID(int=7)
@@ -119,30 +125,29 @@ async def test_a_jobs_listings_as_lists_read_every_page_as_its_items_do(
         answer_json({"metrics": [metric(1), metric(2)], "nextPageToken": "p2"}),
         answer_json({"metrics": [metric(2), metric(3)]}),  # a repeat, dropped
     ]
-    server.script(f"{base}/metrics", *pages, *pages, *pages)
+    server.script(f"{base}/metrics", *pages, *pages)
     server.script(f"{base}/metricsData", answer_json({"metricsData": [data(1)]}))
     async with client(server, fast_policy, page_size=2) as api:
-        as_list = await api.all_job_metrics(PROJECT, BATCH, job)
-        as_items = [m async for m in api.list_job_metrics(PROJECT, BATCH, job)]
-        raw_items = await api.all_job_metric_items(PROJECT, BATCH, job)
-        data_list = await api.all_job_metrics_data(PROJECT, BATCH, job)
-        raw_data = await api.all_job_metrics_data_items(PROJECT, BATCH, job)
-        data_items = [d async for d in api.list_job_metrics_data(PROJECT, BATCH, job)]
+        as_list = await api.list_job_metrics(PROJECT, BATCH, job)
+        as_items = [
+            ApiMetric.from_json(m, owner=MetricOwner.JOB)
+            async for m in api.paginate(
+                f"/projects/{PROJECT}/batches/{BATCH}/jobs/{job}/metrics", "metrics"
+            )
+        ]
+        data_list = await api.list_job_metrics_data(PROJECT, BATCH, job)
     assert as_list == as_items
     assert [m.name for m in as_list] == ["m1", "m2", "m3"]
-    assert raw_items == [metric(1), metric(2), metric(3)]
-    assert [d.name for d in data_list] == ["d1"]
-    assert raw_data == [data(1)]
-    assert [api.read_job_metrics_data(d) for d in raw_data] == data_list == data_items
+    assert data_list == [ApiMetricsData.from_json(data(1), owner=MetricOwner.JOB)]
     hits = server.hits(f"{base}/metrics")
-    assert [hit.query.get("pageToken") for hit in hits] == [None, "p2"] * 3
+    assert [hit.query.get("pageToken") for hit in hits] == [None, "p2"] * 2
     # Each listing's first page asked for as paginate asks for it (see ApiClient._all_items).
     asked = [(hit.path, hit.query) for hit in hits]
-    assert asked[0] == asked[2] == asked[4]
-    assert asked[1] == asked[3] == asked[5]
+    assert asked[0] == asked[2]
+    assert asked[1] == asked[3]
     assert asked[0][1] == {"pageSize": "2"}
     data_hits = [(hit.path, hit.query) for hit in server.hits(f"{base}/metricsData")]
-    assert data_hits == [(f"{base}/metricsData", {"pageSize": "2"})] * 3
+    assert data_hits == [(f"{base}/metricsData", {"pageSize": "2"})]
 
 
 @pytest.mark.parametrize(
@@ -174,7 +179,7 @@ async def test_a_one_page_listing_as_a_list_reads_as_paginate_reads_it(
         except ApiResponseError as exc:
             expected = str(exc)
         try:
-            got: object = await api.all_job_metric_items(PROJECT, BATCH, job)
+            got: object = await api._all_items(path, "metrics")
         except ApiResponseError as exc:
             got = str(exc)
     assert got == expected
@@ -197,9 +202,9 @@ async def test_a_jobs_listings_name_its_own_batch_whatever_came_before(
         server.script(path, *[answer_json({"metrics": []})] * 3)
     async with client(server, fast_policy) as api:
         for project_id, batch_id in asked:
-            assert await api.all_job_metric_items(project_id, batch_id, job) == []
+            assert await api.list_job_metrics(project_id, batch_id, job) == []
         with pytest.raises(ValueError, match="not a UUID"):
-            await api.all_job_metric_items(PROJECT, "no batch", job)
+            await api.list_job_metrics(PROJECT, "no batch", job)
     assert len(server.hits(f"/v1/projects/{PROJECT}/batches/{BATCH}/jobs/{job}/metrics")) == 3
     assert len(server.hits(f"/v1/projects/{PROJECT}/batches/{other_batch}/jobs/{job}/metrics")) == 2
 
@@ -913,7 +918,7 @@ async def test_a_listings_first_page_url_is_built_as_the_text_would_parse(base: 
 
     api = ApiClient(base, TOKEN, transport=Recording(), page_size=7)
     job = uuid.uuid4()
-    assert await api.all_job_metric_items(PROJECT, BATCH, job) == []
+    assert await api.list_job_metrics(PROJECT, BATCH, job) == []
     # What the first page's URL was before: the base URL as a string, and the rest.
     text = f"{str(URL(base)).rstrip('/')}/projects/{PROJECT}/batches/{BATCH}/jobs/{job}/metrics"
     want = URL(text + "?pageSize=7", encoded=True)

@@ -224,6 +224,62 @@ async def test_new_items_far_past_the_total_stop(
     assert len(server.hits(JOBS_PATH)) == 3
 
 
+def total_then_none(total: int, pages_with_total: int) -> Responder:
+    """Pages of two fresh jobs each, for ever: the first few carry `total`, the rest none."""
+    counter = itertools.count(1)
+
+    async def respond(_request: web.Request) -> web.StreamResponse:
+        n = next(counter)
+        page: dict[str, object] = {"jobs": [job(2 * n), job(2 * n + 1)], "nextPageToken": f"t{n}"}
+        if n <= pages_with_total:
+            page["total"] = total
+        return web.json_response(page)
+
+    return respond
+
+
+async def test_the_first_total_bounds_later_pages_that_leave_it_out(
+    server: ScriptedServer, fast_policy: RetryPolicy
+) -> None:
+    server.script(JOBS_PATH, total_then_none(total=3, pages_with_total=1))
+    async with ApiClient(server.base_url, TOKEN, retry=fast_policy, page_size=2) as api:
+        with pytest.raises(ApiResponseError) as caught:
+            await list_all(api)
+    assert "6 items listed, more than the listing's total of 3" in str(caught.value)
+    assert len(server.hits(JOBS_PATH)) == 3
+    assert exit_code_for(caught.value) == 3
+
+
+async def test_the_batch_job_count_bounds_a_listing_that_never_says_its_total(
+    server: ScriptedServer, fast_policy: RetryPolicy
+) -> None:
+    server.script(JOBS_PATH, total_then_none(total=0, pages_with_total=0))
+    async with ApiClient(server.base_url, TOKEN, retry=fast_policy, page_size=2) as api:
+        with pytest.raises(ApiResponseError, match="more than the listing's total of 4"):
+            async for _ in api.list_jobs(PROJECT, BATCH, expected=4):
+                pass
+    assert len(server.hits(JOBS_PATH)) == 4
+
+
+@pytest.mark.parametrize(
+    ("body", "why"),
+    [
+        (b"[" * 5_000 + b"]" * 5_000, "nested too deeply"),
+        (b'{"batchID": ' + b"7" * 5_000 + b"}", "a number with too many digits"),
+    ],
+)
+async def test_an_answer_json_cannot_hold_is_an_invalid_answer(
+    server: ScriptedServer, fast_policy: RetryPolicy, body: bytes, why: str
+) -> None:
+    server.script(BATCH_PATH, answer(200, body, headers={"Content-Type": "application/json"}))
+    async with ApiClient(server.base_url, TOKEN, retry=fast_policy) as api:
+        with pytest.raises(ApiResponseError) as caught:
+            await api.get_batch(PROJECT, BATCH)
+    assert str(caught.value).startswith(f"GET {server.url(BATCH_PATH)}: answer is not valid JSON")
+    assert why in str(caught.value)
+    assert exit_code_for(caught.value) == 3
+
+
 async def test_a_token_on_the_last_full_page_and_an_empty_final_page_are_fine(
     server: ScriptedServer, fast_policy: RetryPolicy
 ) -> None:
@@ -320,7 +376,9 @@ async def test_a_refusal_after_a_same_origin_redirect_is_still_about_the_token(
 # -- the whole run, as a process ----------------------------------------------------------
 
 
-@pytest.mark.parametrize("hostile", ["endless-listing", "gzip-bomb"])
+@pytest.mark.parametrize(
+    "hostile", ["endless-listing", "gzip-bomb", "total-dropped", "deep-nesting"]
+)
 async def test_stook_run_ends_with_exit_3_naming_the_listing(
     server: ScriptedServer, tmp_path: Path, hostile: str
 ) -> None:
@@ -328,6 +386,10 @@ async def test_stook_run_ends_with_exit_3_naming_the_listing(
     the client to gigabytes and exited 0 as an empty batch."""
     if hostile == "endless-listing":
         server.script(JOBS_PATH, endless({}))
+    elif hostile == "total-dropped":  # found by answers generated from the spec
+        server.script(JOBS_PATH, total_then_none(total=3, pages_with_total=2))
+    elif hostile == "deep-nesting":
+        server.script(JOBS_PATH, answer(200, b"[" * 5_000 + b"]" * 5_000))
     else:
         server.script(JOBS_PATH, answer(200, gzip_bomb(), headers={"Content-Encoding": "gzip"}))
     inputs, outputs = tmp_path / "inputs", tmp_path / "outputs"
@@ -366,6 +428,11 @@ async def test_stook_run_ends_with_exit_3_naming_the_listing(
     if hostile == "endless-listing":
         assert "the listing does not end (50 empty pages in a row" in errors[0]
         assert len(server.hits(JOBS_PATH)) == 50
+    elif hostile == "total-dropped":
+        assert "the listing does not end" in errors[0]
+        assert "more than the listing's total of 3" in errors[0]
+    elif hostile == "deep-nesting":
+        assert "answer is not valid JSON (nested too deeply" in errors[0]
     else:
         assert "larger than 16 MB (the [fetch] max_api_body_mb cap)" in errors[0]
         assert len(server.hits(JOBS_PATH)) == 1

@@ -1,4 +1,4 @@
-"""Every command's --help says what each argument is and matches the README; `show --full`;
+"""Every command's --help says what each argument is and matches the docs; `show --full`;
 `stook emulate`'s first-class knobs, --host / --public-host and the report config."""
 
 from __future__ import annotations
@@ -22,7 +22,7 @@ from stook.service.cli import build_parser, run_cli
 from stook.service.modes import ConfigError
 
 CLI = [sys.executable, "-c", "from stook.service.cli import main; main()"]
-README = Path(__file__).resolve().parents[3] / "README.md"
+CLI_PAGE = Path(__file__).resolve().parents[3] / "docs" / "cli.md"
 
 
 def _commands() -> dict[str, argparse.ArgumentParser]:
@@ -88,10 +88,10 @@ def test_a_command_line_without_a_command_or_with_an_unknown_one_is_refused(
         assert error in capsys.readouterr().err
 
 
-def test_run_help_has_the_readmes_exit_codes_and_mode_detection() -> None:
+def test_run_help_has_the_docs_exit_codes_and_mode_detection() -> None:
     text = _help("run")
-    readme = README.read_text(encoding="utf-8")
-    table = readme[readme.index("### Exit codes") :].split("\n\n", 2)[1]
+    page = CLI_PAGE.read_text(encoding="utf-8")
+    table = page[page.index("### Exit codes") :].split("\n\n", 2)[1]
     codes = re.findall(r"^\| ([\d, ]+) \|", table, re.M)
     assert codes == ["0", "1", "2", "3", "4", "5", "130, 143"]
     epilog = text[text.index("exit codes:") :]

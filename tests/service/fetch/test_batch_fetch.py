@@ -3,12 +3,11 @@
 from __future__ import annotations
 
 import asyncio
-import uuid
 from typing import Any, cast
 
 import pytest
 
-from stook.service.api import ApiClient, Job
+from stook.service.api import Job
 from stook.service.fetch._batch_fetch import _JobQueue
 
 
@@ -81,9 +80,3 @@ async def test_a_worker_cancelled_once_woken_passes_the_job_on() -> None:
         await first
     assert await second is True
     assert queue.take() == jobs(2)[0]
-
-
-def test_an_ids_text_is_its_str() -> None:
-    ident = uuid.uuid4()
-    assert ApiClient.id_text(ident) == str(ident)
-    assert ApiClient.id_text(ident) == str(ident)  # remembered

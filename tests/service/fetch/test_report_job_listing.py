@@ -1,10 +1,9 @@
-"""Report mode's per-job step: a job's metric listing read from its items when well-formed,
-through the model otherwise (its errors, and null scalars' messages, as before)."""
+"""Report mode's per-job step: a job's metric listing read through its model (its errors,
+and null scalars' messages)."""
 
 from __future__ import annotations
 
 import uuid
-from collections.abc import AsyncIterator
 from typing import Any
 
 import pytest
@@ -12,9 +11,25 @@ import pytest
 from stook.sdk.aggregations import Needs
 from stook.service.api._errors import ApiResponseError
 from stook.service.api._models import ApiMetric, Batch, Job, MetricOwner
-from stook.service.fetch._listed_scalars import ListedScalars
-from stook.service.fetch._report_fetch import ReportFetcher
-from tests.service.api.test_listing_items import IDS, METRIC
+from stook.service.fetch._report_fetch import JobScalars, ReportFetcher
+
+IDS = [str(uuid.UUID(int=i + 1)) for i in range(6)]
+METRIC: dict[str, Any] = {
+    "metricID": IDS[0],
+    "name": "Localization error",
+    "type": "SCALAR",
+    "status": "PASSED",
+    "value": 0.25,
+    "unit": "m",
+    "dataIDs": [IDS[1], IDS[2]],
+    "eventMetric": False,
+    "metricURL": "http://storage.test/m?X-Amz-Signature=abc",
+    "creationTimestamp": "2025-01-18T14:03:00.123456789+02:00",
+    "jobID": IDS[3],
+    "batchID": IDS[4],
+    "projectID": IDS[5],
+    "orgID": "org",
+}
 
 
 class _Listings:
@@ -24,43 +39,42 @@ class _Listings:
 
     def __init__(self, items: list[Any]) -> None:
         self.items = items
-        self.relisted = 0
 
-    async def all_job_metric_items(self, *ids: uuid.UUID) -> list[Any]:
-        return list(self.items)
-
-    async def list_job_metrics(self, *ids: uuid.UUID) -> AsyncIterator[ApiMetric]:
-        self.relisted += 1
-        for item in self.items:
-            yield ApiMetric.from_json(item, owner=MetricOwner.JOB)
+    async def list_job_metrics(self, *ids: uuid.UUID) -> list[ApiMetric]:
+        return [ApiMetric.from_json(item, owner=MetricOwner.JOB) for item in self.items]
 
 
-async def _read(items: list[Any]) -> ListedScalars:
+async def _read(items: list[Any]) -> JobScalars:
     api: Any = _Listings(items)
     fetcher = ReportFetcher(api, uuid.uuid4(), uuid.uuid4(), Needs())
     batch, job = Batch(batch_id=uuid.UUID(IDS[4])), Job(uuid.UUID(IDS[3]), None)
     return await fetcher._job_scalars(batch, job)
 
 
-async def test_a_well_formed_listing_is_read_from_its_items() -> None:
+async def test_a_well_formed_listing_gives_its_scalars() -> None:
     listed = await _read([METRIC, METRIC | {"metricID": IDS[5], "name": "B", "value": 2.0}])
-    assert listed == ListedScalars(
-        {"Localization error": (0.25, "m"), "B": (2.0, "m")},
-        ["Localization error", "B"],
-        ["PASSED", "PASSED"],
-        {"Localization error": "PASSED", "B": "PASSED"},
-        ["Localization error", "B"],
-    )
+    assert listed.values == {"Localization error": (0.25, "m"), "B": (2.0, "m")}
+    assert sorted(listed.names) == ["B", "Localization error"]
+    assert listed.statuses == ["PASSED", "PASSED"]
 
 
-@pytest.mark.parametrize("change", [{"metricID": "1234"}, {"creationTimestamp": "yesterday"}])
-async def test_a_malformed_item_fails_as_the_model_words_it(change: dict[str, Any]) -> None:
-    item = METRIC | change
-    with pytest.raises(ApiResponseError) as expected:
-        ApiMetric.from_json(item, owner=MetricOwner.JOB)
+@pytest.mark.parametrize(
+    ("change", "message"),
+    [
+        ({"metricID": "1234"}, "JobMetric 1234: field 'metricID' is not a UUID: '1234'"),
+        (
+            {"creationTimestamp": "yesterday"},
+            f"JobMetric {IDS[0]}: field 'creationTimestamp' is not an RFC 3339 timestamp: "
+            "'yesterday'",
+        ),
+    ],
+)
+async def test_a_malformed_item_fails_naming_the_metric_and_field(
+    change: dict[str, Any], message: str
+) -> None:
     with pytest.raises(ApiResponseError) as caught:
-        await _read([METRIC, item])
-    assert str(caught.value) == str(expected.value)
+        await _read([METRIC, METRIC | change])
+    assert str(caught.value) == message
 
 
 async def test_a_null_scalar_nobody_reads_is_named_but_not_downloaded() -> None:

@@ -156,7 +156,8 @@ def test_a_missing_or_unreadable_file(tmp_path: Path) -> None:
     [
         pytest.param(
             {"fetsh": {}},
-            "s.toml: unknown section 'fetsh' (known: batch, engine, fetch, output, report, test)",
+            "s.toml: unknown section 'fetsh' (known: batch, engine, fetch, metrics_config, "
+            "output, report, test)",
             id="unknown-section",
         ),
         pytest.param(

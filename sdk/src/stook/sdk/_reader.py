@@ -52,7 +52,6 @@ from stook.sdk._enums import (
 )
 from stook.sdk._errors import MalformedError, read_error
 from stook.sdk._views import EventView, JobMetricsView, MetricsDataView, MetricView
-from stook.sdk.fastpaths import hex_uuid, writable_twin
 
 if TYPE_CHECKING:
     from stook.sdk._series import KIND_DTYPE, STATUS_DTYPE
@@ -171,7 +170,7 @@ def _uuid(text: str, what: str) -> uuid.UUID:
     if not text:
         raise MalformedError(f"{what} is missing")
     try:
-        return hex_uuid(text)
+        return uuid.UUID(text)
     except ValueError:
         raise MalformedError(f"{what} {text!r} is not a UUID") from None
 
@@ -211,13 +210,9 @@ def _data_label(msg: pb.MetricsData) -> str:
 def _data_uuid(msg: pb.MetricsData, text: str, what: str) -> uuid.UUID:
     """`_uuid` of one of `msg`'s IDs, its label made only when it is no UUID."""
     try:
-        return hex_uuid(text)
+        return uuid.UUID(text)
     except ValueError:
         return _uuid(text, f"{_data_label(msg)}: {what}")
-
-
-_WritableDataView: Final = writable_twin(MetricsDataView)
-_new = object.__new__
 
 
 def _data_view(msg: pb.MetricsData, source: str) -> MetricsDataView:
@@ -246,32 +241,25 @@ def _data_view(msg: pb.MetricsData, source: str) -> MetricsDataView:
         elif holds == "series_per_category":
             for series in msg.series_per_category.category_to_series.values():
                 _check_series(series, elements, kind, msg)
-    # Written through its twin (see `stook.sdk.fastpaths`): a view per downloaded series.
-    view: Any = _new(_WritableDataView)
-    try:
-        view.id = hex_uuid(msg.metrics_data_id.id.data)
-    except ValueError:
-        view.id = _data_uuid(msg, msg.metrics_data_id.id.data, "id")  # words the error
-    view.name = msg.name
-    view.unit = msg.unit
-    view.kind = kind
-    view.indexed = msg.is_indexed
     # Asked first: most data has no index, and reading an absent ID's text makes two
     # message objects.
     index_text = msg.index_data_id.id.data if msg.HasField("index_data_id") else ""
-    view.index_id = _data_uuid(msg, index_text, "index id") if index_text else None
     index_type = msg.index_data_type
-    view.index_kind = _kind(index_type) if index_type != _NO_DATA_TYPE else None
-    view.per_category = per_category
     names = msg.category_names
-    view.categories = tuple(names) if names else ()
-    view.external_path = msg.external_file.path if holds == "external_file" else None
-    view.raw = msg
-    view.source = source
-    view.index = None
-    view.__class__ = MetricsDataView
-    data_view: MetricsDataView = view
-    return data_view
+    return MetricsDataView(
+        id=_data_uuid(msg, msg.metrics_data_id.id.data, "id"),
+        name=msg.name,
+        unit=msg.unit,
+        kind=kind,
+        indexed=msg.is_indexed,
+        index_id=_data_uuid(msg, index_text, "index id") if index_text else None,
+        index_kind=_kind(index_type) if index_type != _NO_DATA_TYPE else None,
+        per_category=per_category,
+        categories=tuple(names) if names else (),
+        external_path=msg.external_file.path if holds == "external_file" else None,
+        raw=msg,
+        source=source,
+    )
 
 
 _ELEMENT_FIELDS: dict[SeriesKind, str] = {

@@ -25,9 +25,7 @@ from stook.service.api._errors import (
     NotFoundError,
     RedirectedRefusalError,
 )
-from stook.service.api._fields import field_reader, uuid_text
 from stook.service.api._limits import AimdLimiter, ConcurrencyLimit, FixedLimit, NestedLimit
-from stook.service.api._listing_items import metric_parser, metrics_data_parser, read_job
 from stook.service.api._models import (
     ApiMetric,
     ApiMetricsData,
@@ -60,12 +58,15 @@ __all__ = ["ApiClient", "IdLike"]
 IdLike = uuid.UUID | str
 _Model = TypeVar("_Model")
 
-# Each listing's parser, made once: a listing parses thousands of items.
-_JOB_METRIC = metric_parser(MetricOwner.JOB)
-_BATCH_METRIC = metric_parser(MetricOwner.BATCH)
-_JOB_DATA = metrics_data_parser(MetricOwner.JOB)
-_BATCH_DATA = metrics_data_parser(MetricOwner.BATCH)
+# How each owner's metric and metrics-data items are read: their models' own from_json.
+_JOB_METRIC = functools.partial(ApiMetric.from_json, owner=MetricOwner.JOB)
+_BATCH_METRIC = functools.partial(ApiMetric.from_json, owner=MetricOwner.BATCH)
+_JOB_DATA = functools.partial(ApiMetricsData.from_json, owner=MetricOwner.JOB)
+_BATCH_DATA = functools.partial(ApiMetricsData.from_json, owner=MetricOwner.BATCH)
 
+# The IDs a client keeps for the items it reads next (see ApiClient._ids): a few hundred
+# jobs' worth, however long the run.
+_MAX_IDS_KEPT: Final = 10_000
 # The API caps pages; 100 is the largest size ReSim's own tools ask for.
 DEFAULT_PAGE_SIZE: Final = 100
 # What one API answer (a JSON page) may hold, decompressed.
@@ -83,7 +84,7 @@ class ApiClient:
 
         async with ApiClient(config.api_url, config.auth_token) as api:
             async for job in api.list_jobs(project_id, batch_id):
-                async for metric in api.list_job_metrics(project_id, batch_id, job.job_id):
+                for metric in await api.list_job_metrics(project_id, batch_id, job.job_id):
                     payload = await api.storage.fetch_bytes(metric.metric_url)
 
     ``concurrency`` bounds the requests in flight, API and storage together; with
@@ -141,6 +142,11 @@ class ApiClient:
         self._base_path = shared.raw_path[:-1]  # "/v1", or "" for a base URL without one
         # The last batch whose jobs' paths were made, by its IDs' identity (see _job_path).
         self._batch_path: tuple[IdLike, IdLike, str] | None = None
+        # The IDs read from recent answers, by their text, handed to each listing item's
+        # from_json (see Fields): a job's metrics name the job, the batch and the metrics
+        # data that its data listing lists again, and each is then parsed once. Emptied
+        # when it holds _MAX_IDS_KEPT, so it does not grow with the run.
+        self._ids: dict[str, uuid.UUID] = {}
         # Shared by every API request: when the API fails, they wait together.
         self.gate = new_gate("the API", self._policy)
         if concurrency < 1:
@@ -289,19 +295,24 @@ class ApiClient:
         page_size: int | None = None,
         *,
         on_total: Callable[[int], None] | None = None,
+        expected: int | None = None,
     ) -> AsyncIterator[dict[str, Any]]:
         """Every item of a list endpoint, page after page, until ``nextPageToken`` is empty.
 
         ``on_total`` is called with the listing's ``total`` (how many items it holds, an
         optional field) from the first page that carries one, before that page's items.
-        A listing that cannot end (see :class:`ListingGuard`) is an ApiResponseError.
+        A listing that cannot end (see :class:`ListingGuard`; ``expected`` is what the
+        caller knows of its count) is an ApiResponseError.
         """
-        paging = _Paging(self, path, items_key, params, page_size, on_total)
+        paging = _Paging(self, path, items_key, params, page_size, on_total, expected)
         while paging.more:
             for item in paging.take(await self.get_json(path, paging.query)):
                 yield item
 
     # -- typed endpoints -----------------------------------------------------------------
+    #
+    # A job's listings (a page or two, as a rule) come as lists; the listings of a project
+    # or a batch, which can run to thousands of items, as async iterators.
 
     def list_jobs(
         self,
@@ -309,45 +320,35 @@ class ApiClient:
         batch_id: IdLike,
         *,
         on_total: Callable[[int], None] | None = None,
+        expected: int | None = None,
     ) -> AsyncIterator[Job]:
-        """The jobs (tests) of a batch; ``on_total`` hears the listing's job count first."""
+        """The jobs (tests) of a batch; ``on_total`` hears the listing's job count first.
+
+        ``expected``: the batch's job count when known (``Batch.total_jobs``), which
+        bounds the listing until its pages say their own ``total``."""
         path = f"/projects/{_id(project_id)}/batches/{_id(batch_id)}/jobs"
-        return self._list(path, "jobs", read_job, on_total=on_total)
+        return self._list(path, "jobs", Job.from_json, on_total=on_total, expected=expected)
 
     def list_job_metrics(
         self, project_id: IdLike, batch_id: IdLike, job_id: IdLike
-    ) -> AsyncIterator[ApiMetric]:
-        """The metrics a job's metrics build produced."""
-        path = self._job_path(project_id, batch_id, job_id) + "/metrics"
-        return self._list(path, "metrics", _JOB_METRIC)
-
-    def list_job_metrics_data(
-        self, project_id: IdLike, batch_id: IdLike, job_id: IdLike
-    ) -> AsyncIterator[ApiMetricsData]:
-        """The metrics-data files of a job (all storage types; filter on ``is_standard``)."""
-        path = self._job_path(project_id, batch_id, job_id) + "/metricsData"
-        return self._list(path, "metricsData", _JOB_DATA)
-
-    def all_job_metrics(
-        self, project_id: IdLike, batch_id: IdLike, job_id: IdLike
     ) -> Awaitable[list[ApiMetric]]:
-        """`list_job_metrics` as one list, for less CPU than collecting its items."""
+        """The metrics a job's metrics build produced."""
         path = self._job_path(project_id, batch_id, job_id) + "/metrics"
         return self._list_all(path, "metrics", _JOB_METRIC)
 
-    def all_job_metrics_data(
+    def list_job_metrics_data(
         self, project_id: IdLike, batch_id: IdLike, job_id: IdLike
     ) -> Awaitable[list[ApiMetricsData]]:
-        """`list_job_metrics_data` as one list, for less CPU than collecting its items."""
+        """The metrics-data files of a job (all storage types; filter on ``is_standard``)."""
         path = self._job_path(project_id, batch_id, job_id) + "/metricsData"
         return self._list_all(path, "metricsData", _JOB_DATA)
 
     def list_job_events(
         self, project_id: IdLike, batch_id: IdLike, job_id: IdLike
-    ) -> AsyncIterator[JobEventListing]:
+    ) -> Awaitable[list[JobEventListing]]:
         """The events a job's metrics build recorded (without their data)."""
         path = self._job_path(project_id, batch_id, job_id) + "/events"
-        return self._list(path, "events", JobEventListing.from_json)
+        return self._list_all(path, "events", JobEventListing.from_json)
 
     def list_experience_tags(
         self, project_id: IdLike, experience_id: IdLike
@@ -379,40 +380,6 @@ class ApiClient:
         path = f"/projects/{_id(project_id)}/batches/{_id(batch_id)}/metricsData"
         return self._list(path, "batchMetricsData", _BATCH_DATA)
 
-    def all_job_metric_items(
-        self, project_id: IdLike, batch_id: IdLike, job_id: IdLike
-    ) -> Awaitable[list[dict[str, Any]]]:
-        """`list_job_metrics`' items unread, as one list of JSON objects as the API wrote
-        them: for a caller that reads a few fields of each (report mode).
-        `ApiMetric.from_json(item, owner=MetricOwner.JOB)` reads one as `list_job_metrics`
-        does, errors included."""
-        path = self._job_path(project_id, batch_id, job_id) + "/metrics"
-        return self._all_items(path, "metrics")
-
-    def all_job_metrics_data_items(
-        self, project_id: IdLike, batch_id: IdLike, job_id: IdLike
-    ) -> Awaitable[list[dict[str, Any]]]:
-        """`list_job_metrics_data`' items unread, as one list of JSON objects as the API
-        wrote them: for a caller that reads a few fields of each (batch mode).
-        `read_job_metrics_data` reads one as `list_job_metrics_data` does."""
-        path = self._job_path(project_id, batch_id, job_id) + "/metricsData"
-        return self._all_items(path, "metricsData")
-
-    #: An ID (a UUID) as the API's paths write it: ``str(ident)``, remembered by its number.
-    #: A job's listings have written its ID out already, so a worker naming the job (``job
-    #: <ID>``) finds it there, for a fifth of what ``UUID.__str__`` (Python code) costs.
-    id_text = staticmethod(uuid_text)
-    #: What reads the given fields of this client's raw listing items (`all_job_metric_items`,
-    #: `all_job_metrics_data_items`) in one call, by the keys' strings as the JSON parser
-    #: keeps them (see `stook.service.api._fields.field_reader`).
-    field_reader = staticmethod(field_reader)
-
-    @staticmethod
-    def read_job_metrics_data(item: Mapping[str, Any]) -> ApiMetricsData:
-        """An item of `all_job_metrics_data_items` read as `list_job_metrics_data` reads
-        it: an equal object, or the same ApiResponseError (see `ApiMetricsData.from_json`)."""
-        return _JOB_DATA(item)
-
     async def get_report(self, project_id: IdLike, report_id: IdLike) -> Report:
         document = await self.get_json(f"/projects/{_id(project_id)}/reports/{_id(report_id)}")
         return Report.from_json(document)
@@ -436,19 +403,30 @@ class ApiClient:
         self,
         path: str,
         items_key: str,
-        parse: Callable[[Mapping[str, Any]], _Model],
+        parse: Callable[..., _Model],
         params: Mapping[str, str | int] | None = None,
         *,
         on_total: Callable[[int], None] | None = None,
+        expected: int | None = None,
     ) -> AsyncIterator[_Model]:
-        async for item in self.paginate(path, items_key, params, on_total=on_total):
-            yield parse(item)
+        async for item in self.paginate(
+            path, items_key, params, on_total=on_total, expected=expected
+        ):
+            yield parse(item, ids=self._recent_ids())
 
     async def _list_all(
-        self, path: str, items_key: str, parse: Callable[[Mapping[str, Any]], _Model]
+        self, path: str, items_key: str, parse: Callable[..., _Model]
     ) -> list[_Model]:
         """What `_list` yields, as one list."""
-        return list(map(parse, await self._all_items(path, items_key)))
+        items = await self._all_items(path, items_key)
+        ids = self._recent_ids()
+        return [parse(item, ids=ids) for item in items]
+
+    def _recent_ids(self) -> dict[str, uuid.UUID]:
+        """`self._ids`, emptied first when it has reached its bound."""
+        if len(self._ids) >= _MAX_IDS_KEPT:
+            self._ids.clear()
+        return self._ids
 
     def _all_items(self, path: str, items_key: str) -> Awaitable[list[dict[str, Any]]]:
         """What `paginate` yields, as one list: with no async generator step per item, and
@@ -475,7 +453,7 @@ class ApiClient:
         self, path: str, items_key: str, page: dict[str, Any]
     ) -> list[dict[str, Any]]:
         """A listing's items from its first `page` on, every page's (see `_all_items`)."""
-        paging = _Paging(self, path, items_key, None, None, None)
+        paging = _Paging(self, path, items_key, None, None, None, None)
         items = paging.take(page)
         while paging.more:  # the next page's URL only when there is one (a job's: none)
             items = items + paging.take(await self._get_document(self._url(path, paging.query)))
@@ -521,7 +499,16 @@ class _Paging:
     each page's items once checked (a listing that cannot end is an ApiResponseError; see
     :class:`ListingGuard`)."""
 
-    __slots__ = ("_client", "_guard", "_items_key", "_on_total", "_path", "more", "query")
+    __slots__ = (
+        "_client",
+        "_expected",
+        "_guard",
+        "_items_key",
+        "_on_total",
+        "_path",
+        "more",
+        "query",
+    )
 
     def __init__(
         self,
@@ -531,8 +518,10 @@ class _Paging:
         params: Mapping[str, str | int] | None,
         page_size: int | None,
         on_total: Callable[[int], None] | None,
+        expected: int | None,
     ) -> None:
         self._client = client
+        self._expected = expected
         self._path = path
         self._items_key = items_key
         self._on_total = on_total
@@ -576,7 +565,7 @@ class _Paging:
         guard = self._guard
         if guard is None and token:
             guard = self._guard = ListingGuard(
-                self._listing, items_key, int(self.query["pageSize"])
+                self._listing, items_key, int(self.query["pageSize"]), expected=self._expected
             )
         if guard is not None:
             items = guard.check(items, token or None, total)
@@ -619,7 +608,16 @@ def _loads(body: bytes) -> Any:
     try:
         return orjson.loads(body)
     except orjson.JSONDecodeError:
+        pass
+    try:
         return json.loads(body)
+    except RecursionError:
+        # Nested deeper than the interpreter's stack allows (orjson stops at 1,024 levels).
+        raise json.JSONDecodeError("nested too deeply", "", 0) from None
+    except json.JSONDecodeError:
+        raise
+    except ValueError:  # an integer past int's limit of digits (4,300)
+        raise json.JSONDecodeError("a number with too many digits", "", 0) from None
 
 
 @functools.cache
@@ -634,7 +632,7 @@ def _orjson() -> ModuleType:
 def _id(value: IdLike) -> str:
     """An ID for a URL path; parsing it also keeps anything but a UUID out of the path."""
     if isinstance(value, uuid.UUID):
-        return uuid_text(value)
+        return str(value)
     try:
         return str(uuid.UUID(value))
     except (ValueError, AttributeError, TypeError):

@@ -8,50 +8,23 @@ timestamps, each required or optional, with the API's habit of writing "" for un
 from __future__ import annotations
 
 import enum
-import functools
 import re
 import uuid
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from datetime import UTC, datetime, timedelta, timezone
-from operator import itemgetter
 from typing import Any, TypeVar
 
-from stook.sdk.fastpaths import hex_uuid
 from stook.service.api._errors import ApiResponseError
 
-__all__ = ["Fields", "field_reader", "new_uuid", "parse_rfc3339", "parse_uuid", "uuid_text"]
+__all__ = ["Fields", "parse_rfc3339", "parse_uuid"]
 
 _E = TypeVar("_E", bound=enum.Enum)
 
 
-_UUID = uuid.UUID
+def parse_uuid(text: str) -> uuid.UUID:
+    """An ID as the API writes it (ValueError when it is not one)."""
+    return uuid.UUID(text)
 
-# ``uuid.UUID(text)`` in half the time for the hexadecimal forms the API writes (a batch
-# run reads ~23 IDs a job); anything else goes to ``uuid.UUID``, which words the error.
-new_uuid = hex_uuid
-
-
-@functools.lru_cache(maxsize=4_096)
-def _text_of(number: int) -> str:
-    # What `UUID.__str__` writes, without making a UUID of the number first (that
-    # `__init__` was two thirds of a miss: every job ID of a report is one).
-    digits = f"{number:032x}"
-    return f"{digits[:8]}-{digits[8:12]}-{digits[12:16]}-{digits[16:20]}-{digits[20:]}"
-
-
-def uuid_text(ident: uuid.UUID) -> str:
-    """``str(ident)``, remembered by the ID's number.
-
-    Every request's path names its project and batch, and a job's listings name the job
-    twice: formatting them each time (``UUID.__str__`` is Python code) cost five times a
-    look-up by the number, an int whose hash is computed in C (a UUID's is not).
-    """
-    return _text_of(ident.int) if type(ident) is _UUID else str(ident)
-
-
-# A listing repeats its job and batch IDs in every item; parsing each once saves a third of
-# the client's CPU per job-metrics page (measured in report mode).
-_parse_uuid = parse_uuid = functools.lru_cache(maxsize=16_384)(new_uuid)
 
 # RFC 3339 as the platform's Go encoder writes it (RFC3339Nano: up to nine fractional
 # digits) and as the RFC allows it (lower-case t and z, any number of fractional digits).
@@ -62,7 +35,8 @@ _RFC3339 = re.compile(
 
 
 def parse_rfc3339(text: str) -> datetime | None:
-    """An RFC 3339 timestamp (fractions past microseconds truncated), or None if it is not one.
+    """An RFC 3339 timestamp (fractions past microseconds truncated; a leap second as
+    :59.999999), or None if it is not one.
 
     ``datetime.fromisoformat`` reads most of them and is fast, so it goes first; the
     rest (a lower-case "t" or "z"; more fractional digits than a given Python reads) are
@@ -81,6 +55,11 @@ def parse_rfc3339(text: str) -> datetime | None:
     else:
         offset = timedelta(hours=int(off_h), minutes=int(off_m))
         zone = timezone(-offset if sign == "-" else offset)
+    micros = int((fraction or "0")[:6].ljust(6, "0"))
+    if second == "60":
+        # A leap second (RFC 3339 allows :60), which datetime cannot hold: read as the
+        # last instant of the minute before it, so the order of times is kept.
+        second, micros = "59", 999_999
     try:
         return datetime(
             int(year),
@@ -89,7 +68,7 @@ def parse_rfc3339(text: str) -> datetime | None:
             int(hour),
             int(minute),
             int(second),
-            int((fraction or "0")[:6].ljust(6, "0")),
+            micros,
             tzinfo=zone,
         )
     except ValueError:  # e.g. month 13, or an offset of a day or more
@@ -97,20 +76,26 @@ def parse_rfc3339(text: str) -> datetime | None:
 
 
 class Fields:
-    """Reads typed fields from one JSON object; errors name the object and the field."""
+    """Reads typed fields from one JSON object; errors name the object and the field.
 
-    # Each accessor first takes the shape a well-formed answer has (checked by exact type,
-    # the cheapest test) and falls back to the general path, which also says what is wrong.
-    # A listing item is read field by field, so this is most of the client's parsing time
-    # per request (a metric item: 6.0 µs before, 4.3 after).
-    __slots__ = ("_data", "_id_key", "_kind")
+    ``ids``, when given, holds IDs read before, by their text, and gets those read here:
+    the items of a listing repeat their owner's IDs (a job's metrics each name the job and
+    the batch), and each is then parsed once (see ``ApiClient._ids``).
+    """
 
-    def __init__(self, kind: str, data: object, id_key: str) -> None:
+    __slots__ = ("_data", "_id_key", "_ids", "_kind")
+
+    def __init__(
+        self, kind: str, data: object, id_key: str, ids: dict[str, uuid.UUID] | None = None
+    ) -> None:
+        # A dict (what the JSON parser makes) is told by its type, in a fraction of the
+        # time a check against the Mapping ABC takes.
         if type(data) is not dict and not isinstance(data, Mapping):
             raise ApiResponseError(f"{kind}: expected a JSON object, got {_json_type(data)}")
         self._data: Mapping[str, Any] = data
         self._kind = kind
         self._id_key = id_key
+        self._ids = ids
 
     @property
     def _label(self) -> str:
@@ -140,17 +125,25 @@ class Fields:
         return value
 
     def _to_id(self, key: str, value: Any) -> uuid.UUID:
-        text = self._to_string(key, value)
+        text = value if type(value) is str else self._to_string(key, value)
+        ids = self._ids
+        if ids is not None:
+            known = ids.get(text)
+            if known is not None:
+                return known
         try:
-            return _parse_uuid(text)
+            ident = parse_uuid(text)
         except ValueError:
             raise self._error(key, f"is not a UUID: {text!r}") from None
+        if ids is not None:
+            ids[text] = ident
+        return ident
 
     def _to_choice(self, key: str, value: Any, kind: type[_E]) -> _E | str:
         text = self._to_string(key, value)
-        # The value map is what `kind(text)` consults, minus the metaclass call (a tenth of
-        # the time spent parsing a job's metric listing). A value it lacks is one the
-        # platform added after this client: kept by name, never an error.
+        # The enumeration's own map of values to members, which `kind(text)` consults
+        # after a slower call through its metaclass. A value it lacks is one the platform
+        # added after this client: kept by name, never an error.
         member = kind._value2member_map_.get(text)
         return text if member is None else member  # type: ignore[return-value]
 
@@ -160,6 +153,15 @@ class Fields:
         if not isinstance(value, int) or isinstance(value, bool):
             raise self._error(key, f"should be an integer, got {_json_type(value)}")
         return value
+
+    def _to_number(self, key: str, value: Any) -> float:
+        # bool is an int in Python but never a number here.
+        if not isinstance(value, int | float) or isinstance(value, bool):
+            raise self._error(key, f"should be a number, got {_json_type(value)}")
+        try:
+            return float(value)
+        except OverflowError:  # an integer of hundreds of digits
+            raise self._error(key, "is a number too large for a double") from None
 
     def _to_timestamp(self, key: str, value: Any) -> datetime:
         text = self._to_string(key, value)
@@ -171,50 +173,38 @@ class Fields:
         return moment
 
     # -- accessors -------------------------------------------------------------------------
+    #
+    # Each takes the shape a well-formed answer has first (a string, a list of strings, a
+    # float), with one look-up of the key, and leaves everything else to the converters
+    # above, which also say what is wrong. A listing is read field by field, item by item:
+    # this is most of the client's own CPU per request.
 
     def opt_string(self, key: str) -> str | None:
         value = self._data.get(key)
         if type(value) is str:
             return value or None
-        value = self._optional(key)
         return None if value is None else self._to_string(key, value)
 
     def id(self, key: str) -> uuid.UUID:
         value = self._data.get(key)
-        if type(value) is str and value:
-            try:
-                return _parse_uuid(value)
-            except ValueError:
-                pass  # said below
-        return self._to_id(key, self._required(key))
+        if value is None or value == "":
+            raise self._error(key, "is missing")
+        return self._to_id(key, value)
 
     def opt_id(self, key: str) -> uuid.UUID | None:
         value = self._data.get(key)
-        if type(value) is str:
-            if not value:
-                return None
-            try:
-                return _parse_uuid(value)
-            except ValueError:
-                pass  # said below
-        value = self._optional(key)
-        return None if value is None else self._to_id(key, value)
+        if value is None or value == "":
+            return None
+        return self._to_id(key, value)
 
     def ids(self, key: str) -> tuple[uuid.UUID, ...]:
+        """A list of IDs; absent or null: empty."""
         value = self._data.get(key)
-        if type(value) is list and not value:
+        if type(value) is list:
+            return tuple([self._to_id(key, item) for item in value])
+        if value is None or value == "":
             return ()
-        if type(value) is list and all(type(item) is str for item in value):
-            try:
-                return tuple(map(_parse_uuid, value))
-            except ValueError:
-                pass  # the general path below names the item at fault
-        value = self._optional(key)
-        if value is None:
-            return ()
-        if not isinstance(value, list):
-            raise self._error(key, f"should be a list, got {_json_type(value)}")
-        return tuple(self._to_id(key, item) for item in value)
+        raise self._error(key, f"should be a list, got {_json_type(value)}")
 
     def strings(self, key: str) -> tuple[str, ...]:
         """A list of strings; absent or null: empty."""
@@ -223,7 +213,7 @@ class Fields:
             return ()
         if not isinstance(value, list):
             raise self._error(key, f"should be a list, got {_json_type(value)}")
-        return tuple(self._to_string(key, item) for item in value)
+        return tuple([self._to_string(key, item) for item in value])
 
     def string_map(self, key: str) -> dict[str, str]:
         """An object of strings (the spec's ``additionalProperties: string``); absent: {}."""
@@ -236,31 +226,23 @@ class Fields:
 
     def choice(self, key: str, kind: type[_E], *, default: _E) -> _E | str:
         value = self._data.get(key)
-        if type(value) is str and value:
-            member = kind._value2member_map_.get(value)
-            return value if member is None else member  # type: ignore[return-value]
-        value = self._optional(key)
-        return default if value is None else self._to_choice(key, value, kind)
+        if value is None or value == "":
+            return default
+        return self._to_choice(key, value, kind)
 
     def opt_choice(self, key: str, kind: type[_E]) -> _E | str | None:
         value = self._data.get(key)
-        if type(value) is str and value:
-            member = kind._value2member_map_.get(value)
-            return value if member is None else member  # type: ignore[return-value]
-        value = self._optional(key)
-        return None if value is None else self._to_choice(key, value, kind)
+        if value is None or value == "":
+            return None
+        return self._to_choice(key, value, kind)
 
     def opt_number(self, key: str) -> float | None:
         value = self._data.get(key)
         if type(value) is float:
             return value
-        value = self._optional(key)
-        if value is None:
+        if value is None or value == "":
             return None
-        # bool is an int in Python but never a metric value.
-        if not isinstance(value, int | float) or isinstance(value, bool):
-            raise self._error(key, f"should be a number, got {_json_type(value)}")
-        return float(value)
+        return self._to_number(key, value)
 
     def integer(self, key: str) -> int:
         return self._to_integer(key, self._required(key))
@@ -273,19 +255,26 @@ class Fields:
         value = self._data.get(key)
         if type(value) is bool:
             return value
-        value = self._optional(key)
-        if value is None:
+        if value is None or value == "":
             return default
-        if not isinstance(value, bool):
-            raise self._error(key, f"should be true or false, got {_json_type(value)}")
-        return value
+        raise self._error(key, f"should be true or false, got {_json_type(value)}")
 
     def timestamp(self, key: str) -> datetime:
         return self._to_timestamp(key, self._required(key))
 
     def opt_timestamp(self, key: str) -> datetime | None:
-        value = self._optional(key)
-        return None if value is None else self._to_timestamp(key, value)
+        value = self._data.get(key)
+        if value is None or value == "":
+            return None
+        if type(value) is str:
+            try:  # what parse_rfc3339 tries first: most timestamps the API writes
+                moment = datetime.fromisoformat(value)
+            except ValueError:
+                pass
+            else:
+                if moment.tzinfo is not None:
+                    return moment
+        return self._to_timestamp(key, value)
 
 
 def _json_type(value: object) -> str:
@@ -303,20 +292,3 @@ def _json_type(value: object) -> str:
         case Mapping():
             return "an object"
     return type(value).__name__
-
-
-def field_reader(keys: tuple[str, ...]) -> Callable[[Mapping[str, Any]], tuple[Any, ...]]:
-    """The values of `keys` in an item of a listing, as a tuple, in one call (KeyError when
-    the item leaves one out).
-
-    The keys are looked up as orjson makes them: it keeps one string per short key for the
-    whole process (its key cache), so each field is found by identity, where a string of
-    the same text made elsewhere costs a comparison of the text per lookup (a sixth of
-    reading a metric listing). They are equal to `keys` whatever orjson does: only the
-    speed depends on it. Call it once the first answer has come (orjson is imported then).
-    """
-    import orjson
-
-    as_read = tuple(orjson.loads(orjson.dumps(dict.fromkeys(keys))))
-    assert as_read == keys
-    return itemgetter(*as_read)

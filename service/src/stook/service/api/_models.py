@@ -137,9 +137,6 @@ class MetricsDataStorageType(enum.StrEnum):
 # ---------------------------------------------------------------------------------------
 
 
-_STANDARD = MetricsDataStorageType.STANDARD
-
-
 @dataclass(frozen=True, slots=True)
 class Job:
     """One test of a batch: an experience run against a build.
@@ -162,8 +159,9 @@ class Job:
     parameters: Mapping[str, str] = field(default_factory=dict, hash=False)
 
     @classmethod
-    def from_json(cls, data: Mapping[str, Any]) -> Self:
-        f = Fields("Job", data, "jobID")
+    def from_json(cls, data: Mapping[str, Any], *, ids: dict[str, uuid.UUID] | None = None) -> Self:
+        """``ids``: IDs read before, by their text, to parse each once (see ``Fields``)."""
+        f = Fields("Job", data, "jobID", ids)
         return cls(
             job_id=f.id("jobID"),
             conflated_status=f.opt_choice("conflatedStatus", ConflatedJobStatus),
@@ -218,9 +216,15 @@ class ApiMetric:
     creation_timestamp: datetime | None = None
 
     @classmethod
-    def from_json(cls, data: Mapping[str, Any], *, owner: MetricOwner) -> Self:
-        f = Fields(_METRIC_KINDS[owner], data, "metricID")
-        # Keywords, not a shared dict of them: a listing builds one of these per item.
+    def from_json(
+        cls,
+        data: Mapping[str, Any],
+        *,
+        owner: MetricOwner,
+        ids: dict[str, uuid.UUID] | None = None,
+    ) -> Self:
+        """``ids``: IDs read before, by their text, to parse each once (see ``Fields``)."""
+        f = Fields(_METRIC_KINDS[owner], data, "metricID", ids)
         # The order of evaluation decides which error an item with two bad fields gets.
         return cls(
             metric_id=f.id("metricID"),
@@ -262,13 +266,18 @@ class ApiMetricsData:
     @property
     def is_standard(self) -> bool:
         """Whether the URL holds a ``MetricsData`` message (not a video or external file)."""
-        # A module constant: an enum member read off its class costs a metaclass lookup,
-        # and a batch fetch asks this of each listed data item three times.
-        return self.metrics_data_type is _STANDARD
+        return self.metrics_data_type is MetricsDataStorageType.STANDARD
 
     @classmethod
-    def from_json(cls, data: Mapping[str, Any], *, owner: MetricOwner) -> Self:
-        f = Fields(_DATA_KINDS[owner], data, "dataID")
+    def from_json(
+        cls,
+        data: Mapping[str, Any],
+        *,
+        owner: MetricOwner,
+        ids: dict[str, uuid.UUID] | None = None,
+    ) -> Self:
+        """``ids``: IDs read before, by their text, to parse each once (see ``Fields``)."""
+        f = Fields(_DATA_KINDS[owner], data, "dataID", ids)
         data_id = f.id("dataID")
         name = f.opt_string("name") or ""
         metrics_data_type = f.choice(
@@ -313,8 +322,9 @@ class Batch:
     creation_timestamp: datetime | None = None
 
     @classmethod
-    def from_json(cls, data: Mapping[str, Any]) -> Self:
-        f = Fields("Batch", data, "batchID")
+    def from_json(cls, data: Mapping[str, Any], *, ids: dict[str, uuid.UUID] | None = None) -> Self:
+        """``ids``: IDs read before, by their text, to parse each once (see ``Fields``)."""
+        f = Fields("Batch", data, "batchID", ids)
         return cls(
             batch_id=f.id("batchID"),
             status=f.opt_choice("status", BatchStatus),
@@ -405,8 +415,9 @@ class JobEventListing:
     creation_timestamp: datetime | None = None
 
     @classmethod
-    def from_json(cls, data: Mapping[str, Any]) -> Self:
-        f = Fields("Event", data, "eventID")
+    def from_json(cls, data: Mapping[str, Any], *, ids: dict[str, uuid.UUID] | None = None) -> Self:
+        """``ids``: IDs read before, by their text, to parse each once (see ``Fields``)."""
+        f = Fields("Event", data, "eventID", ids)
         return cls(
             event_id=f.id("eventID"),
             name=f.opt_string("name") or "",
@@ -429,8 +440,9 @@ class ExperienceTag:
     description: str = ""
 
     @classmethod
-    def from_json(cls, data: Mapping[str, Any]) -> Self:
-        f = Fields("ExperienceTag", data, "experienceTagID")
+    def from_json(cls, data: Mapping[str, Any], *, ids: dict[str, uuid.UUID] | None = None) -> Self:
+        """``ids``: IDs read before, by their text, to parse each once (see ``Fields``)."""
+        f = Fields("ExperienceTag", data, "experienceTagID", ids)
         return cls(
             experience_tag_id=f.id("experienceTagID"),
             name=f.opt_string("name") or "",
@@ -447,8 +459,9 @@ class Branch:
     branch_type: str | None = None
 
     @classmethod
-    def from_json(cls, data: Mapping[str, Any]) -> Self:
-        f = Fields("Branch", data, "branchID")
+    def from_json(cls, data: Mapping[str, Any], *, ids: dict[str, uuid.UUID] | None = None) -> Self:
+        """``ids``: IDs read before, by their text, to parse each once (see ``Fields``)."""
+        f = Fields("Branch", data, "branchID", ids)
         return cls(
             branch_id=f.id("branchID"),
             name=f.opt_string("name") or "",

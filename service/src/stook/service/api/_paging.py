@@ -32,9 +32,20 @@ class ListingGuard:
     nothing but items listed already (the same jobs again and again); an empty page with a
     further token once the listing's own ``total`` has been delivered, or more items than
     that total by a whole page; and a long run of empty pages that each carry a new token.
+    The first ``total`` a page carries bounds every later page, those without one too: a
+    listing that drops it after a few pages cannot go on for ever with fresh items. Until
+    a page carries one, ``expected`` (what the caller knows of the count: a batch's
+    ``totalJobs``) bounds it the same way.
     """
 
-    def __init__(self, listing: str | Callable[[], str], items_key: str, page_size: int) -> None:
+    def __init__(
+        self,
+        listing: str | Callable[[], str],
+        items_key: str,
+        page_size: int,
+        *,
+        expected: int | None = None,
+    ) -> None:
         # `listing` names the listing in the error; a function makes that name only then.
         self._listing = listing
         self._id_key = _ITEM_ID_KEYS.get(items_key)
@@ -43,6 +54,8 @@ class ListingGuard:
         self._seen: set[str] = set()
         self._pages = 0
         self._empty_run = 0
+        self._total: int | None = None  # the first total a page carried
+        self._expected = expected
 
     def check(
         self, items: list[dict[str, Any]], token: str | None, total: object
@@ -75,7 +88,10 @@ class ListingGuard:
         if items and new == 0:
             self._stop(f"page {self._pages} holds only items listed on earlier pages")
         self._empty_run = 0 if items else self._empty_run + 1
-        if isinstance(total, int) and not isinstance(total, bool):
+        if self._total is None and isinstance(total, int) and not isinstance(total, bool):
+            self._total = total
+        total = self._total if self._total is not None else self._expected
+        if total is not None:
             if not items and len(self._seen) >= total:
                 self._stop(
                     f"page {self._pages} is empty and all {total} items of the listing's "

@@ -30,7 +30,6 @@ from typing import TYPE_CHECKING, Any, Final, Protocol, Self
 from multidict import CIMultiDictProxy
 from yarl import URL
 
-from stook.sdk.fastpaths import writable_twin
 from stook.service.api._deadlines import Deadlines
 from stook.service.api._errors import BodyTooLargeError, IncompleteBodyError, TransportError
 from stook.service.api._limits import ConcurrencyLimit, FixedLimit
@@ -95,10 +94,6 @@ class Response:
     @property
     def ok(self) -> bool:
         return 200 <= self.status < 300
-
-
-_WritableResponse: Final = writable_twin(Response)
-_new = object.__new__
 
 
 class Transport(Protocol):
@@ -317,15 +312,7 @@ class HttpTransport:
                         body = await answer.content.read()
                     else:
                         body = await self._read_capped(answer, declared, cap)
-                    # Response(...), written as its writable twin (see stook.sdk.fastpaths):
-                    # a frozen dataclass's __init__ costs four times as much.
-                    written: Any = _new(_WritableResponse)
-                    written.status = answer.status
-                    written.headers = answer.headers
-                    written.body = body
-                    written.url = answer.url
-                    written.__class__ = Response
-                    response: Response = written
+                    response = Response(answer.status, answer.headers, body, answer.url)
                 finally:
                     # An answer read to its end is closed already: aiohttp gave its
                     # connection back as the body ended. Any other is released here.

@@ -1,7 +1,7 @@
 """The help texts of `stook` that are longer than a line, and the one formatter they share.
 
-Kept beside the README's tables (exit codes, mode detection): tests check that every code
-the README lists is in `stook run --help`, and that every option says what it does.
+Kept beside docs/cli.md's tables (exit codes, mode detection): tests check that every code
+the page lists is in `stook run --help`, and that every option says what it does.
 """
 
 from __future__ import annotations
@@ -79,7 +79,8 @@ COMMANDS: dict[str, tuple[str, str, str | None]] = {
     "bench": (
         "measure batch mode against the emulator and ReSim",
         "Measure batch mode against the emulator (in its own process), a bare "
-        "aiohttp loop and ReSim's fetcher; write tables and plots (docs/benchmarks.md).",
+        "aiohttp loop and ReSim's fetcher; write tables and plots (docs/performance.md). "
+        "With --probe: measure your own API and recommend [fetch] concurrency (docs/probe.md).",
         None,
     ),
     "validate": (
@@ -99,6 +100,11 @@ COMMANDS: dict[str, tuple[str, str, str | None]] = {
         "Draw one or more metrics.binproto files (test, batch or report outputs) "
         "into one HTML page that works offline, one column per file. Exit 2 for a missing "
         "file, 4 for one that is not JobMetrics, 5 if the page cannot be written.",
+        None,
+    ),
+    "metrics-config": (
+        "check or evaluate the platform's config-defined metrics (config.resim.yml), offline",
+        "",  # the long text is stook.service.cli._metrics_config.DESCRIPTION
         None,
     ),
 }

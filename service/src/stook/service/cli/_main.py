@@ -207,7 +207,9 @@ def _add_emulate_arguments(parser: argparse.ArgumentParser) -> None:
 def _add_bench_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--quick", action="store_true", help="small sizes; a smoke test")
     parser.add_argument(
-        "--out", metavar="DIR", default="docs/benchmarks", help="where results are written"
+        "--out",
+        metavar="DIR",
+        help="where results are written (default docs/benchmarks; --probe: probe-results)",
     )
     parser.add_argument(
         "--engines",
@@ -215,6 +217,10 @@ def _add_bench_arguments(parser: argparse.ArgumentParser) -> None:
         help="only compare [engine] local, processes and ray on one batch (20,000 jobs; "
         "--quick: 2,000)",
     )
+    from stook.service.cli._probe_flags import add_probe_flags
+
+    add_probe_flags(parser)
+    _add_logging(parser, default_level="warning")
 
 
 # `validate` and `show` take the file's name as given, without pathlib (~5 % of their
@@ -256,6 +262,12 @@ def _add_preview_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--open", action="store_true", help="open the page in a browser")
 
 
+def _add_metrics_config_arguments(parser: argparse.ArgumentParser) -> None:
+    from stook.service.cli._metrics_config import add_arguments
+
+    add_arguments(parser)
+
+
 _ADD_ARGUMENTS: dict[str, Callable[[argparse.ArgumentParser], None]] = {
     "run": _add_run_arguments,
     "demo": _add_demo_arguments,
@@ -264,6 +276,7 @@ _ADD_ARGUMENTS: dict[str, Callable[[argparse.ArgumentParser], None]] = {
     "validate": _add_validate_arguments,
     "show": _add_show_arguments,
     "preview": _add_preview_arguments,
+    "metrics-config": _add_metrics_config_arguments,
 }
 
 
@@ -477,14 +490,23 @@ def _dispatch(args: argparse.Namespace, voice: Voice) -> int:
         case "bench":
             from pathlib import Path
 
+            from stook.service.cli._probe_flags import check_probe_flags, run_probe
+
+            check_probe_flags(args)
             bench = _testing_tool("bench", "stook.bench")
+            if args.probe:
+                return run_probe(bench, args)
             if args.engines:
-                bench.run_engine_bench(Path(args.out), quick=args.quick)
+                bench.run_engine_bench(Path(args.out or "docs/benchmarks"), quick=args.quick)
                 return 0
-            bench.run_bench(Path(args.out), quick=args.quick)
+            bench.run_bench(Path(args.out or "docs/benchmarks"), quick=args.quick)
             return 0
         case "preview":
             return preview_files(args.files, args.output, open_browser=args.open)
+        case "metrics-config":
+            from stook.service.cli import _metrics_config
+
+            return _metrics_config.run(args)
         case "validate":
             return validate_file(args.file)
         case "show":

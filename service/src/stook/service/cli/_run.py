@@ -1,6 +1,6 @@
 """`stook run`: detect the mode from the inputs folder, run it, map failures to exit codes.
 
-Exit codes (also in the README):
+Exit codes (also in docs/cli.md):
   0  metrics.binproto written
   1  an unexpected error, or the user's own test-metrics function raised
   2  bad usage, config or inputs (malformed JSON, missing key, non-UUID ID, bad TOML,
@@ -219,8 +219,19 @@ def explain(error: BaseException) -> str:
 
 def exit_code_for(error: BaseException) -> ExitCode:
     """The documented exit code of an expected failure; UNEXPECTED for anything else."""
+    from stook.service.metrics_config import (
+        EmissionsError,
+        MetricsConfigError,
+        QueryError,
+        TemplateError,
+    )
+
     if isinstance(error, UsageError | ConfigError | InputsError | OutputsError):
         return ExitCode.USAGE
+    if isinstance(error, MetricsConfigError):
+        return ExitCode.USAGE
+    if isinstance(error, EmissionsError | QueryError | TemplateError):
+        return ExitCode.INVALID_DATA
     if isinstance(error, ApiError):
         return ExitCode.API
     if isinstance(error, ReadError | InvalidMetricsError):

@@ -18,12 +18,11 @@ import uuid
 from collections import deque
 from collections.abc import AsyncIterator, Awaitable, Callable, Sequence
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any, Final
+from typing import TYPE_CHECKING
 
 import structlog
 
 from stook.sdk.aggregations import UNKNOWN_STATUS, JobEvent, JobRecord, Needs
-from stook.sdk.fastpaths import writable_twin
 from stook.service.api import (
     ApiClient,
     ApiError,
@@ -31,14 +30,11 @@ from stook.service.api import (
     ApiMetricsData,
     AuthError,
     Job,
-    MetricOwner,
     OriginUnavailableError,
 )
 from stook.service.fetch._collector import fewer_collections
 from stook.service.fetch._job_extras import ExperienceTags, job_event
-from stook.service.fetch._listed_data import read_listed_data
-from stook.service.fetch._listed_scalars import ListedScalars, read_listed_scalars
-from stook.service.fetch._scalars import is_scalar, listed_scalars, read_scalars
+from stook.service.fetch._scalars import is_scalar, read_scalars
 
 if TYPE_CHECKING:
     from stook.service.fetch._job_blobs import JobBlobs
@@ -46,10 +42,6 @@ if TYPE_CHECKING:
 __all__ = ["BatchFetcher", "FetchOutcome", "MissingJob", "OnJob"]
 
 log = structlog.get_logger("stook.fetch")
-
-
-_WritableRecord: Final = writable_twin(JobRecord)
-_new = object.__new__
 
 
 @dataclass(frozen=True, slots=True)
@@ -200,77 +192,28 @@ class BatchFetcher:
         # for a slot (2,805 of 2,976 at 0 ms, concurrency 64) and the job needed a task:
         # a future, a wake-up and a resumption through every frame, for no more requests
         # in flight.
-        listed: ListedScalars | None = None
-        if needs.metrics or needs.every_metric:
-            metrics = await self._list_metrics(job)
-        else:
-            # No metric's blob is wanted: the listing is read from its JSON items, for
-            # its scalars, names and statuses only, when it is well-formed and lists every
-            # scalar's value (see _listed_scalars); else as ApiMetrics, as before.
-            items = await self._api.all_job_metric_items(
-                self._project_id, self._batch_id, job.job_id
-            )
-            listed = read_listed_scalars(items)
-            metrics = (
-                []
-                if listed is not None
-                else [ApiMetric.from_json(item, owner=MetricOwner.JOB) for item in items]
-            )
-        data_items: list[ApiMetricsData] = []
-        data_names: list[str] = []
-        unnamed = 0
-        if wants_blobs and not (needs.metrics or needs.every_metric or needs.data_with_index):
-            # Data by name only: the listing is read from its JSON items, for its names and
-            # the items the plan names, when it is well-formed (see _listed_data); else as
-            # ApiMetricsData, as before. Data asked for with its index, or a metric's,
-            # may need any item of the listing, and reads them all.
-            raw = await self._api.all_job_metrics_data_items(
-                self._project_id, self._batch_id, job.job_id
-            )
-            listed_data = read_listed_data(raw, needs.data)
-            read = self._api.read_job_metrics_data
-            if listed_data is not None:
-                data_items = list(map(read, listed_data.wanted))
-                data_names = listed_data.names
-                unnamed = listed_data.unnamed
-            else:
-                data_items = list(map(read, raw))
-                data_names = [d.name for d in data_items if d.name]
-                unnamed = len(data_items) - len(data_names)
-        elif wants_blobs:
-            data_items = await self._list_data(job)
-            data_names = [d.name for d in data_items if d.name]
-            unnamed = len(data_items) - len(data_names)
+        metrics = await self._list_metrics(job)
+        data_items = await self._list_data(job) if wants_blobs else []
+        data_names = [d.name for d in data_items if d.name]
+        unnamed = len(data_items) - len(data_names)
         events: tuple[JobEvent, ...] = tuple(await self._list_events(job)) if needs.events else ()
         tags: tuple[str, ...] = (
             await self._tags.of(job.experience_id) if needs.experience_tags else ()
         )
         outcome = self.outcome
-        # How errors and logs name the job, formatted once, from the ID's text its listings'
-        # paths made (UUID.__str__ is Python code: ~9,000 instructions a job).
-        source = "job " + ApiClient.id_text(job.job_id)
-        if listed is not None:
-            if listed.statuses:  # one per metric listed
-                outcome.jobs_with_metrics += 1
-            scalars = listed_scalars(listed.values, listed.scalar_statuses)
-            outcome.scalar_names.update(listed.names)
-            outcome.metric_names.update(listed.metric_names)
-            metric_statuses = listed.statuses
-        else:
-            if metrics:
-                outcome.jobs_with_metrics += 1
-            scalars = await read_scalars(
-                self._api.storage,
-                metrics,
-                needs.wants_scalar,
-                source=source,
-                relist=lambda: self._list_metrics(job),
-            )
-            # Listed is enough: a name the job has is no typo, even when its value is
-            # absent. Lists, not generators: these run for every job.
-            outcome.scalar_names.update([m.name for m in metrics if is_scalar(m)])
-            outcome.metric_names.update([m.name for m in metrics if m.name])
-            metric_statuses = [str(m.status) for m in metrics]
+        source = f"job {job.job_id}"  # how errors and logs name the job
+        if metrics:
+            outcome.jobs_with_metrics += 1
+        scalars = await read_scalars(
+            self._api.storage,
+            metrics,
+            needs.wants_scalar,
+            source=source,
+            relist=lambda: self._list_metrics(job),
+        )
+        # Listed is enough: a name the job has is no typo, even when its value is absent.
+        outcome.scalar_names.update([m.name for m in metrics if is_scalar(m)])
+        outcome.metric_names.update([m.name for m in metrics if m.name])
         if unnamed:
             outcome.unnamed_data += unnamed
             log.debug("unnamed metrics data skipped", job_id=str(job.job_id), count=unnamed)
@@ -287,36 +230,30 @@ class BatchFetcher:
                 relist_data=lambda: self._list_data(job),
                 source=source,
             ).fetch()
-        # JobRecord(...), written as a plain object with its slots and then given its class
-        # (see stook.sdk.fastpaths): a frozen dataclass's __init__ costs four times as much.
-        written: Any = _new(_WritableRecord)
-        written.job_id = job.job_id
-        written.conflated_status = str(job.conflated_status or UNKNOWN_STATUS)
-        written.experience_name = job.experience_name or ""
-        written.experience_id = job.experience_id
-        written.scalars = scalars
-        written.series = blobs.series if blobs is not None else {}
-        written.metric_statuses = metric_statuses
-        written.data = blobs.data if blobs is not None else {}
-        written.job_metrics = blobs.job_metrics if blobs is not None else None
-        written.parameters = job.parameters
-        written.events = events
-        written.experience_tags = tags
-        written.__class__ = JobRecord
-        record: JobRecord = written
-        return record
+        return JobRecord(
+            job_id=job.job_id,
+            conflated_status=str(job.conflated_status or UNKNOWN_STATUS),
+            experience_name=job.experience_name or "",
+            experience_id=job.experience_id,
+            scalars=scalars,
+            series=blobs.series if blobs is not None else {},
+            metric_statuses=[str(m.status) for m in metrics],
+            data=blobs.data if blobs is not None else {},
+            job_metrics=blobs.job_metrics if blobs is not None else None,
+            parameters=job.parameters,
+            events=events,
+            experience_tags=tags,
+        )
 
     def _list_metrics(self, job: Job) -> Awaitable[list[ApiMetric]]:
-        return self._api.all_job_metrics(self._project_id, self._batch_id, job.job_id)
+        return self._api.list_job_metrics(self._project_id, self._batch_id, job.job_id)
 
     def _list_data(self, job: Job) -> Awaitable[list[ApiMetricsData]]:
-        return self._api.all_job_metrics_data(self._project_id, self._batch_id, job.job_id)
+        return self._api.list_job_metrics_data(self._project_id, self._batch_id, job.job_id)
 
     async def _list_events(self, job: Job) -> list[JobEvent]:
-        return [
-            job_event(e)
-            async for e in self._api.list_job_events(self._project_id, self._batch_id, job.job_id)
-        ]
+        listed = await self._api.list_job_events(self._project_id, self._batch_id, job.job_id)
+        return [job_event(e) for e in listed]
 
 
 class _JobQueue:

@@ -5,7 +5,7 @@ almost all freed by reference counting as soon as a job is done; yet at the defa
 threshold (a young collection every 700 allocations, an older one every tenth) the
 collector ran ~170 times in a 1,000-job run, and each full collection walked the ~90,000
 objects the imports left behind: ~38 µs of CPU per request at 0 ms latency, 14 % of the
-client's (docs/benchmarks.md, "Fourth pass"). While a fetch runs, the objects that
+client's (docs/benchmarks.md's history, in git). While a fetch runs, the objects that
 existed before it are frozen (never scanned: they live for the whole process anyway) and
 a young collection waits for 20,000 allocations. Cycles are still collected, later; the
 memory they can hold meanwhile is bounded by that threshold, not by the batch's size.

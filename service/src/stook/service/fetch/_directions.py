@@ -51,7 +51,7 @@ async def failure_directions(
     for job_id, names in sorted(by_job.items()):
 
         async def listing(job: uuid.UUID = job_id) -> list[ApiMetric]:
-            return [m async for m in api.list_job_metrics(project_id, batch_id, job)]
+            return await api.list_job_metrics(project_id, batch_id, job)
 
         try:
             metrics = await listing()

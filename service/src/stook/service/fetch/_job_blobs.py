@@ -14,7 +14,7 @@ import functools
 import uuid
 from collections.abc import Awaitable, Callable, Collection, Iterable, Mapping, Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, Final, TypeVar
+from typing import TYPE_CHECKING, Final, TypeVar
 
 import structlog
 
@@ -31,7 +31,6 @@ from stook.sdk import (
     read_metrics_data,
 )
 from stook.sdk.aggregations import Needs, SeriesByName
-from stook.sdk.fastpaths import writable_twin
 from stook.service.api import ApiMetric, ApiMetricsData, PresignedUrlExpiredError, StorageClient
 from stook.service.fetch._presigned import fetch_listed, fetch_relisted
 
@@ -57,8 +56,6 @@ class JobBlobsResult:
     job_metrics: JobMetricsView | None
 
 
-_WritableResult: Final = writable_twin(JobBlobsResult)
-_new = object.__new__
 _DOUBLE: Final = SeriesKind.DOUBLE  # an enum member read off its class costs a lookup
 
 
@@ -133,15 +130,7 @@ class JobBlobs:
             if view.kind is _DOUBLE and not view.per_category:
                 doubles[item.name] = view
         job_metrics = self._job_metrics(metric_views) if wants_metrics else None
-        # JobBlobsResult(...), written through its twin (see stook.sdk.fastpaths): a frozen
-        # dataclass's __init__ costs several times as much, and this is made for every job.
-        result: Any = _new(_WritableResult)
-        result.data = data
-        result.series = SeriesByName(doubles)
-        result.job_metrics = job_metrics
-        result.__class__ = JobBlobsResult
-        blobs: JobBlobsResult = result
-        return blobs
+        return JobBlobsResult(data, SeriesByName(doubles), job_metrics)
 
     async def _download_referenced(
         self, named: Sequence[ApiMetricsData]

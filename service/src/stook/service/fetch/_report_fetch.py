@@ -15,7 +15,7 @@ import dataclasses
 import time
 import uuid
 from collections import Counter
-from collections.abc import AsyncIterator, Callable, Mapping
+from collections.abc import AsyncIterator, Awaitable, Callable, Mapping
 from dataclasses import dataclass, field
 from datetime import datetime
 from typing import TypeVar
@@ -38,14 +38,12 @@ from stook.service.api import (
     AuthError,
     Batch,
     Job,
-    MetricOwner,
     NotFoundError,
     OriginUnavailableError,
     Report,
 )
 from stook.service.fetch._batch_fetch import MissingJob
 from stook.service.fetch._collector import fewer_collections
-from stook.service.fetch._listed_scalars import ListedScalars, read_listed_scalars
 from stook.service.fetch._scalars import read_scalar_values, read_scalars
 from stook.service.fetch._summaries import read_summary
 
@@ -93,6 +91,17 @@ def search_for(report: Report) -> str:
     if report.respect_revision_boundary:
         clauses.append(f"test_suite_revision = {report.test_suite_revision}")
     return " AND ".join(clauses)
+
+
+@dataclass(frozen=True, slots=True)
+class JobScalars:
+    """A job's metric listing as report mode reads it: each SCALAR's (value, unit) by name
+    (the last of a name wins), every named SCALAR's name, and each metric's status as its
+    text."""
+
+    values: dict[str, tuple[float, str]]
+    names: list[str]
+    statuses: list[str]
 
 
 @dataclass(slots=True)
@@ -218,11 +227,11 @@ class ReportFetcher:
             if summary is not None:
                 await self._from_summary(batch, metrics, summary, on_batch)
                 return
-            jobs = await _collect(self._api.list_jobs(self._project_id, batch.batch_id))
+            jobs = await _collect(self._jobs_of(batch))
         else:
             metrics, jobs = await asyncio.gather(
                 _collect(self._api.list_batch_metrics(self._project_id, batch.batch_id)),
-                _collect(self._api.list_jobs(self._project_id, batch.batch_id)),
+                _collect(self._jobs_of(batch)),
             )
         self.outcome.jobs += len(jobs)
         if self.outcome.jobs_total is not None:
@@ -324,16 +333,18 @@ class ReportFetcher:
             else:
                 self._announce()
 
-    async def _job_scalars(self, batch: Batch, job: Job) -> ListedScalars:
-        """The job's metric listing as the batch's columns need it: read from its items
-        directly when they are well-formed and every scalar has its value; otherwise as
-        `ApiMetric`s, which word what is malformed, and with null values read from
-        their messages when needed."""
-        items = await self._api.all_job_metric_items(self._project_id, batch.batch_id, job.job_id)
-        listed = read_listed_scalars(items)
-        if listed is not None:
-            return listed
-        metrics = [ApiMetric.from_json(item, owner=MetricOwner.JOB) for item in items]
+    def _jobs_of(self, batch: Batch) -> AsyncIterator[Job]:
+        # The batch's totalJobs bounds a listing whose pages do not say their total.
+        return self._api.list_jobs(self._project_id, batch.batch_id, expected=batch.total_jobs)
+
+    async def _job_scalars(self, batch: Batch, job: Job) -> JobScalars:
+        """The job's metric listing as the batch's columns need it, with null values read
+        from their messages when an aggregation reads them."""
+
+        def listing() -> Awaitable[list[ApiMetric]]:
+            return self._api.list_job_metrics(self._project_id, batch.batch_id, job.job_id)
+
+        metrics = await listing()
         names: set[str] = set()
         values = await read_scalar_values(
             self._api.storage,
@@ -341,11 +352,9 @@ class ReportFetcher:
             self._needs.wants_scalar,
             names=names,
             source=lambda: f"job {job.job_id}",
-            relist=lambda: _collect(
-                self._api.list_job_metrics(self._project_id, batch.batch_id, job.job_id)
-            ),
+            relist=listing,
         )
-        return ListedScalars(values, list(names), [str(m.status) for m in metrics])
+        return JobScalars(values, list(names), [str(m.status) for m in metrics])
 
     def _finish(self, pending: _PendingBatch, on_batch: Callable[[BatchRecord], None]) -> None:
         batch = pending.batch

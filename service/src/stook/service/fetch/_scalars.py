@@ -11,22 +11,17 @@ level, never an error.
 from __future__ import annotations
 
 import asyncio
-from collections.abc import Awaitable, Callable, Mapping, Sequence
-from typing import Any, Final
+from collections.abc import Awaitable, Callable, Sequence
 
 import structlog
 
 from stook.sdk.aggregations import Scalar
-from stook.sdk.fastpaths import writable_twin
 from stook.service.api import ApiMetric, ApiMetricType, StorageClient
 from stook.service.fetch._presigned import fetch_listed
 
-__all__ = ["is_scalar", "listed_scalars", "read_scalar_values", "read_scalars"]
+__all__ = ["is_scalar", "read_scalar_values", "read_scalars"]
 
 log = structlog.get_logger("stook.fetch")
-
-_WritableScalar: Final = writable_twin(Scalar)
-_new = object.__new__
 
 Relist = Callable[[], Awaitable[Sequence[ApiMetric]]]
 
@@ -56,9 +51,7 @@ async def read_scalars(
         if not is_scalar(metric):
             continue
         if metric.value is not None:
-            found.append(
-                (metric.name, _scalar(metric.value, metric.unit or "", str(metric.status)))
-            )
+            found.append((metric.name, Scalar(metric.value, metric.unit or "", str(metric.status))))
         elif wanted(metric.name):
             found.append((metric.name, None))
             blobs.append(_from_message(storage, metric, source=source, relist=relist))
@@ -75,34 +68,6 @@ async def read_scalars(
         if value is not None:
             scalars[name] = value
     return scalars
-
-
-def listed_scalars(
-    values: Mapping[str, tuple[float, str]], statuses: Mapping[str, str]
-) -> dict[str, Scalar]:
-    """The scalars of a listing read from its items (`read_listed_scalars`): each
-    (value, unit) with its status, by name, as `read_scalars` gives them."""
-    scalars: dict[str, Scalar] = {}
-    # `_scalar` written out: a call per scalar of every job cost a third of the loop.
-    for name, (value, unit) in values.items():
-        written: Any = _new(_WritableScalar)
-        written.value = value
-        written.unit = unit
-        written.status = statuses[name]
-        written.__class__ = Scalar
-        scalars[name] = written
-    return scalars
-
-
-def _scalar(value: float, unit: str, status: str) -> Scalar:
-    """Scalar(value, unit, status), written as its writable twin (see stook.sdk.fastpaths):
-    a frozen dataclass's __init__ costs several times as much, for every scalar of every job."""
-    written: Any = _new(_WritableScalar)
-    written.value = value
-    written.unit = unit
-    written.status = status
-    written.__class__ = Scalar
-    return written  # type: ignore[no-any-return]
 
 
 async def read_scalar_values(

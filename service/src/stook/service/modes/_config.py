@@ -58,6 +58,7 @@ from stook.service.modes._user_code import add_import_folders
 if TYPE_CHECKING:
     # Imported by a config with a [batch.baseline] table, not by every run (~6 M).
     from stook.service.modes._baseline_config import BaselineSettings
+    from stook.service.modes._metrics_config_settings import MetricsConfigSettings
 
 log = structlog.get_logger("stook.config")
 
@@ -196,6 +197,8 @@ class StookConfig:
     summary: bool = True
     # [engine]: where the fetch and fold runs (modes/_engine.py).
     engine: EngineSettings = field(default_factory=EngineSettings)
+    # [metrics_config]: the platform's config-defined metrics (None: none).
+    metrics_config: MetricsConfigSettings | None = None
 
     def batch_aggregations(self) -> list[BatchAggregation]:
         try:
@@ -210,7 +213,7 @@ class StookConfig:
             raise ConfigError(f"{self.source}: {exc}") from None
 
 
-_SECTIONS = {"fetch", "test", "batch", "report", "output", "engine"}
+_SECTIONS = {"fetch", "test", "batch", "report", "output", "engine", "metrics_config"}
 
 
 def load(path: Path | None) -> StookConfig:
@@ -275,6 +278,7 @@ def parse(doc: Mapping[str, Any], *, source: str = "stook.toml") -> StookConfig:
         preview=preview,
         summary=summary,
         engine=_engine(_table(doc, "engine", source), source),
+        metrics_config=_metrics_config(doc.get("metrics_config"), source),
     )
     # Fail now, before any fetching, on a bad table.
     config.batch_aggregations()
@@ -289,6 +293,22 @@ def _baseline(table: Any, source: str) -> BaselineSettings | None:
         return parse_baseline(table)
     except BaselineConfigError as exc:
         raise ConfigError(f"{source}: {exc}") from None
+
+
+def _metrics_config(table: Any, source: str) -> MetricsConfigSettings | None:
+    if table is None:
+        return None
+    from stook.service.modes._metrics_config_settings import (
+        MetricsConfigSettingsError,
+        parse_metrics_config,
+    )
+
+    if not isinstance(table, dict):
+        raise ConfigError(f"{source}: [metrics_config] must be a table")
+    try:
+        return parse_metrics_config(table)
+    except MetricsConfigSettingsError as exc:
+        raise ConfigError(f"{source}: [metrics_config] {exc}") from None
 
 
 def _engine(table: Mapping[str, Any], source: str) -> EngineSettings:

@@ -3,7 +3,7 @@
 uvloop runs the loop in libuv, compiled, where asyncio runs it in Python: every request
 wakes the loop several times, so a batch run at 0 ms latency and concurrency 64 costs
 3.8 % fewer instructions with it, and ~4 % less wall time on a quiet machine (on a loaded
-one the noise hides it; docs/benchmarks.md, "Eleventh pass"). It is a dependency of
+one the noise hides it; docs/performance.md). It is a dependency of
 stook wherever it has wheels (CPython, not Windows); elsewhere asyncio's loop runs, and
 every run works the same on either.
 

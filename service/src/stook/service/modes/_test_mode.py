@@ -58,12 +58,18 @@ def load_function(
 async def run_test_mode(inputs: TestInputs, config: StookConfig, output: Path) -> Path:
 
     writer = MetricsWriter(uuid.uuid4())
-    if config.test_metrics is None:
+    config_metrics = None
+    if config.metrics_config is not None:
+        from stook.service.modes._test_config_metrics import TestConfigMetrics
+
+        base = config.file.parent if config.file else None
+        config_metrics = TestConfigMetrics.load(config.metrics_config, base, inputs)
+    if config.test_metrics is None and config_metrics is None:
         log.warning(
             "no [test] metrics function configured; writing a valid empty metrics file",
             config=config.source,
         )
-    else:
+    elif config.test_metrics is not None:
         for folder in (inputs.experience_dir, inputs.logs_dir):
             if not folder.is_dir():
                 log.warning("test-mode input folder is missing", folder=str(folder))
@@ -74,6 +80,8 @@ async def run_test_mode(inputs: TestInputs, config: StookConfig, output: Path) -
                 await result
         except Exception as exc:
             raise UserFunctionError(f"{config.test_metrics} raised {exc!r}") from exc
+    if config_metrics is not None:
+        config_metrics.write_into(writer, output.parent)
     written = writer.write(output)
     log.info("test metrics written", output=str(written), metrics=len(writer.metrics))
     return written

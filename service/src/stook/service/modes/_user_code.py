@@ -1,7 +1,7 @@
 """Where user code named in stook.toml is imported from.
 
 ``[test] metrics = "my_metrics.test:compute"`` and ``[[batch.custom]] class = ...`` name
-modules that usually sit beside stook.toml or in the working directory, as the README's
+modules that usually sit beside stook.toml or in the working directory, as the docs'
 examples have it. The ``stook`` console script puts neither on Python's import path (its
 own folder is what ``sys.path[0]`` holds), so both are put there, first, as ``python -m``
 would: the config file's folder, then the working directory.

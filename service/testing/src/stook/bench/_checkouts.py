@@ -1,6 +1,6 @@
 """Client CPU per request of several checkouts of stook, interleaved on one emulator.
 
-What a speed change is measured by (docs/benchmarks.md, "Fifth pass"): each round runs
+What a speed change is measured by (docs/performance.md): each round runs
 every checkout once, each a fresh process running `measure_stook` (batch mode, the sweep's
 plan) with ``PYTHONPATH`` pointing at that checkout's sources, against one emulator. A
 plain subprocess, not `in_fresh_process`: multiprocessing's spawn hands the child the

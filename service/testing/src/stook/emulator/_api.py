@@ -22,6 +22,7 @@ from stook.emulator._middleware import (
     admit,
     apply_fault,
     error_response,
+    in_flight_limit,
     json_bytes_response,
     json_response,
     record_response,
@@ -76,7 +77,7 @@ def build_api_app(state: EmulatorState) -> web.Application:
             response = error_response(exc.status, exc.reason)
         return record_response(state.stats, "api", response, fault)
 
-    app = web.Application(middlewares=[middleware])
+    app = web.Application(middlewares=[*in_flight_limit(state, "api"), middleware])
     routes = _ApiRoutes(state)
     p = f"{API_PREFIX}/projects/{{project_id}}"
     app.router.add_get(f"{p}/batches", routes.list_batches, name="list_batches")

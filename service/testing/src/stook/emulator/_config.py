@@ -127,6 +127,10 @@ class EmulatorConfig:
     rate_limit_burst: int | None = None  # default: max(1, rate)
     storage_rate_limit_rps: float | None = None
     storage_rate_limit_burst: int | None = None
+    # Requests both origins answer at once (a server's capacity); beyond it a request is
+    # answered 429 with Retry-After at once, as a gateway's concurrency limit does. None:
+    # unlimited. `stook bench --probe` is tested against it.
+    max_in_flight: int | None = None
 
     def __post_init__(self) -> None:
         fractions = (self.fault_5xx, self.fault_429, self.fault_reset, self.fault_truncate)
@@ -152,6 +156,8 @@ class EmulatorConfig:
         for rate in (self.rate_limit_rps, self.storage_rate_limit_rps):
             if rate is not None and rate <= 0:
                 raise ValueError("a rate limit must be positive (or None)")
+        if self.max_in_flight is not None and self.max_in_flight < 1:
+            raise ValueError("max_in_flight must be at least 1 (or None)")
         if any(o not in ORIGINS for o in self.fault_origins):
             raise ValueError(f"fault_origins must be drawn from {ORIGINS}")
         step = self.report_step_change_batch

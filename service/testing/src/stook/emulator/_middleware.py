@@ -16,6 +16,7 @@ from typing import Any
 
 import orjson
 from aiohttp import web
+from aiohttp.typedefs import Middleware
 
 from stook.emulator import _json
 from stook.emulator._config import Origin
@@ -133,3 +134,30 @@ def record_response(
     if isinstance(response, web.Response) and isinstance(response.body, bytes):
         stats.bytes_served[origin] += len(response.body)
     return response
+
+
+def in_flight_limit(state: EmulatorState, origin: Origin) -> tuple[Middleware, ...]:
+    """`max_in_flight`'s middleware for `origin`'s app, outermost; none when unlimited.
+
+    The count is shared by both origins (one server's capacity) and covers a request from
+    its arrival to its answer, latency included: beyond the limit the answer is a 429 with
+    Retry-After, at once.
+    """
+    limit = state.config.max_in_flight
+    if limit is None:
+        return ()
+
+    @web.middleware
+    async def limited(request: web.Request, handler: Handler) -> web.StreamResponse:
+        if state.in_flight >= limit:
+            state.stats.requests[origin] += 1
+            state.stats.rate_limited[origin] += 1
+            refused = error_response(429, "too many requests in flight", {"Retry-After": "1"})
+            return record_response(state.stats, origin, refused)
+        state.in_flight += 1
+        try:
+            return await handler(request)
+        finally:
+            state.in_flight -= 1
+
+    return (limited,)

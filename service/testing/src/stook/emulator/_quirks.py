@@ -12,7 +12,8 @@ everywhere, changing nothing a correct client computes:
   (a job's ``jobStatus`` and ``jobMetricsStatus``; a batch's statuses);
 * every job has two more metrics data: one without a name or a type (a valid, unnamed
   ``MetricsData``) and one of a storage type the spec does not list;
-* timestamps carry nine fractional digits (RFC3339Nano).
+* timestamps carry nine fractional digits (RFC3339Nano), and the first job of a batch
+  was created in a leap second (``23:59:60``, which RFC 3339 allows).
 
 Two more settings change what a client must compute, so that tests can check the counts:
 the jobs of ``future_status_jobs`` are listed with a conflated status and metric statuses
@@ -43,6 +44,8 @@ _FUTURE_STORAGE_TYPE = "POINT_CLOUD"
 _BATCH_METRIC_STATUS_KEYS = ("batchMetricsStatus", "jobsMetricsStatus", "overallMetricsStatus")
 # Sub-microsecond digits: a client keeps microseconds, so they change nothing.
 _EXTRA_NANOS = "789"
+# The first job's creation time: a leap second (no output depends on a job's creation time).
+LEAP_SECOND = "2016-12-31T23:59:60Z"
 
 UNNAMED_DATA = "unnamed data"
 POINT_CLOUD_DATA = "Point cloud"
@@ -67,7 +70,10 @@ class SpecQuirks:
             return body
         body["jobStatus"] = _FUTURE_JOB_STATUS
         body["jobMetricsStatus"] = FUTURE_METRIC_STATUS
-        return self._tidy(body)
+        body = self._tidy(body)
+        if spec.index == 0:
+            body["creationTimestamp"] = LEAP_SECOND
+        return body
 
     def batch(self, body: Json) -> Json:
         if not self.on:

@@ -31,6 +31,7 @@ class EmulatorState:
         self.quirks = SpecQuirks(config)
         self.outages = OutageSchedule(config.outages, time.monotonic())
         self.in_latency: Counter[str] = Counter()  # requests waiting out their latency now
+        self.in_flight = 0  # requests of both origins being answered now (max_in_flight)
         self.clock_offset = 0.0
         self.storage_url = ""  # known once the storage site is bound
         # The secret only has to be unguessable by clients, not secret across runs.

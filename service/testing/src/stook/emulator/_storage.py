@@ -10,7 +10,13 @@ import uuid
 
 from aiohttp import web
 
-from stook.emulator._middleware import Handler, admit, apply_fault, record_response
+from stook.emulator._middleware import (
+    Handler,
+    admit,
+    apply_fault,
+    in_flight_limit,
+    record_response,
+)
 from stook.emulator._state import EmulatorState
 from stook.emulator._store import MetricsOutput
 
@@ -57,7 +63,7 @@ def build_storage_app(state: EmulatorState) -> web.Application:
         return record_response(stats, "storage", response, fault)
 
     routes = _StorageRoutes(state)
-    app = web.Application(middlewares=[middleware])
+    app = web.Application(middlewares=[*in_flight_limit(state, "storage"), middleware])
     base = f"/{BUCKET}/projects/{{project_id}}/batches/{{batch_id}}"
     app.router.add_get(
         f"{base}/jobs/{{job_id}}/metrics/{{object_id}}", routes.job_metric, name="job_metric"

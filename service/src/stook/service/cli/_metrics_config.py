@@ -1,0 +1,217 @@
+"""`stook metrics-config check|eval`: the platform's config-defined metrics, offline."""
+
+from __future__ import annotations
+
+import argparse
+import shutil
+import sys
+from pathlib import Path
+from typing import TYPE_CHECKING, TextIO
+
+if TYPE_CHECKING:
+    from stook.service.metrics_config import Level
+
+DESCRIPTION = """\
+Evaluate the platform's config-defined metrics (.resim/metrics/config.resim.yml) on
+this machine, with no network: topics' emissions are loaded into tables, each metric's
+Trino SQL runs on DuckDB in this process, and the results are drawn as stook metrics.
+
+  check CONFIG...   check the config: YAML, keys, names, metrics sets, templates
+                    present, every query parses and binds against the topics' schemas
+  eval CONFIG...    run the metrics of one level over emissions; write
+                    OUTPUTS/metrics.binproto (and metrics.html with --preview)
+
+Several CONFIG files are merged as the platform does (topics, metrics and metrics sets
+disjoint, version equal, other keys: last wins). Custom templates are read from the
+templates/ folder beside the first CONFIG, or --templates DIR."""
+
+EPILOG = """\
+--emissions PATH: one emissions.resim.jsonl (one job), or a folder of per-job folders,
+each holding emissions.resim.jsonl and optionally job.json, whose keys (job_id,
+batch_id, project_id, experience_id, experience_name, build_id, build_version,
+batch_name, job_status, job_conflated_status, branch, tags) fill the job's row of the
+metadata table; absent IDs are generated from the folder names (stable), other keys
+are null. Attached files (image, video metrics) are read from the job's folder and
+copied beside metrics.binproto.
+
+exit codes:
+  0  check: the config is good; eval: metrics.binproto written
+  2  a bad config (one line per problem), option or path
+  4  a bad emissions row (file, line, topic, column), a query the engine refused
+     (the metric, its SQL and the engine's message), a template that did not print
+     Plotly JSON, or an output that would not validate
+  5  the output could not be written
+Nothing is written unless everything succeeded."""
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    from stook.service.cli._help import HelpFormatter
+
+    parser.description = DESCRIPTION
+    parser.epilog = EPILOG
+    actions = parser.add_subparsers(dest="action", required=True, metavar="ACTION")
+    check = actions.add_parser(
+        "check",
+        help="check config files (exit 0, or 2 with one line per problem)",
+        description="Check config files: YAML, keys, names, metrics sets, templates, and "
+        "that every query parses and binds against the topics' schemas.",
+        formatter_class=HelpFormatter,
+    )
+    _add_common(check)
+    run = actions.add_parser(
+        "eval",
+        help="evaluate one level's metrics over emissions into metrics.binproto",
+        description="Run the metrics of one level over emissions and write "
+        "OUTPUTS/metrics.binproto atomically (and metrics.html with --preview).",
+        epilog=EPILOG,
+        formatter_class=HelpFormatter,
+    )
+    _add_common(run)
+    run.add_argument(
+        "--emissions",
+        type=Path,
+        nargs="+",
+        required=True,
+        metavar="PATH",
+        help="an emissions.resim.jsonl (one job) or a folder of per-job folders",
+    )
+    run.add_argument(
+        "--level",
+        choices=("test", "batch", "dashboard"),
+        required=True,
+        help="which metrics run: the test's, the batch's or the dashboard's (report)",
+    )
+    run.add_argument(
+        "--metrics-set", metavar="NAME", help="only this metrics set's metrics (default: all)"
+    )
+    run.add_argument(
+        "--outputs",
+        type=Path,
+        default=Path("outputs"),
+        metavar="DIR",
+        help="where metrics.binproto is written (default: ./outputs)",
+    )
+    run.add_argument(
+        "--preview", action="store_true", help="also write DIR/metrics.html (stook preview)"
+    )
+
+
+def _add_common(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("configs", type=Path, nargs="+", metavar="CONFIG", help="config.resim.yml")
+    parser.add_argument(
+        "--templates",
+        type=Path,
+        metavar="DIR",
+        help="custom Liquid templates (default: templates/ beside the first CONFIG)",
+    )
+
+
+def run(args: argparse.Namespace, *, out: TextIO | None = None) -> int:
+    out = out or sys.stdout
+    if args.action == "check":
+        return check(args.configs, args.templates, out=out)
+    written = evaluate_offline(
+        args.configs,
+        args.emissions,
+        level=args.level,
+        metrics_set=args.metrics_set,
+        templates=args.templates,
+        outputs=args.outputs,
+        preview=args.preview,
+    )
+    print(written, file=out)
+    return 0
+
+
+def check(configs: list[Path], templates: Path | None, *, out: TextIO) -> int:
+    from stook.service.metrics_config import MetricsConfigError, check_config, load_config
+
+    try:
+        config = load_config(configs, templates)
+        problems = check_config(config)
+    except MetricsConfigError as exc:
+        problems = exc.problems
+    if problems:
+        for problem in problems:
+            print(problem, file=sys.stderr)
+        return 2
+    names = ", ".join(str(c) for c in configs)
+    print(f"{names}: {len(config.topics)} topics, {len(config.metrics)} metrics, ok", file=out)
+    return 0
+
+
+def evaluate_offline(
+    configs: list[Path],
+    emissions: list[Path],
+    *,
+    level: Level,
+    metrics_set: str | None,
+    templates: Path | None,
+    outputs: Path,
+    preview: bool = False,
+) -> Path:
+    """Load, evaluate and write; nothing is written unless all of it succeeded."""
+    from stook.sdk import MetricsWriter, validate_job_metrics
+    from stook.service.cli._run import UsageError
+    from stook.service.metrics_config import (
+        EmissionsError,
+        EmissionsSet,
+        evaluate,
+        find_jobs,
+        load_config,
+        stable_id,
+    )
+
+    config = load_config(configs, templates)
+    config.metrics_for(level, metrics_set)  # an unknown set: exit 2 before any work
+    try:
+        jobs = find_jobs(emissions)
+    except EmissionsError as exc:  # a path or a job.json: bad input, before any work
+        raise UsageError(str(exc)) from None
+    emission_set = EmissionsSet(config)
+    for job in jobs:
+        emission_set.add_job(job.meta, job.emissions)
+    if level == "test" and len(jobs) != 1:
+        raise UsageError(f"--level test evaluates one job's emissions, {len(jobs)} were given")
+    if level == "test":
+        output_id = jobs[0].meta.job_id
+    elif level == "batch":
+        batches = sorted({j.meta.batch_id or "" for j in jobs})
+        one = len(batches) == 1 and batches[0]
+        output_id = batches[0] if one else stable_id("batches", ",".join(batches))
+    else:
+        output_id = stable_id("report", ",".join(sorted(j.meta.job_id for j in jobs)))
+    writer = MetricsWriter(_as_uuid(output_id), deterministic=True)
+    result = evaluate(config, emission_set.tables(), writer, level=level, metrics_set=metrics_set)
+    attached = []
+    for name in result.files:
+        found = next((j.folder / name for j in jobs if (j.folder / name).is_file()), None)
+        if found is None:
+            raise EmissionsError(f"attached file {name!r} is in no job's folder")
+        attached.append(found)
+    try:
+        outputs.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise UsageError(f"{outputs}: cannot be created ({exc.strerror or exc})") from None
+    validate_job_metrics(writer.to_proto())  # before any attached file is copied
+    for path in attached:
+        shutil.copyfile(path, outputs / path.name)
+    written = writer.write(outputs / "metrics.binproto")
+    if preview:
+        from stook.service.preview import PREVIEW_NAME, write_preview
+
+        write_preview([written], written.with_name(PREVIEW_NAME))
+    return written
+
+
+def _as_uuid(text: str) -> str:
+    """The output's ID: job.json may name a job or batch by any text, the output needs a
+    UUID (one derived from the text, stable, when it is not one)."""
+    import uuid
+
+    from stook.service.metrics_config import stable_id
+
+    try:
+        return str(uuid.UUID(text))
+    except ValueError:
+        return stable_id("output", text)
