@@ -1,13 +1,16 @@
 """Start-up: which heavy libraries a module pulls in when imported (how long start-up
 takes is measured in `stook bench`, not here).
 
-Every package re-exports its names plainly; the heavy third-party libraries are imported
-by the functions that need them, never at a module's top. These tests keep them out of
-the start-up of each command.
+Every package re-exports its names plainly, except `stook.service`, whose names are
+imported on first use (the console script's path runs it first); the `stook` command
+imports each command's modules when it runs that command; the heavy third-party
+libraries are imported by the functions that need them, never at a module's top. These
+tests keep them out of the start-up of each command.
 """
 
 from __future__ import annotations
 
+import ast
 import subprocess
 import sys
 import uuid
@@ -55,6 +58,60 @@ def test_importing_a_package_imports_no_heavy_library(package: str) -> None:
     assert _printed_by(_heavy_after(f"import sys, {package}")) == "[]\n"
 
 
+# The library below the command: what `stook --help` must not load, nor `show` and
+# `validate` beyond the SDK's reader.
+LIBRARY = (
+    "stook.service.api",
+    "stook.service.fetch",
+    "stook.service.modes",
+    "stook.service.metrics_config",
+    "stook.sdk.aggregations",
+    "structlog",
+    "aiohttp",
+)
+
+
+def test_importing_stook_service_imports_none_of_its_layers() -> None:
+    script = (
+        "import sys, stook.service\nprint([m for m in sys.modules if m.startswith('stook.')])\n"
+    )
+    assert _printed_by(script) == "['stook.service']\n"
+
+
+def test_stook_service_resolves_each_name_from_its_layer() -> None:
+    import stook.service
+    from stook.service import api, fetch, modes
+
+    homes = {name: layer for layer in (api, fetch, modes) for name in layer.__all__}
+    for name in stook.service.__all__:
+        assert getattr(stook.service, name) is getattr(homes[name], name), name
+
+
+def test_stook_service_types_every_name_it_exports() -> None:
+    # What type checkers read (the imports under TYPE_CHECKING) is what `__all__` exports.
+    import stook.service
+
+    tree = ast.parse(Path(stook.service.__file__).read_text())
+    guarded = next(
+        n
+        for n in tree.body
+        if isinstance(n, ast.If) and ast.unparse(n.test) == "typing.TYPE_CHECKING"
+    )
+    imported = [a.name for n in guarded.body if isinstance(n, ast.ImportFrom) for a in n.names]
+    assert sorted(imported) == sorted(stook.service.__all__)
+
+
+@pytest.mark.parametrize("flag", ["--help", "--version"])
+def test_help_and_version_import_no_module_of_the_library(flag: str) -> None:
+    library = (*LIBRARY, "stook.sdk", "stook.proto")
+    script = (
+        "import sys\nfrom stook.service.cli import main\n"
+        f"try:\n    main([{flag!r}])\nexcept SystemExit:\n    pass\n"
+        f"print(sorted(m for m in {library!r} if m in sys.modules))\n"
+    )
+    assert _printed_by(script).splitlines()[-1] == "[]"
+
+
 def test_building_aggregations_lists_no_plugins_before_a_kind_needs_it() -> None:
     # importlib.metadata (~20 ms) is imported only to look for a kind that is not built in.
     script = (
@@ -90,7 +147,7 @@ def test_show_and_validate_import_no_heavy_library(tmp_path: Path) -> None:
     script = (
         "import sys\nfrom stook.service.cli import run_cli\n"
         f"codes = [run_cli(['validate', {path!r}]), run_cli(['show', {path!r}])]\n"
-        f"print(codes, sorted(m for m in {HEAVY!r} if m in sys.modules))\n"
+        f"print(codes, sorted(m for m in {HEAVY + LIBRARY!r} if m in sys.modules))\n"
     )
     assert _printed_by(script).splitlines()[-1] == "[0, 0] []"
 

@@ -173,7 +173,13 @@ PUBLIC_API: dict[str, list[str]] = {
         "run_report",
         "run_test_mode",
     ],
-    "stook.service.preview": ["PREVIEW_NAME", "PreviewInput", "render_html", "write_preview"],
+    "stook.service.preview": [
+        "PREVIEW_NAME",
+        "PreviewInput",
+        "render_html",
+        "summary_lines",
+        "write_preview",
+    ],
     "stook.service.metrics_config": [
         "LEVELS",
         "EmissionsError",
@@ -195,7 +201,7 @@ PUBLIC_API: dict[str, list[str]] = {
         "load_config",
         "stable_id",
     ],
-    "stook.service.cli": ["Voice", "build_parser", "main", "run_cli", "summary_lines"],
+    "stook.service.cli": ["Voice", "build_parser", "main", "run_cli"],
 }
 PACKAGES = sorted(PUBLIC_API)
 
@@ -221,7 +227,8 @@ def test_nothing_public_is_left_out_of_all(package: str) -> None:
         for name, value in vars(module).items()
         if not name.startswith("_") and not inspect.ismodule(value)
     }
-    assert sorted(public) == sorted(module.__all__)
+    # Not equality: `stook.service` binds its names on first use (its docstring says why).
+    assert sorted(public - set(module.__all__)) == []
 
 
 def modules_after(code: str) -> set[str]:

@@ -1,8 +1,10 @@
 """The `stook` command: run (the metrics-build entry point), demo, emulate, validate, show.
 
-`main` takes SIGINT and SIGTERM first thing; the heavy libraries (aiohttp, polars) are
-imported after it, by the command that needs them, so that a signal during those still ends
-in one line and not a traceback.
+Only the standard library, the help texts and the signal guard are imported at the top.
+Each command imports its modules when `_dispatch` runs it: `stook --help` and `--version`
+load none of stook's library, `show` and `validate` only the SDK's reader, and `main`
+takes SIGINT and SIGTERM before any of it, so that a signal during those imports still
+ends in one line and not a traceback.
 """
 
 from __future__ import annotations
@@ -12,26 +14,16 @@ import os
 import sys
 from typing import TYPE_CHECKING
 
-from stook.service.api import configure_logging, import_aiohttp_without_tls_defaults
 from stook.service.cli import _help, _signals
 from stook.service.cli._emulate_flags import add_emulate_flags
-from stook.service.cli._inspect import show_file, validate_file
-from stook.service.cli._preview import preview_files
-from stook.service.cli._run import (
-    ExitCode,
-    UsageError,
-    exit_code_for,
-    explain,
-    resolve_options,
-    run,
-)
 from stook.service.cli._signals import Interrupted
-from stook.service.modes import Tally, UserFunctionError, event_loop_factory, for_stream
 
 if TYPE_CHECKING:
     import argparse
     from collections.abc import Callable, Sequence
     from typing import Any
+
+    from stook.service.modes import Tally
 
 
 def _add_logging(parser: argparse.ArgumentParser, *, default_level: str = "info") -> None:
@@ -223,8 +215,7 @@ def _add_bench_arguments(parser: argparse.ArgumentParser) -> None:
     _add_logging(parser, default_level="warning")
 
 
-# `validate` and `show` take the file's name as given, without pathlib (~5 % of their
-# instructions).
+# `validate` and `show` take the file's name as given.
 _FILE_HELP = "a metrics.binproto (a JobMetrics message, from stook or ReSim's own writer)"
 
 
@@ -282,17 +273,12 @@ _ADD_ARGUMENTS: dict[str, Callable[[argparse.ArgumentParser], None]] = {
 
 def main(argv: Sequence[str] | None = None) -> None:
     _signals.install()  # first: a signal from here on ends in one line, imports included
-    if argv is None:
-        # The `stook` process's one garbage-collector setting: what its imports made
-        # (modules, classes, functions, alive as long as the process) is frozen out of the
-        # collector's reach, so that neither a run's collections nor the interpreter's
-        # teardown walk it again. Measured on the issue's standard run (400 jobs at 10 ms,
-        # whole process): 13 % less CPU. A program calling `main(argv)` or `run_cli`
-        # keeps its collector as it is.
-        gc.freeze()
     voice: Voice | None = None
     try:
         voice = Voice(argv)
+        # The `stook` process itself; a program calling `main(argv)` or `run_cli` keeps
+        # its garbage collector as it is (see _dispatch's `run`).
+        voice.own_process = argv is None
         code = run_cli(argv, voice=voice)
     except Interrupted as stop:  # before run_cli took over, or a second signal in its end
         code = (voice or Voice(argv)).interrupted(stop)
@@ -320,10 +306,16 @@ class Voice:
         self.configure_logging: Callable[[], None] | None = None
         """Set when logging is set up on first use (`show`, `validate`), not up front."""
         self.progress: Tally | None = None
+        self.own_process = False
+        """Set by `main` when it runs as the `stook` process (`argv` None)."""
         self._lock = threading.Lock()
         self._said = False
 
     def failed(self, error: Exception) -> int:
+        # Already imported by the command that failed, unless the failure came first.
+        from stook.service.cli._run import ExitCode, exit_code_for, explain
+        from stook.service.modes import UserFunctionError
+
         code = exit_code_for(error)
         shown: BaseException | None = None
         if isinstance(error, UserFunctionError) and error.__cause__ is not None:
@@ -414,6 +406,8 @@ _QUIET_COMMANDS = ("show", "validate", "preview")
 def _run_cli(argv: Sequence[str] | None, voice: Voice) -> int:
     args = _build_parser(_chosen_command(argv)).parse_args(argv)
     if hasattr(args, "log_format"):
+        from stook.service.api import configure_logging
+
         json_logs = None if args.log_format == "auto" else args.log_format == "json"
         configure_logging(json=json_logs, level=args.log_level)
     else:
@@ -422,6 +416,8 @@ def _run_cli(argv: Sequence[str] | None, voice: Voice) -> int:
         json_logs = None if chosen not in ("json", "console") else chosen == "json"
 
         def set_up(json_logs: bool | None = json_logs) -> None:
+            from stook.service.api import configure_logging
+
             configure_logging(json=json_logs, level="warning")
 
         if args.command in _QUIET_COMMANDS:
@@ -449,6 +445,8 @@ def _testing_tool(command: str, module: str) -> Any:
     """`module` from stook-testing, or a usage error saying how to install it."""
     import importlib
 
+    from stook.service.cli._usage import UsageError
+
     try:
         return importlib.import_module(module)
     except ModuleNotFoundError as exc:
@@ -463,8 +461,12 @@ def _testing_tool(command: str, module: str) -> Any:
 def _dispatch(args: argparse.Namespace, voice: Voice) -> int:
     match args.command:
         case "run":
+            from stook.service.api import import_aiohttp_without_tls_defaults
+
             # First: aiohttp's own TLS contexts would cost ~55 ms of every start-up.
             import_aiohttp_without_tls_defaults()
+            from stook.service.cli._run import resolve_options, run
+            from stook.service.modes import Tally, event_loop_factory, for_stream
 
             options = resolve_options(
                 inputs=args.inputs,
@@ -477,6 +479,13 @@ def _dispatch(args: argparse.Namespace, voice: Voice) -> int:
             )
             voice.progress = Tally(for_stream(label="jobs"))
             loop_factory = event_loop_factory()  # before the run: a bad choice is exit 2
+            if voice.own_process:
+                # The `stook` process's one garbage-collector setting: what its imports
+                # made (modules, classes, functions, alive as long as the process) is frozen
+                # out of the collector's reach, so that neither the run's collections nor
+                # the interpreter's teardown walk it again. Measured on the issue's
+                # standard run (400 jobs at 10 ms, whole process): 13 % less CPU.
+                gc.freeze()
             _signals.run(run(options, progress=voice.progress), loop_factory=loop_factory)
             return 0
         case "demo":
@@ -502,13 +511,19 @@ def _dispatch(args: argparse.Namespace, voice: Voice) -> int:
             bench.run_bench(Path(args.out or "docs/benchmarks"), quick=args.quick)
             return 0
         case "preview":
+            from stook.service.cli._preview import preview_files
+
             return preview_files(args.files, args.output, open_browser=args.open)
         case "metrics-config":
             from stook.service.cli import _metrics_config
 
             return _metrics_config.run(args)
         case "validate":
+            from stook.service.cli._inspect import validate_file
+
             return validate_file(args.file)
         case "show":
+            from stook.service.cli._inspect import show_file
+
             return show_file(args.file, full=args.full)
     raise AssertionError(f"unhandled command {args.command!r}")  # argparse restricts it
