@@ -19,6 +19,9 @@ $(STAMP): $(BIN)/python pyproject.toml proto/pyproject.toml sdk/pyproject.toml s
 	$(BIN)/python -m pip install --quiet --disable-pip-version-check --upgrade "pip>=25.1"
 	$(BIN)/python -m pip install --quiet --disable-pip-version-check --group dev \
 		-e ./proto -e ./sdk -e './service[ray]' -e './service/testing[pytest,bench]'
+	# Byte-compiled once, as a wheel install is: under PYTHONDONTWRITEBYTECODE an editable
+	# checkout would otherwise compile every stook module in every process.
+	$(BIN)/python -m compileall -q proto/src sdk/src service/src service/testing/src
 	touch $(STAMP)
 
 setup: $(STAMP)

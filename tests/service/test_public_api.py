@@ -136,6 +136,7 @@ PUBLIC_API: dict[str, list[str]] = {
     "stook.service.modes": [
         "OUTPUT_NAME",
         "ApiAccess",
+        "BatchAggregations",
         "BatchInputs",
         "BatchResult",
         "ConfigError",
@@ -157,6 +158,7 @@ PUBLIC_API: dict[str, list[str]] = {
         "TestInputs",
         "Traffic",
         "UserFunctionError",
+        "batch_aggregations",
         "check_outputs_folder",
         "detect",
         "engine_for",
@@ -169,12 +171,19 @@ PUBLIC_API: dict[str, list[str]] = {
         "load",
         "open_api",
         "parse",
+        "report_aggregations",
         "run_batch",
         "run_on_event_loop",
         "run_report",
         "run_test_mode",
     ],
-    "stook.service.preview": ["PREVIEW_NAME", "PreviewInput", "render_html", "write_preview"],
+    "stook.service.preview": [
+        "PREVIEW_NAME",
+        "PreviewInput",
+        "render_html",
+        "summary_lines",
+        "write_preview",
+    ],
     "stook.service.metrics_config": [
         "LEVELS",
         "EmissionsError",
@@ -196,7 +205,7 @@ PUBLIC_API: dict[str, list[str]] = {
         "load_config",
         "stable_id",
     ],
-    "stook.service.cli": ["Voice", "build_parser", "main", "run_cli", "summary_lines"],
+    "stook.service.cli": ["Voice", "build_parser", "main", "run_cli"],
 }
 PACKAGES = sorted(PUBLIC_API)
 
@@ -222,7 +231,8 @@ def test_nothing_public_is_left_out_of_all(package: str) -> None:
         for name, value in vars(module).items()
         if not name.startswith("_") and not inspect.ismodule(value)
     }
-    assert sorted(public) == sorted(module.__all__)
+    # Not equality: `stook.service` binds its names on first use (its docstring says why).
+    assert sorted(public - set(module.__all__)) == []
 
 
 def modules_after(code: str) -> set[str]:

@@ -18,10 +18,10 @@ from stook.service.cli._run import (
     DEFAULT_INPUTS,
     DEFAULT_OUTPUTS,
     ExitCode,
-    UsageError,
     exit_code_for,
     resolve_options,
 )
+from stook.service.cli._usage import UsageError
 from stook.service.modes import _config, _inputs
 from stook.service.modes._config import (
     ConfigError,

@@ -9,7 +9,7 @@ import pytest
 
 from stook.sdk.aggregations.report import ChangePoints, ScalarLines, UnstableExperiences
 from stook.service.modes._config import ConfigError, ReportSettings, parse
-from stook.service.modes._report import report_aggregations_for
+from stook.service.modes._report import report_aggregations
 
 PROJECT = "5e5e5e5e-1111-4222-8333-444444444444"
 
@@ -18,7 +18,7 @@ def test_the_defaults_search_change_points_and_rank_unstable_experiences() -> No
     config = parse({})
     assert (config.report.change_points, config.report.change_penalty) == (True, 3.0)
     assert config.report.unstable_experiences is True
-    built = report_aggregations_for(config, PROJECT)
+    built = report_aggregations(config, PROJECT)
     (lines,) = [a for a in built if isinstance(a, ScalarLines)]
     assert lines.change_points is True
     assert sum(isinstance(a, ChangePoints) for a in built) == 1
@@ -40,12 +40,12 @@ def test_the_settings_are_read() -> None:
         top_n=4, change_points=False, change_penalty=5.0, unstable_experiences=False
     )
     assert isinstance(config.report.change_penalty, float)
-    built = report_aggregations_for(config, PROJECT)
+    built = report_aggregations(config, PROJECT)
     assert not any(isinstance(a, ChangePoints | UnstableExperiences) for a in built)
     (lines,) = [a for a in built if isinstance(a, ScalarLines)]
     assert (lines.change_points, lines.change_penalty) == (False, 5.0)
 
-    on = report_aggregations_for(parse({"report": {"change_penalty": 4.5, "top_n": 2}}), PROJECT)
+    on = report_aggregations(parse({"report": {"change_penalty": 4.5, "top_n": 2}}), PROJECT)
     (changes,) = [a for a in on if isinstance(a, ChangePoints)]
     (unstable,) = [a for a in on if isinstance(a, UnstableExperiences)]
     assert (changes.penalty, changes.top_n, unstable.top_n) == (4.5, 2, 2)

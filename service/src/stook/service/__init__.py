@@ -15,46 +15,56 @@ a program built on the first two needs, and the fetch library (`fetch_batch`,
 `fetch_batch_frame`, `fetch_report`, from the modes layer, which reads the platform's
 inputs); each layer's own ``__all__`` has the rest.
 
-Heavy libraries (aiohttp, polars, ...) are imported by the functions that use them, so
-that importing this package, as `stook --help` does, stays cheap.
+This package is the one place in stook whose names are imported on first use (PEP 562's
+module `__getattr__`); every other package re-exports its names plainly. The `stook`
+console script is ``stook.service.cli:main``, so Python runs this file before any of the
+command's own: eager, it would load the whole library (about 200 modules, ~0.2 s) for
+`stook --help`, before the command even knows what it was asked. Each name below is
+imported from the first layer, lowest first, whose ``__all__`` has it; type checkers read
+the imports under TYPE_CHECKING.
 """
 
-from stook.service.api import (
-    AimdLimiter,
-    ApiClient,
-    ApiError,
-    ApiMetric,
-    ApiMetricsData,
-    ApiResponseError,
-    ApiStatusError,
-    AuthError,
-    Batch,
-    BodyCap,
-    Build,
-    FixedLimit,
-    Job,
-    MetricOwner,
-    NotFoundError,
-    OriginUnavailableError,
-    PresignedUrlExpiredError,
-    Report,
-    RetriesExhaustedError,
-    RetryAfterTooLongError,
-    RetryPolicy,
-    StorageClient,
-    StorageError,
-    TransportError,
-)
-from stook.service.fetch import (
-    BatchFetcher,
-    FetchOutcome,
-    InvalidDataError,
-    MissingJob,
-    ReportFetcher,
-    ReportNotFoundError,
-    ReportOutcome,
-)
-from stook.service.modes import fetch_batch, fetch_batch_frame, fetch_report
+# Plain module imports only: any other name bound here would be public.
+import importlib
+import typing
+
+if typing.TYPE_CHECKING:
+    from stook.service.api import (
+        AimdLimiter,
+        ApiClient,
+        ApiError,
+        ApiMetric,
+        ApiMetricsData,
+        ApiResponseError,
+        ApiStatusError,
+        AuthError,
+        Batch,
+        BodyCap,
+        Build,
+        FixedLimit,
+        Job,
+        MetricOwner,
+        NotFoundError,
+        OriginUnavailableError,
+        PresignedUrlExpiredError,
+        Report,
+        RetriesExhaustedError,
+        RetryAfterTooLongError,
+        RetryPolicy,
+        StorageClient,
+        StorageError,
+        TransportError,
+    )
+    from stook.service.fetch import (
+        BatchFetcher,
+        FetchOutcome,
+        InvalidDataError,
+        MissingJob,
+        ReportFetcher,
+        ReportNotFoundError,
+        ReportOutcome,
+    )
+    from stook.service.modes import fetch_batch, fetch_batch_frame, fetch_report
 
 __all__ = [
     "AimdLimiter",
@@ -92,3 +102,18 @@ __all__ = [
     "fetch_batch_frame",
     "fetch_report",
 ]
+
+_LAYERS = ("stook.service.api", "stook.service.fetch", "stook.service.modes")
+
+
+def __getattr__(name: str) -> object:
+    if name in __all__:
+        for layer in _LAYERS:
+            module = importlib.import_module(layer)
+            if name in module.__all__:
+                return getattr(module, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted([*globals(), *__all__])

@@ -1,8 +1,5 @@
 """The `stook` command (``stook.service.cli:main``, the console script)."""
 
-from stook.service.cli._inspect import (
-    summary_lines,
-)
 from stook.service.cli._main import (
     Voice,
     build_parser,
@@ -15,5 +12,4 @@ __all__ = [
     "build_parser",
     "main",
     "run_cli",
-    "summary_lines",
 ]

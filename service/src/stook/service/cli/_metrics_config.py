@@ -152,7 +152,7 @@ def evaluate_offline(
 ) -> Path:
     """Load, evaluate and write; nothing is written unless all of it succeeded."""
     from stook.sdk import MetricsWriter, validate_job_metrics
-    from stook.service.cli._run import UsageError
+    from stook.service.cli._usage import UsageError
     from stook.service.metrics_config import (
         EmissionsError,
         EmissionsSet,

@@ -7,7 +7,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import TextIO
 
-from stook.service.cli._run import UsageError
+from stook.service.cli._usage import UsageError
 from stook.service.preview import write_preview
 
 DEFAULT_SEVERAL = Path("preview.html")

@@ -100,7 +100,7 @@ _PROBE_ONLY = {
 
 def check_probe_flags(args: argparse.Namespace) -> None:
     """A probe's flag without --probe is a mistake, not something to ignore (exit 2)."""
-    from stook.service.cli._run import UsageError
+    from stook.service.cli._usage import UsageError
 
     if args.probe:
         if args.quick or args.engines:

@@ -32,11 +32,11 @@ from stook.sdk import (
     InvalidMetricsError,
     OutputWriteError,
     ReadError,
-    StookError,
     WriterError,
     remove_stale_temp_files,
 )
 from stook.service.api import ApiError, AuthError
+from stook.service.cli._usage import UsageError
 from stook.service.modes import (
     OUTPUT_NAME,
     BatchInputs,
@@ -74,10 +74,6 @@ class ExitCode(enum.IntEnum):
     API = 3
     INVALID_DATA = 4
     OUTPUT = 5
-
-
-class UsageError(StookError):
-    """A command-line or environment setting is unusable (exit code 2)."""
 
 
 @dataclass(frozen=True, slots=True)

@@ -5,7 +5,7 @@ the CLI): stook.toml (`parse`, `load`), the platform's inputs folder (`detect`),
 mode's run, the configured client of a run (`open_api`) and what its traffic was.
 """
 
-from stook.service.modes._batch import BatchResult, run_batch
+from stook.service.modes._batch import BatchAggregations, BatchResult, batch_aggregations, run_batch
 from stook.service.modes._config import (
     ConfigError,
     EngineSettings,
@@ -37,13 +37,14 @@ from stook.service.modes._progress import (
     for_stream,
     human_bytes,
 )
-from stook.service.modes._report import ReportResult, run_report
+from stook.service.modes._report import ReportResult, report_aggregations, run_report
 from stook.service.modes._steps import OUTPUT_NAME, MissingJobsError, RunResult
 from stook.service.modes._test_mode import UserFunctionError, run_test_mode
 
 __all__ = [
     "OUTPUT_NAME",
     "ApiAccess",
+    "BatchAggregations",
     "BatchInputs",
     "BatchResult",
     "ConfigError",
@@ -65,6 +66,7 @@ __all__ = [
     "TestInputs",
     "Traffic",
     "UserFunctionError",
+    "batch_aggregations",
     "check_outputs_folder",
     "detect",
     "engine_for",
@@ -77,6 +79,7 @@ __all__ = [
     "load",
     "open_api",
     "parse",
+    "report_aggregations",
     "run_batch",
     "run_on_event_loop",
     "run_report",

@@ -36,7 +36,7 @@ class ReportResult(RunResult[ReportOutcome]):
     regressions: RegressionSummary | None = None
 
 
-def report_aggregations_for(config: StookConfig, project_id: str) -> list[Aggregation[Any]]:
+def report_aggregations(config: StookConfig, project_id: str) -> list[Aggregation[Any]]:
     settings = config.report
     defaults: list[Aggregation[Any]] = []
     if settings.defaults:
@@ -81,7 +81,7 @@ async def run_report(
 
     `engine` is where the fetch and fold runs (default: the config's `[engine]`)."""
     started = asyncio.get_running_loop().time()
-    aggregations = report_aggregations_for(config, str(inputs.access.project_id))
+    aggregations = report_aggregations(config, str(inputs.access.project_id))
     # [metrics_config]: its config loaded and checked now, before the first request.
     config_metrics = config_metrics_step(config, inputs.access, report_id=inputs.report_id)
     needs = needs_of(aggregations)

@@ -23,13 +23,13 @@ from stook.service.fetch import ReportFetcher
 from stook.service.modes import (
     ApiAccess,
     BatchInputs,
-    BatchMode,
     InputsError,
-    ReportMode,
     StookConfig,
     TestInputs,
+    batch_aggregations,
     detect,
     load,
+    report_aggregations,
 )
 
 __all__ = ["Origin", "ProbePlan", "Timer", "read_plan"]
@@ -150,14 +150,13 @@ def read_plan(inputs: Path, config: Path | None, project_id: uuid.UUID | None) -
             "report config (batch_metrics_config.json or report_config.json)"
         )
     if isinstance(found, BatchInputs):
-        aggregations: list[Any] = list(BatchMode(found, settings).aggregations)
+        aggregations: list[Any] = list(batch_aggregations(settings).all)
         return ProbePlan("batch", found.access, found.batch_id, _needs(aggregations), settings)
-    mode = ReportMode(found, settings)
     return ProbePlan(
         "report",
         found.access,
         found.report_id,
-        _needs(mode.aggregations),
+        _needs(report_aggregations(settings, str(found.access.project_id))),
         settings,
         use_summaries=settings.report.use_summaries,
     )

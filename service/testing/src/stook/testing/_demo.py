@@ -22,7 +22,6 @@ from pathlib import Path
 
 from stook.emulator import EmulatorConfig, EmulatorProcess
 from stook.sdk import TextMetric, find_problems, read_job_metrics
-from stook.service.cli import summary_lines
 from stook.service.modes import (
     BatchInputs,
     ReportInputs,
@@ -36,7 +35,7 @@ from stook.service.modes import (
     run_report,
     run_test_mode,
 )
-from stook.service.preview import PREVIEW_NAME, write_preview
+from stook.service.preview import PREVIEW_NAME, summary_lines, write_preview
 from stook.testing._demo_baseline import run_comparison_demo
 from stook.testing._demo_metrics_config import run_config_metrics_demo
 from stook.testing._frames import write_example_frames
