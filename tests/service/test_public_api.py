@@ -255,7 +255,6 @@ def modules_after(code: str) -> set[str]:
     "code",
     [
         "import stook.service",
-        "import stook.service.api; stook.service.api.redact_url",
         "import stook.service.cli",
         # `stook --help`: the console script's own path, up to argparse's exit.
         "from stook.service.cli import main\n"
@@ -264,6 +263,13 @@ def modules_after(code: str) -> set[str]:
 )
 def test_importing_the_service_stays_cheap(code: str) -> None:
     assert modules_after(code).isdisjoint({"aiohttp", "polars", "tenacity"})
+
+
+def test_the_api_layer_imports_its_http_stack_but_no_frames() -> None:
+    # The HTTP client's own dependencies come with it, as httpx's do; frames never.
+    imported = modules_after("import stook.service.api; stook.service.api.redact_url")
+    assert {"aiohttp", "tenacity"} <= imported
+    assert imported.isdisjoint({"polars", "numpy"})
 
 
 def test_opening_a_client_imports_aiohttp() -> None:
