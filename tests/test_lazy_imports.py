@@ -152,6 +152,20 @@ def test_show_and_validate_import_no_heavy_library(tmp_path: Path) -> None:
     assert _printed_by(script).splitlines()[-1] == "[0, 0] []"
 
 
+def test_metrics_config_check_imports_no_http_layer(tmp_path: Path) -> None:
+    # It logs nothing unless it fails: logging (which comes with stook.service.api, aiohttp
+    # and its TLS contexts) is set up only then.
+    from stook.testing.metrics_config_fixture import write_fixture
+
+    config = str(write_fixture(tmp_path / "repo"))
+    script = (
+        "import sys\nfrom stook.service.cli import run_cli\n"
+        f"code = run_cli(['metrics-config', 'check', {config!r}])\n"
+        "print(code, sorted(m for m in ('aiohttp', 'stook.service.api') if m in sys.modules))\n"
+    )
+    assert _printed_by(script).splitlines()[-1] == "0 []"
+
+
 def test_previewing_imports_neither_plotly_nor_polars(tmp_path: Path) -> None:
     # `stook preview` embeds plotly.js read from the plotly package's files: the Python
     # package itself (and its numpy) is never imported, nor is polars.

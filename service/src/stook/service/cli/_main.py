@@ -399,8 +399,9 @@ def run_cli(argv: Sequence[str] | None = None, *, voice: Voice | None = None) ->
         return code
 
 
-# Commands that log nothing unless they fail: structlog (~30 ms) is set up only then.
-_QUIET_COMMANDS = ("show", "validate", "preview")
+# Commands that log nothing unless they fail: logging is set up only then, as setting it
+# up imports stook.service.api, and with it aiohttp and its TLS contexts (~0.25 s).
+_QUIET_COMMANDS = ("show", "validate", "preview", "metrics-config")
 
 
 def _run_cli(argv: Sequence[str] | None, voice: Voice) -> int:
