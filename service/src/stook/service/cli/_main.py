@@ -9,7 +9,6 @@ ends in one line and not a traceback.
 
 from __future__ import annotations
 
-import gc
 import os
 import sys
 from typing import TYPE_CHECKING
@@ -276,9 +275,6 @@ def main(argv: Sequence[str] | None = None) -> None:
     voice: Voice | None = None
     try:
         voice = Voice(argv)
-        # The `stook` process itself; a program calling `main(argv)` or `run_cli` keeps
-        # its garbage collector as it is (see _dispatch's `run`).
-        voice.own_process = argv is None
         code = run_cli(argv, voice=voice)
     except Interrupted as stop:  # before run_cli took over, or a second signal in its end
         code = (voice or Voice(argv)).interrupted(stop)
@@ -306,8 +302,6 @@ class Voice:
         self.configure_logging: Callable[[], None] | None = None
         """Set when logging is set up on first use (`show`, `validate`), not up front."""
         self.progress: Tally | None = None
-        self.own_process = False
-        """Set by `main` when it runs as the `stook` process (`argv` None)."""
         self._lock = threading.Lock()
         self._said = False
 
@@ -476,13 +470,6 @@ def _dispatch(args: argparse.Namespace, voice: Voice) -> int:
             )
             voice.progress = Tally(for_stream(label="jobs"))
             loop_factory = event_loop_factory()  # before the run: a bad choice is exit 2
-            if voice.own_process:
-                # The `stook` process's one garbage-collector setting: what its imports
-                # made (modules, classes, functions, alive as long as the process) is frozen
-                # out of the collector's reach, so that neither the run's collections nor
-                # the interpreter's teardown walk it again. Measured on the issue's
-                # standard run (400 jobs at 10 ms, whole process): 13 % less CPU.
-                gc.freeze()
             _signals.run(run(options, progress=voice.progress), loop_factory=loop_factory)
             return 0
         case "demo":
