@@ -195,13 +195,20 @@ class Fields:
         value = self._data.get(key)
         if value is None or value == "":
             return None
+        # An ID read before (a listing's items name the same job and batch) is looked up
+        # here, without the call to `_to_id`, which parses the rest.
+        ids = self._ids
+        if ids is not None and type(value) is str:
+            known = ids.get(value)
+            if known is not None:
+                return known
         return self._to_id(key, value)
 
     def ids(self, key: str) -> tuple[uuid.UUID, ...]:
         """A list of IDs; absent or null: empty."""
         value = self._data.get(key)
         if type(value) is list:
-            return tuple([self._to_id(key, item) for item in value])
+            return tuple([self._to_id(key, item) for item in value]) if value else ()
         if value is None or value == "":
             return ()
         raise self._error(key, f"should be a list, got {_json_type(value)}")
@@ -226,12 +233,18 @@ class Fields:
 
     def choice(self, key: str, kind: type[_E], *, default: _E) -> _E | str:
         value = self._data.get(key)
+        if type(value) is str and value:  # as `_to_choice` reads a string, without the call
+            member = kind._value2member_map_.get(value)
+            return value if member is None else member  # type: ignore[return-value]
         if value is None or value == "":
             return default
         return self._to_choice(key, value, kind)
 
     def opt_choice(self, key: str, kind: type[_E]) -> _E | str | None:
         value = self._data.get(key)
+        if type(value) is str and value:  # as in `choice`
+            member = kind._value2member_map_.get(value)
+            return value if member is None else member  # type: ignore[return-value]
         if value is None or value == "":
             return None
         return self._to_choice(key, value, kind)
