@@ -14,6 +14,8 @@ from collections.abc import Mapping
 from datetime import UTC, datetime, timedelta, timezone
 from typing import Any, TypeVar
 
+import msgspec
+
 from stook.service.api._errors import ApiResponseError
 
 __all__ = ["Fields", "parse_rfc3339", "parse_uuid"]
@@ -22,8 +24,17 @@ _E = TypeVar("_E", bound=enum.Enum)
 
 
 def parse_uuid(text: str) -> uuid.UUID:
-    """An ID as the API writes it (ValueError when it is not one)."""
-    return uuid.UUID(text)
+    """An ID as ``uuid.UUID(text)`` reads it (ValueError when it is not one).
+
+    The form the API writes (RFC 4122's hex digits, hyphenated or not) is parsed by
+    msgspec, in C, in two fifths of the time ``uuid.UUID`` takes: each item of a listing has
+    an ID of its own, and that was a sixth of the item's decoding. Any other spelling that
+    ``uuid.UUID`` accepts (braces, a ``urn:uuid:`` prefix) goes to it.
+    """
+    try:
+        return msgspec.convert(text, uuid.UUID)
+    except msgspec.ValidationError:
+        return uuid.UUID(text)
 
 
 # RFC 3339 as the platform's Go encoder writes it (RFC3339Nano: up to nine fractional
