@@ -89,9 +89,10 @@ def parse_rfc3339(text: str) -> datetime | None:
 class Fields:
     """Reads typed fields from one JSON object; errors name the object and the field.
 
-    ``ids``, when given, holds IDs read before, by their text, and gets those read here:
-    the items of a listing repeat their owner's IDs (a job's metrics each name the job and
-    the batch), and each is then parsed once (see ``ApiClient._ids``).
+    ``ids``, when given, holds other objects' IDs read before, by their text, and gets
+    those read here (`opt_id`): the items of a listing repeat their owner's IDs (a job's
+    metrics each name the job and the batch), and each is then parsed once (see
+    ``ApiClient._ids``).
     """
 
     __slots__ = ("_data", "_id_key", "_ids", "_kind")
@@ -137,18 +138,10 @@ class Fields:
 
     def _to_id(self, key: str, value: Any) -> uuid.UUID:
         text = value if type(value) is str else self._to_string(key, value)
-        ids = self._ids
-        if ids is not None:
-            known = ids.get(text)
-            if known is not None:
-                return known
         try:
-            ident = parse_uuid(text)
+            return parse_uuid(text)
         except ValueError:
             raise self._error(key, f"is not a UUID: {text!r}") from None
-        if ids is not None:
-            ids[text] = ident
-        return ident
 
     def _to_choice(self, key: str, value: Any, kind: type[_E]) -> _E | str:
         text = self._to_string(key, value)
@@ -203,17 +196,19 @@ class Fields:
         return self._to_id(key, value)
 
     def opt_id(self, key: str) -> uuid.UUID | None:
+        """Another object's ID (a listing's items name the same job and batch): looked up
+        in ``ids``, and parsed once. An object's own ID (`id`) is its own, never looked up
+        or kept: that would fill ``ids`` with IDs no other item names."""
         value = self._data.get(key)
         if value is None or value == "":
             return None
-        # An ID read before (a listing's items name the same job and batch) is looked up
-        # here, without the call to `_to_id`, which parses the rest.
         ids = self._ids
-        if ids is not None and type(value) is str:
-            known = ids.get(value)
-            if known is not None:
-                return known
-        return self._to_id(key, value)
+        if ids is None:
+            return self._to_id(key, value)
+        known = ids.get(value) if type(value) is str else None
+        if known is None:
+            known = ids[value] = self._to_id(key, value)
+        return known
 
     def ids(self, key: str) -> tuple[uuid.UUID, ...]:
         """A list of IDs; absent or null: empty."""
