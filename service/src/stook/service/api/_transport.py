@@ -217,13 +217,20 @@ class HttpTransport:
         try:
             self.stats.requests += 1
             async with asyncio.timeout(self._timeout):
-                async with session.get(
+                # Awaited, not entered with `async with`: aiohttp's context manager is a
+                # frame more in every resumption of the request, and a GET's answer needs
+                # only to be released after its body is read (a body read to its end has
+                # given its connection back already).
+                answer = await session.get(
                     url,
                     allow_redirects=self._follow_redirects,
                     max_redirects=_MAX_REDIRECTS,
-                ) as answer:
+                )
+                try:
                     body = await self._read(answer)
-                    response = Response(answer.status, answer.headers, body, answer.url)
+                finally:
+                    answer.release()
+                response = Response(answer.status, answer.headers, body, answer.url)
             status = response.status
         except TransportError:
             raise
