@@ -218,9 +218,10 @@ class HttpTransport:
             self.stats.requests += 1
             async with asyncio.timeout(self._timeout):
                 # Awaited, not entered with `async with`: aiohttp's context manager is a
-                # frame more in every resumption of the request, and a GET's answer needs
-                # only to be released after its body is read (a body read to its end has
-                # given its connection back already).
+                # frame more in every resumption of the request, and all a GET's answer
+                # needs is a release unless its body was read to the end (which closed it
+                # and gave its connection back; releasing it again would still mark its
+                # stream with a "connection closed" error, a few µs a request).
                 answer = await session.get(
                     url,
                     allow_redirects=self._follow_redirects,
@@ -229,7 +230,8 @@ class HttpTransport:
                 try:
                     body = await self._read(answer)
                 finally:
-                    answer.release()
+                    if not answer.closed:
+                        answer.release()
                 response = Response(answer.status, answer.headers, body, answer.url)
             status = response.status
         except TransportError:
