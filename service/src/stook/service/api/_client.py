@@ -64,7 +64,7 @@ _BATCH_METRIC = functools.partial(ApiMetric.from_json, owner=MetricOwner.BATCH)
 _JOB_DATA = functools.partial(ApiMetricsData.from_json, owner=MetricOwner.JOB)
 _BATCH_DATA = functools.partial(ApiMetricsData.from_json, owner=MetricOwner.BATCH)
 
-# The IDs a client keeps for the items it reads next (see ApiClient._ids): a few hundred
+# The IDs a client keeps for the items it reads next (see ApiClient._ids): a few thousand
 # jobs' worth, however long the run.
 _MAX_IDS_KEPT: Final = 10_000
 # The API caps pages; 100 is the largest size ReSim's own tools ask for.
@@ -142,10 +142,10 @@ class ApiClient:
         self._base_path = shared.raw_path[:-1]  # "/v1", or "" for a base URL without one
         # The last batch whose jobs' paths were made, by its IDs' identity (see _job_path).
         self._batch_path: tuple[IdLike, IdLike, str] | None = None
-        # The IDs read from recent answers, by their text, handed to each listing item's
-        # from_json (see Fields): a job's metrics name the job, the batch and the metrics
-        # data that its data listing lists again, and each is then parsed once. Emptied
-        # when it holds _MAX_IDS_KEPT, so it does not grow with the run.
+        # The IDs of other objects that recent answers named, by their text, handed to each
+        # listing item's from_json (see Fields.opt_id): a job's metrics each name the job
+        # and the batch, and each is then parsed once. Emptied when it holds _MAX_IDS_KEPT,
+        # so it does not grow with the run.
         self._ids: dict[str, uuid.UUID] = {}
         # Shared by every API request: when the API fails, they wait together.
         self.origin = Origin("the API", self._policy, setting="apiURL")

@@ -217,13 +217,22 @@ class HttpTransport:
         try:
             self.stats.requests += 1
             async with asyncio.timeout(self._timeout):
-                async with session.get(
+                # Awaited, not entered with `async with`: aiohttp's context manager is a
+                # frame more in every resumption of the request, and all a GET's answer
+                # needs is a release unless its body was read to the end (which closed it
+                # and gave its connection back; releasing it again would still mark its
+                # stream with a "connection closed" error, a few µs a request).
+                answer = await session.get(
                     url,
                     allow_redirects=self._follow_redirects,
                     max_redirects=_MAX_REDIRECTS,
-                ) as answer:
+                )
+                try:
                     body = await self._read(answer)
-                    response = Response(answer.status, answer.headers, body, answer.url)
+                finally:
+                    if not answer.closed:
+                        answer.release()
+                response = Response(answer.status, answer.headers, body, answer.url)
             status = response.status
         except TransportError:
             raise
