@@ -4,11 +4,12 @@ Each job's text is split into numbered lines, checked and unpacked by DuckDB's J
 functions, all jobs at once: no Python step per row. A job's lines keep their numbers,
 so that a bad row is named by its file and line.
 
-Every row's exact JSON shape is checked (`json_structure`, grouped: a file has few
-distinct shapes); the shapes alone are kept, not stored per row, and only when one is
-bad is the earliest line of that shape looked up to name it. DuckDB's and polars' typed
-readers cannot be the check: both convert quietly (`true` to 1, `"1"` to 1.0, 5 to "5")
-and drop unknown keys.
+Bad input costs only when it is there: a line that is not JSON fails the query that
+splits the texts, and only then is each line tested to name it. Every row's exact JSON
+shape is checked (`json_structure`, grouped: a file has few distinct shapes); only when
+a shape is bad is the earliest line of it looked up. DuckDB's and polars' typed readers
+cannot be the check: both convert quietly (`true` to 1, `"1"` to 1.0, 5 to "5") and drop
+unknown keys.
 """
 
 from __future__ import annotations
@@ -31,21 +32,14 @@ Tables = Mapping[str, "pl.DataFrame"]
 """One frame per topic (its schema's columns, then timestamp, job_id, batch_id,
 experience_name, build_version), and `metadata`, one row per job."""
 
-# A job's text into numbered lines, blank ones dropped: one query for every job. (Only
-# lines that are not JSON are trimmed to see if they are blank: trimming every line
-# costs more than the JSON check.)
-_SPLIT_LINES = """
-CREATE TEMP TABLE lines AS
-SELECT job, line_no, line, valid,
-       CASE WHEN valid THEN json_extract_string(line, '/$metadata/topic') END AS topic
+# Every job's text into numbered lines, blank ones dropped, in one query.
+_LINES = """
+SELECT job, line_no, line
 FROM (
-  SELECT job, line_no, line, json_valid(line) AS valid
-  FROM (
-    SELECT job, generate_subscripts(parts, 1)::UINTEGER AS line_no, unnest(parts) AS line
-    FROM (SELECT job, string_split(text, chr(10)) AS parts FROM texts)
-  )
+  SELECT job, generate_subscripts(parts, 1)::UINTEGER AS line_no, unnest(parts) AS line
+  FROM (SELECT job, string_split(text, chr(10)) AS parts FROM texts)
 )
-WHERE valid OR trim(line, chr(32) || chr(9) || chr(13)) <> ''
+WHERE NOT regexp_full_match(line, '\\s*')
 """
 
 
@@ -109,7 +103,7 @@ class EmissionsSet:
         con = duckdb.connect(":memory:")
         try:
             con.register("texts", texts)
-            con.execute(_SPLIT_LINES)
+            self._split(con)
             con.unregister("texts")
             self._check(con)
             frames = {
@@ -137,13 +131,31 @@ class EmissionsSet:
                 )
         return frame.drop("job", "line_no")
 
+    def _split(self, con: duckdb.DuckDBPyConnection) -> None:
+        """The `lines` table: job, line_no, line, topic. EmissionsError names the first
+        line that is not JSON."""
+        import duckdb
+
+        try:
+            con.execute(
+                "CREATE TEMP TABLE lines AS SELECT job, line_no, line, "
+                f"json_extract_string(line, '/$metadata/topic') AS topic FROM ({_LINES})"
+            )
+        except duckdb.InvalidInputException as exc:
+            # The slow path, once: which line it was (DuckDB's message names none).
+            invalid = con.execute(
+                f"SELECT job, line_no FROM ({_LINES}) WHERE NOT json_valid(line) "
+                "ORDER BY job, line_no LIMIT 1"
+            ).fetchone()
+            if invalid is None:
+                message = str(exc).strip().splitlines()[0]
+                raise EmissionsError(f"the emissions cannot be read: {message}") from None
+            raise EmissionsError(
+                f"{self._where(invalid[0], invalid[1])}: not a JSON object"
+            ) from None
+
     def _check(self, con: duckdb.DuckDBPyConnection) -> None:
         """Raise EmissionsError for the first bad row (by job, then line)."""
-        invalid = con.execute(
-            "SELECT job, line_no FROM lines WHERE NOT valid ORDER BY job, line_no LIMIT 1"
-        ).fetchone()
-        if invalid is not None:
-            raise EmissionsError(f"{self._where(invalid[0], invalid[1])}: not a JSON object")
         groups = con.execute(
             "SELECT DISTINCT topic, json_structure(line) AS structure FROM lines"
         ).fetchall()
