@@ -100,7 +100,9 @@ class EmissionsSet:
             {"job": self._with_text, "text": self._texts},
             schema={"job": pl.UInt32, "text": pl.String},
         )
+        # No progress bar: DuckDB draws one on the terminal for a query over 2 s.
         con = duckdb.connect(":memory:")
+        con.execute("SET enable_progress_bar = false")
         try:
             con.register("texts", texts)
             self._split(con)

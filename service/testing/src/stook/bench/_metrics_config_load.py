@@ -71,6 +71,7 @@ def _read_json(folder: Path) -> int:
 
     glob = str(folder / "*" / "emissions.resim.jsonl").replace("'", "''")
     with duckdb.connect(":memory:") as con:
+        con.execute("SET enable_progress_bar = false")
         relation: Any = con.sql(f"SELECT * FROM read_json('{glob}', format='newline_delimited')")
         return int(relation.pl().height)
 
