@@ -1,15 +1,13 @@
-"""Config-defined metrics: how fast emissions load, and DuckDB against polars' SQL.
+"""Config-defined metrics: DuckDB (stook's engine) against polars' SQL, on real queries.
 
     python -m tools.bench_metrics_config              # 1,000 jobs x 1,000 rows
     python -m tools.bench_metrics_config --small      # 50 jobs x 200 rows: a quick check
 
-1. Load: the jobs' emission files (speed rows, ReSim's line format) through
-   `EmissionsSet` (every row checked against its topic's schema), side by side with
-   DuckDB's own `read_json` over the same files (no check); rows/s of each.
-2. Queries: the fixture's batch queries (CTEs, joins with metadata, windows, COUNT_IF,
-   APPROX_PERCENTILE, UNION ALL), transpiled by sqlglot, on DuckDB as evaluate runs them
-   (QueryEngine.run) and on polars' SQLContext: which run, whether their rows agree,
-   and their median times. Measure on a quiet machine.
+The fixture's batch-style queries (CTEs, joins with metadata, windows, COUNT_IF,
+APPROX_PERCENTILE, UNION ALL), transpiled by sqlglot, on DuckDB as evaluate runs them
+(QueryEngine.run) and on polars' SQLContext: which run, whether their rows agree, and
+their median times. The why of docs/metrics-config.md's engine choice; loading rates and
+batch queries/s are `stook bench`'s (stook.bench._metrics_config_load).
 """
 
 from __future__ import annotations
@@ -26,6 +24,7 @@ from typing import Any
 import polars as pl
 import sqlglot
 
+from stook.bench._metrics_config_load import write_jobs
 from stook.service.metrics_config import EmissionsSet, JobMeta, load_config
 from stook.service.metrics_config._engine import QueryEngine
 from stook.testing.metrics_config_fixture import write_fixture
@@ -58,21 +57,6 @@ QUERIES = {
 }
 
 
-def write_jobs(folder: Path, jobs: int, rows: int) -> list[Path]:
-    paths = []
-    for k in range(jobs):
-        lines = [
-            f'{{"$metadata": {{"topic": "speed", "timestamp": {i * 10_000_000}}}, '
-            f'"$data": {{"lane": "{"lr"[i % 2]}", "speed": {5.0 + (i * k) % 23!r}}}}}'
-            for i in range(rows)
-        ]
-        path = folder / f"job-{k}" / "emissions.resim.jsonl"
-        path.parent.mkdir(parents=True)
-        path.write_text("\n".join(lines) + "\n", encoding="utf-8")
-        paths.append(path)
-    return paths
-
-
 def median_seconds(run: Callable[[], Any], repeat: int) -> float:
     times = []
     for _ in range(repeat):
@@ -101,36 +85,15 @@ def main() -> None:
     parser.add_argument("--small", action="store_true")
     args = parser.parse_args()
     jobs, rows = (50, 200) if args.small else (1000, 1000)
-    import duckdb
-
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
         config = load_config([write_fixture(folder / "repo")])
         paths = write_jobs(folder / "jobs", jobs, rows)
-        total = jobs * rows
-
-        def load() -> dict[str, pl.DataFrame]:
-            emissions = EmissionsSet(config)
-            for k, path in enumerate(paths):
-                emissions.add_job(JobMeta(job_id=f"job-{k}", experience_name=f"e{k}"), path)
-            return emissions.tables()
-
-        def duckdb_read_json() -> int:
-            con = duckdb.connect()
-            glob = str(folder / "jobs" / "*" / "emissions.resim.jsonl")
-            found = con.execute(
-                f"SELECT count(*) FROM read_json('{glob}', format='newline_delimited')"
-            ).fetchone()
-            con.close()
-            return int(found[0]) if found else 0
-
-        ours = median_seconds(load, 3)
-        theirs = median_seconds(duckdb_read_json, 3)
-        print(f"{jobs} jobs x {rows} rows = {total:,} rows")
-        print(f"  EmissionsSet (checked):  {ours:6.2f} s  {total / ours:12,.0f} rows/s")
-        print(f"  DuckDB read_json:        {theirs:6.2f} s  {total / theirs:12,.0f} rows/s")
-
-        tables = load()
+        emissions = EmissionsSet(config)
+        for k, path in enumerate(paths):
+            emissions.add_job(JobMeta(job_id=f"job-{k}", experience_name=f"e{k}"), path)
+        print(f"{jobs} jobs x {rows} rows = {jobs * rows:,} rows")
+        tables = emissions.tables()
         engine = QueryEngine(tables)  # what evaluate runs the queries on
         context = pl.SQLContext(frames=dict(tables))
         print("queries (median of 5):              DuckDB      polars SQL")

@@ -105,3 +105,27 @@ def test_job_metadata_from_a_mapping() -> None:
         JobMeta.from_mapping({"job_id": "j", "colour": "red"})
     with pytest.raises(EmissionsError, match="'job_id' is required"):
         JobMeta.from_mapping({"batch_id": "b"})
+
+
+def test_blank_lines_and_crlf_keep_the_line_numbers(tmp_path: Path) -> None:
+    (tmp_path / "c.yml").write_text(CONFIG, encoding="utf-8")
+    emissions = EmissionsSet(load_config([tmp_path / "c.yml"]))
+    good = _line(_row(1))
+    bad = _line({**_row(2), "n": True})
+    emissions.add_job(JobMeta(job_id="j1"), f"{good}\r\n \t\r\n\r\n{good}\r\n".encode())
+    emissions.add_job(JobMeta(job_id="j2"), f"\n  \n{good}\n{bad}".encode(), name="log 2")
+    with pytest.raises(EmissionsError) as caught:
+        emissions.tables()
+    assert str(caught.value) == (
+        "log 2 line 4: topic 'speed', column 'n': expected int, got a boolean"
+    )
+
+
+def test_crlf_rows_load(tmp_path: Path) -> None:
+    (tmp_path / "c.yml").write_text(CONFIG, encoding="utf-8")
+    emissions = EmissionsSet(load_config([tmp_path / "c.yml"]))
+    text = "\r\n".join(_line(_row(i), timestamp=i) for i in range(3)) + "\r\n"
+    emissions.add_job(JobMeta(job_id="j1"), text.encode())
+    speed = emissions.tables()["speed"]
+    assert speed["n"].to_list() == [0, 1, 2]
+    assert speed["lane"].to_list() == ["l", "l", "l"]

@@ -1,14 +1,19 @@
 """Emission files (one JSON object a line) into one polars frame per topic.
 
-Lines are read by polars' CSV reader (one column, no quoting: a raw control character
-cannot be in valid JSON), then checked and unpacked by DuckDB's JSON functions, all
-jobs at once: no Python step per row. A job's lines keep their numbers, so that a bad
-row is named by its file and line.
+Each job's text is split into numbered lines, checked and unpacked by DuckDB's JSON
+functions, all jobs at once: no Python step per row. A job's lines keep their numbers,
+so that a bad row is named by its file and line.
+
+Bad input costs only when it is there: a line that is not JSON fails the query that
+splits the texts, and only then is each line tested to name it. Every row's exact JSON
+shape is checked (`json_structure`, grouped: a file has few distinct shapes); only when
+a shape is bad is the earliest line of it looked up. DuckDB's and polars' typed readers
+cannot be the check: both convert quietly (`true` to 1, `"1"` to 1.0, 5 to "5") and drop
+unknown keys.
 """
 
 from __future__ import annotations
 
-import io
 import json
 from collections.abc import Mapping
 from pathlib import Path
@@ -27,8 +32,15 @@ Tables = Mapping[str, "pl.DataFrame"]
 """One frame per topic (its schema's columns, then timestamp, job_id, batch_id,
 experience_name, build_version), and `metadata`, one row per job."""
 
-# Emissions of one job beyond this many lines are refused (a line's number is a u32).
-_MAX_LINE = 2**32 - 1
+# Every job's text into numbered lines, blank ones dropped, in one query.
+_LINES = """
+SELECT job, line_no, line
+FROM (
+  SELECT job, generate_subscripts(parts, 1)::UINTEGER AS line_no, unnest(parts) AS line
+  FROM (SELECT job, string_split(text, chr(10)) AS parts FROM texts)
+)
+WHERE NOT regexp_full_match(line, '\\s*')
+"""
 
 
 class EmissionsSet:
@@ -42,7 +54,8 @@ class EmissionsSet:
         self._config = config
         self._jobs: list[JobMeta] = []
         self._names: list[str] = []
-        self._lines: list[pl.DataFrame] = []
+        self._texts: list[str] = []  # of the jobs with emissions
+        self._with_text: list[int] = []  # their indexes
         self._ids: set[str] = set()
 
     def add_job(
@@ -66,7 +79,11 @@ class EmissionsSet:
         self._jobs.append(meta)
         self._names.append(label)
         if data and data.strip():
-            self._lines.append(_read_lines(data, index, label))
+            try:
+                self._texts.append(data.decode("utf-8"))
+            except UnicodeDecodeError as exc:
+                raise EmissionsError(f"{label}: not UTF-8 JSON lines ({exc})") from None
+            self._with_text.append(index)
 
     def tables(self) -> dict[str, pl.DataFrame]:
         """The topic frames and the metadata frame (see `Tables`)."""
@@ -74,26 +91,36 @@ class EmissionsSet:
 
         metadata = _metadata_frame(self._jobs)
         topics = self._config.topics
-        if not self._lines:
+        if not self._texts:
             frames = {name: _empty_topic(topic) for name, topic in topics.items()}
             return {**frames, METADATA_TABLE: metadata}
         import polars as pl
 
-        lines = pl.concat(self._lines, rechunk=True)
+        texts = pl.DataFrame(
+            {"job": self._with_text, "text": self._texts},
+            schema={"job": pl.UInt32, "text": pl.String},
+        )
+        # No progress bar: DuckDB draws one on the terminal for a query over 2 s.
         con = duckdb.connect(":memory:")
+        con.execute("SET enable_progress_bar = false")
         try:
-            con.register("raw_lines", lines)
-            con.register("jobs", metadata.with_row_index("job"))
+            con.register("texts", texts)
+            self._split(con)
+            con.unregister("texts")
             self._check(con)
-            frames = {name: self._topic_frame(con, topic) for name, topic in topics.items()}
+            frames = {
+                name: self._topic_frame(con, topic, metadata) for name, topic in topics.items()
+            }
         finally:
             con.close()
         return {**frames, METADATA_TABLE: metadata}
 
-    def _topic_frame(self, con: duckdb.DuckDBPyConnection, topic: Topic) -> pl.DataFrame:
+    def _topic_frame(
+        self, con: duckdb.DuckDBPyConnection, topic: Topic, metadata: pl.DataFrame
+    ) -> pl.DataFrame:
         import polars as pl
 
-        frame = _topic_frame(con, topic)
+        frame = _topic_frame(con, topic, metadata)
         # The check refused nulls, so a null here is a value that did not convert: an
         # int beyond 64 bits.
         for column in topic.schema:
@@ -106,20 +133,34 @@ class EmissionsSet:
                 )
         return frame.drop("job", "line_no")
 
+    def _split(self, con: duckdb.DuckDBPyConnection) -> None:
+        """The `lines` table: job, line_no, line, topic. EmissionsError names the first
+        line that is not JSON."""
+        import duckdb
+
+        try:
+            con.execute(
+                "CREATE TEMP TABLE lines AS SELECT job, line_no, line, "
+                f"json_extract_string(line, '/$metadata/topic') AS topic FROM ({_LINES})"
+            )
+        except duckdb.InvalidInputException as exc:
+            # The slow path, once: which line it was (DuckDB's message names none).
+            invalid = con.execute(
+                f"SELECT job, line_no FROM ({_LINES}) WHERE NOT json_valid(line) "
+                "ORDER BY job, line_no LIMIT 1"
+            ).fetchone()
+            if invalid is None:
+                message = str(exc).strip().splitlines()[0]
+                raise EmissionsError(f"the emissions cannot be read: {message}") from None
+            raise EmissionsError(
+                f"{self._where(invalid[0], invalid[1])}: not a JSON object"
+            ) from None
+
     def _check(self, con: duckdb.DuckDBPyConnection) -> None:
         """Raise EmissionsError for the first bad row (by job, then line)."""
-        invalid = con.execute(
-            "SELECT job, line_no FROM raw_lines WHERE NOT json_valid(line) "
-            "ORDER BY job, line_no LIMIT 1"
-        ).fetchone()
-        if invalid is not None:
-            raise EmissionsError(f"{self._where(invalid[0], invalid[1])}: not a JSON object")
-        con.execute(
-            "CREATE TEMP TABLE lines AS SELECT job, line_no, line, "
-            "json_extract_string(line, '/$metadata/topic') AS topic, "
-            "json_structure(line) AS structure FROM raw_lines"
-        )
-        groups = con.execute("SELECT DISTINCT topic, structure FROM lines").fetchall()
+        groups = con.execute(
+            "SELECT DISTINCT topic, json_structure(line) AS structure FROM lines"
+        ).fetchall()
         bad: dict[tuple[str | None, str], str] = {}
         for topic, structure in groups:
             problem = self._row_problem(topic, json.loads(structure))
@@ -127,7 +168,8 @@ class EmissionsSet:
                 bad[(topic, structure)] = problem
         if not bad:
             return
-        # One query for the earliest bad line, however many kinds of bad rows there are.
+        # The slow path, once: the earliest bad line, however many kinds of bad rows
+        # there are (each line's shape again, now kept to be joined).
         import polars as pl
 
         kinds = pl.DataFrame(
@@ -136,7 +178,9 @@ class EmissionsSet:
         )
         con.register("bad_kinds", kinds)
         first = con.execute(
-            "SELECT l.job, l.line_no, l.topic, l.structure FROM lines AS l JOIN bad_kinds AS b "
+            "SELECT l.job, l.line_no, l.topic, l.structure "
+            "FROM (SELECT job, line_no, topic, json_structure(line) AS structure FROM lines) "
+            "AS l JOIN bad_kinds AS b "
             "ON l.topic IS NOT DISTINCT FROM b.topic AND l.structure = b.structure "
             "ORDER BY l.job, l.line_no LIMIT 1"
         ).fetchone()
@@ -175,27 +219,6 @@ class EmissionsSet:
         return None
 
 
-def _read_lines(data: bytes, job: int, label: str) -> pl.DataFrame:
-    import polars as pl
-
-    try:
-        frame = pl.read_csv(
-            io.BytesIO(data),
-            has_header=False,
-            separator="\x1f",
-            quote_char=None,
-            new_columns=["line"],
-            schema={"line": pl.String},
-        )
-    except pl.exceptions.ComputeError as exc:
-        raise EmissionsError(f"{label}: not UTF-8 JSON lines ({exc})") from None
-    return (
-        frame.with_row_index("line_no", offset=1)
-        .filter(pl.col("line").str.strip_chars().str.len_bytes() > 0)
-        .select(pl.lit(job, dtype=pl.UInt32).alias("job"), "line_no", "line")
-    )
-
-
 def _metadata_frame(jobs: list[JobMeta]) -> pl.DataFrame:
     import polars as pl
 
@@ -229,7 +252,9 @@ def _quote(name: str) -> str:
     return '"' + name.replace('"', '""') + '"'
 
 
-def _topic_frame(con: duckdb.DuckDBPyConnection, topic: Topic) -> pl.DataFrame:
+def _topic_frame(
+    con: duckdb.DuckDBPyConnection, topic: Topic, metadata: pl.DataFrame
+) -> pl.DataFrame:
     structure = {
         "$metadata": {"timestamp": "BIGINT"},
         "$data": {column: DUCKDB_TYPES[kind] for column, kind in topic.schema.items()},
@@ -238,12 +263,15 @@ def _topic_frame(con: duckdb.DuckDBPyConnection, topic: Topic) -> pl.DataFrame:
     columns.append('s."$metadata".timestamp AS timestamp')
     shape = "'" + json.dumps(structure).replace("'", "''") + "'"
     query = (
-        f"SELECT {', '.join(columns)}, j.job_id, j.batch_id, j.experience_name, j.build_version, "
-        "job, line_no "
+        f"SELECT {', '.join(columns)}, job, line_no "
         f"FROM (SELECT job, line_no, json_transform(line, {shape}) AS s FROM lines "
-        "WHERE topic = ?) JOIN jobs AS j USING (job) ORDER BY job, line_no"
+        "WHERE topic = ?) ORDER BY job, line_no"
     )
     # (duckdb's stubs do not type the relation a query is)
     relation: Any = con.sql(query, params=[topic.name])
     frame: pl.DataFrame = relation.pl()
-    return frame.cast(_topic_schema(topic))  # job and line_no keep their types
+    # The job's IDs by its index: a gather, in the rows' order, not a join.
+    ids = metadata.select("job_id", "batch_id", "experience_name", "build_version")
+    frame = frame.with_columns(ids[frame["job"]])
+    job_line = frame.select("job", "line_no")
+    return frame.drop("job", "line_no").cast(_topic_schema(topic)).hstack(job_line)

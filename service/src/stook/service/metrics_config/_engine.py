@@ -42,7 +42,9 @@ class QueryEngine:
     def __init__(self, tables: Tables) -> None:
         import duckdb
 
+        # No progress bar: DuckDB draws one on the terminal for a query over 2 s.
         self._con = duckdb.connect(":memory:", config={"threads": 1})
+        self._con.execute("SET enable_progress_bar = false")
         # Copied into DuckDB's own tables once: a registered frame is scanned through
         # Arrow by every query, 3-6x slower on the benchmark's queries.
         for name, frame in tables.items():

@@ -34,6 +34,13 @@ from stook.bench._measure import (
     measure_stook,
     resim_available,
 )
+from stook.bench._metrics_config_load import JOBS as CONFIG_LOAD_JOBS
+from stook.bench._metrics_config_load import QUICK_JOBS as CONFIG_LOAD_QUICK_JOBS
+from stook.bench._metrics_config_load import QUICK_ROWS as CONFIG_LOAD_QUICK_ROWS
+from stook.bench._metrics_config_load import QUICK_RUNS as CONFIG_LOAD_QUICK_RUNS
+from stook.bench._metrics_config_load import ROWS as CONFIG_LOAD_ROWS
+from stook.bench._metrics_config_load import RUNS as CONFIG_LOAD_RUNS
+from stook.bench._metrics_config_load import measure_metrics_config_load
 from stook.bench._plots import plots_available, write_plots
 from stook.bench._repeat import repeat_target_points
 from stook.bench._report_compare import compare_report_with_resim, report_target
@@ -269,6 +276,14 @@ def run_bench(
         runs=EMISSIONS_QUICK_RUNS if quick else EMISSIONS_RUNS,
         say=say,
     )
+    say("config-defined metrics: emissions loaded against DuckDB's read_json, batch queries ...")
+    # In a process of its own: not beside the bench's own objects.
+    config_load = in_fresh_process(
+        measure_metrics_config_load,
+        CONFIG_LOAD_QUICK_JOBS if quick else CONFIG_LOAD_JOBS,
+        CONFIG_LOAD_QUICK_ROWS if quick else CONFIG_LOAD_ROWS,
+        CONFIG_LOAD_QUICK_RUNS if quick else CONFIG_LOAD_RUNS,
+    )
     say("decode + reduce of job-sized series, as batch mode reads them ...")
     # In a process of its own, as a run decodes: not beside the bench's own objects.
     decode = in_fresh_process(measure_decode, 50 if quick else 200)
@@ -316,6 +331,7 @@ def run_bench(
         "report_vs_resim": reports,
         "decode_reduce": decode,
         "emissions_batch": emissions,
+        "metrics_config_load": config_load,
     }
     out_dir.mkdir(parents=True, exist_ok=True)
     _write_csv(rows, out_dir / f"{prefix}sweep.csv")
