@@ -37,17 +37,18 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import logging
-import multiprocessing
 import os
 import queue
 import threading
 from collections.abc import Callable, Sequence
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from stook.service.modes._config import RAY_INSTALL_HINT, EngineConfigError, EngineSettings
 from stook.service.modes._shards import EVERY_S, LogSettings, ShardProgress, init_worker, run_shard
+
+if TYPE_CHECKING:
+    import multiprocessing
 
 __all__ = ["ProcessRunner", "RayRunner"]
 
@@ -59,6 +60,11 @@ class ProcessRunner:
         self._workers = engine.workers or os.cpu_count() or 1
         self._folders = list(folders)
         self._logs = logs
+        # Imported here, for a processes run only: the pool's machinery (~10 ms) is no
+        # part of a local run's start-up.
+        import multiprocessing
+        from concurrent.futures import ProcessPoolExecutor
+
         self._futures: list[asyncio.Future[bytes]] = []
         context = multiprocessing.get_context("spawn")
         self._progress: multiprocessing.Queue[ShardProgress] = context.Queue()
