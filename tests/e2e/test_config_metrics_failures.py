@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from stook.emulator import EMISSIONS_CONFIG_YAML, Emulator
+from stook.emulator import EMISSIONS_CONFIG_YAML, Emulator, write_emissions_config
 from stook.sdk import PlotlyMetric, TextMetric
 from stook.service.cli import run_cli
 from tests.e2e.support import (
@@ -42,7 +42,7 @@ def _run(
 ) -> tuple[int, list[str], Path]:
     inputs, outputs = tmp_path / "inputs", tmp_path / "outputs"
     write_batch_inputs(inputs, emu)
-    (tmp_path / "config.resim.yml").write_text(yaml_text)
+    write_emissions_config(tmp_path, yaml_text)
     toml = tmp_path / "stook.toml"
     toml.write_text('[metrics_config]\npaths = ["config.resim.yml"]\n' + extra_toml)
     argv = ["run", "--inputs", str(inputs), "--outputs", str(outputs), "--config", str(toml)]

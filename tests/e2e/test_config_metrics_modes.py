@@ -14,8 +14,15 @@ from pathlib import Path
 import pytest
 from tenacity import wait_none
 
-from stook.emulator import EMISSIONS_CONFIG_YAML, EmittedRow, Emulator
-from stook.sdk import BarChartMetric, MetricStatus, TextMetric
+from stook.emulator import EmittedRow, Emulator, write_emissions_config
+from stook.sdk import (
+    BarChartMetric,
+    ImageMetric,
+    JobMetricsView,
+    MetricStatus,
+    PlotlyMetric,
+    TextMetric,
+)
 from stook.service.api import RetryPolicy
 from stook.service.cli._run import RunOptions, run
 from stook.service.modes import BatchInputs, detect, load, run_batch
@@ -28,9 +35,7 @@ _JOBS = 24
 
 def _toml(tmp_path: Path, extra: str = "") -> Path:
     """stook.toml naming the emulated project's config.resim.yml."""
-    folder = tmp_path / ".resim" / "metrics"
-    folder.mkdir(parents=True)
-    (folder / "config.resim.yml").write_text(EMISSIONS_CONFIG_YAML)
+    write_emissions_config(tmp_path / ".resim" / "metrics")
     toml = tmp_path / "stook.toml"
     toml.write_text(
         "[batch]\ndefaults = false\n\n[report]\ndefaults = false\n\n"
@@ -48,6 +53,31 @@ def _rows(
             for row in rows or ():
                 if row.topic == topic:
                     yield job.experience.name, row
+
+
+def _worst_snapshot(emu: Emulator, batch_ids: list[uuid.UUID]) -> str:
+    """The snapshot of the camera row with the largest error (ties: the smallest job ID)."""
+    snapshots: list[tuple[float, str, str]] = [
+        (-row.data["error"], str(job.id), row.data["snapshot"])
+        for batch_id in batch_ids
+        for job, rows in emu.dataset.emitted_rows(batch_id)
+        for row in rows or ()
+        if row.topic == "camera"
+    ]
+    return min(snapshots)[2]
+
+
+def _bar_figure(view: JobMetricsView, name: str) -> dict[str, float]:
+    """The bars of a custom template's Plotly figure, label -> height."""
+    (trace,) = view.metric(name, PlotlyMetric).json["data"]
+    assert trace["type"] == "bar"
+    return dict(zip(trace["x"], trace["y"], strict=True))
+
+
+def _image(view: JobMetricsView, name: str) -> str | None:
+    image = view.metric(name, ImageMetric)
+    assert image.image_data is not None
+    return image.image_data.external_path
 
 
 def _status(value: float, block: float, warn: float) -> MetricStatus:
@@ -81,6 +111,10 @@ async def test_batch_metrics_equal_a_plain_python_computation(tmp_path: Path) ->
         brakes = Counter(
             name for name, r in _rows(emu, batch, "safety_events") if r.data["name"] == "Hard brake"
         )
+        speeds: dict[str, list[float]] = {}
+        for name, row in _rows(emu, batch, "vehicle"):
+            speeds.setdefault(name, []).append(row.data["speed"])
+        worst = _worst_snapshot(emu, batch)
         assert emu.stats.leaked_tokens == 0
 
     assert without_log  # a job without a log counts as having no rows
@@ -104,6 +138,12 @@ async def test_batch_metrics_equal_a_plain_python_computation(tmp_path: Path) ->
     hard = view.metric("Hard brakes per job", TextMetric).text
     for name, count in brakes.items():
         assert f"| {name} | {count} |" in hard
+    # The custom Liquid template's Plotly figure: a bar per experience, in the query's order.
+    bars = _bar_figure(view, "Mean speed per experience")
+    assert list(bars) == sorted(speeds)
+    assert bars == pytest.approx({n: statistics.fmean(s) for n, s in speeds.items()}, rel=1e-12)
+    # The image: the attached file's basename (batch mode cannot download it).
+    assert _image(view, "Worst localization frame") == worst
     assert "Teleports" not in metrics  # skip_if_no_data: hidden
     assert "Mean localization error by build" not in metrics  # a dashboard metric
     assert "Max localization error" not in metrics  # a test metric
@@ -131,12 +171,16 @@ async def test_report_mode_writes_the_dashboard_metrics_per_build(tmp_path: Path
         batches = emu.dataset.report_batches()
         by_build: dict[str, list[float]] = {}
         collisions: Counter[str] = Counter()
+        speeds: dict[str, list[float]] = {}
         for batch in batches:
             version = emu.dataset.builds[batch.build_id].version
             for _, row in _rows(emu, [batch.id], "localization"):
                 by_build.setdefault(version, []).append(row.data["error"])
             for _, row in _rows(emu, [batch.id], "run_summary"):
                 collisions[version] += row.data["collisions"]
+            for _, row in _rows(emu, [batch.id], "vehicle"):
+                speeds.setdefault(version, []).append(row.data["speed"])
+        worst = _worst_snapshot(emu, [batch.id for batch in batches])
 
     assert len(by_build) == 3  # the decoy's jobs are not the report's
     bars = _bars(view.metric("Mean localization error by build", BarChartMetric))
@@ -144,6 +188,10 @@ async def test_report_mode_writes_the_dashboard_metrics_per_build(tmp_path: Path
     table = view.metric("Collisions by build", TextMetric).text
     for version, count in collisions.items():
         assert f"| {version} | {count} |" in table
+    figure = _bar_figure(view, "Mean speed by build")
+    assert list(figure) == sorted(speeds)
+    assert figure == pytest.approx({v: statistics.fmean(s) for v, s in speeds.items()}, rel=1e-12)
+    assert _image(view, "Worst localization frame of the builds") == worst
     assert "Mean localization error" not in by_name(view)  # a batch metric
 
 

@@ -17,7 +17,7 @@ from typing import Any, Final
 
 from stook.bench._sweep import emulator_for
 from stook.bench._whole_process import time_stook_run
-from stook.emulator import EMISSIONS_CONFIG_YAML
+from stook.emulator import write_emissions_config
 
 __all__ = ["measure_emissions_batch"]
 
@@ -44,7 +44,7 @@ def _time_run(info: Any, folder: Path) -> float:
     inputs = folder / "inputs"
     inputs.mkdir(parents=True)
     info.write_batch_config(inputs)
-    (folder / "config.resim.yml").write_text(EMISSIONS_CONFIG_YAML, encoding="utf-8")
+    write_emissions_config(folder)
     return time_stook_run(folder, CONFIG_TOML)
 
 

@@ -16,7 +16,7 @@ deterministic by seed; latency, transient faults and rate limits are configurabl
 from stook.emulator._config import EmulatorConfig, Origin, Outage
 from stook.emulator._dataset import Dataset
 from stook.emulator._emissions import CONFIG_YAML as EMISSIONS_CONFIG_YAML
-from stook.emulator._emissions import EMISSIONS_FILE
+from stook.emulator._emissions import EMISSIONS_FILE, EMISSIONS_TEMPLATES, write_emissions_config
 from stook.emulator._emissions import Row as EmittedRow
 from stook.emulator._faults import FaultKind
 from stook.emulator._generate import EventTruth, HistogramTruth, Truth
@@ -38,6 +38,7 @@ __all__ = [
     "BATCH_CONFIG",
     "EMISSIONS_CONFIG_YAML",
     "EMISSIONS_FILE",
+    "EMISSIONS_TEMPLATES",
     "REPORT_CONFIG",
     "BatchKind",
     "BatchSpec",
@@ -64,4 +65,5 @@ __all__ = [
     "main",
     "serve",
     "serve_with_inputs",
+    "write_emissions_config",
 ]

@@ -16,6 +16,7 @@ import hashlib
 import random
 from collections import OrderedDict
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any, Final
 
 import orjson
@@ -25,6 +26,7 @@ from stook.emulator._world import JobSpec
 __all__ = [
     "CONFIG_YAML",
     "EMISSIONS_FILE",
+    "EMISSIONS_TEMPLATES",
     "OBJECT_CLASSES",
     "PLANNER_STATES",
     "EmissionsStore",
@@ -32,6 +34,7 @@ __all__ = [
     "Row",
     "emissions_bytes",
     "job_rows",
+    "write_emissions_config",
 ]
 
 EMISSIONS_FILE: Final = "emissions.resim.jsonl"
@@ -68,6 +71,11 @@ topics:
       distance: float
       collisions: int
       completed: boolean
+  camera:
+    schema:
+      frame: int
+      error: float
+      snapshot: image
   safety_events:
     event: true
     schema:
@@ -187,6 +195,19 @@ metrics:
     template_type: system
     template: scalar
     skip_if_no_data: true
+  Worst localization frame:
+    type: batch
+    description: The camera frame of the largest localization error of the batch
+    query_string: SELECT snapshot FROM camera ORDER BY error DESC, job_id LIMIT 1
+    template_type: system
+    template: image
+  Mean speed per experience:
+    type: batch
+    query_string: |
+      SELECT experience_name AS x, AVG(speed) AS y
+      FROM vehicle GROUP BY experience_name ORDER BY experience_name
+    template_type: custom
+    template_file: bar_figure.liquid
 
   # ---- dashboard level ----
   Mean localization error by build:
@@ -203,6 +224,18 @@ metrics:
       FROM run_summary GROUP BY build_version ORDER BY build_version
     template_type: system
     template: table
+  Mean speed by build:
+    type: dashboard
+    query_string: |
+      SELECT build_version AS x, AVG(speed) AS y
+      FROM vehicle GROUP BY build_version ORDER BY build_version
+    template_type: custom
+    template_file: bar_figure.liquid
+  Worst localization frame of the builds:
+    type: dashboard
+    query_string: SELECT snapshot FROM camera ORDER BY error DESC, job_id LIMIT 1
+    template_type: system
+    template: image
 
 metrics sets:
   nightly:
@@ -221,6 +254,27 @@ dashboards:
     refresh: auto
     day_range: 90
 """
+
+# The custom templates of the config, by file name: they live in `templates/` beside it.
+EMISSIONS_TEMPLATES: Final = {
+    # A bar per row: the query's columns `x` (the bars' labels) and `y` (their heights).
+    "bar_figure.liquid": """\
+{"data": [{"type": "bar", "x": {{ x | json }}, "y": {{ y | json }}}],
+ "layout": {"yaxis": {"title": {"text": "Mean speed (m/s)"}}}}
+""",
+}
+
+
+def write_emissions_config(folder: Path, text: str = CONFIG_YAML) -> Path:
+    """Write `text` (default: the world's config) as `folder/config.resim.yml` and the
+    custom templates into `folder/templates/`, where stook looks by default; the config's
+    path."""
+    (folder / "templates").mkdir(parents=True, exist_ok=True)
+    for name, template in EMISSIONS_TEMPLATES.items():
+        (folder / "templates" / name).write_text(template, encoding="utf-8")
+    config = folder / "config.resim.yml"
+    config.write_text(text, encoding="utf-8")
+    return config
 
 
 @dataclass(frozen=True, slots=True)
@@ -255,12 +309,15 @@ def job_rows(seed: int, job: JobSpec, frames: int) -> list[Row] | None:
     if job.conflated_status in ("WARNING", "BLOCKER"):
         drift *= 2.5
     error = 0.0
+    worst = (-1.0, 0)  # the largest error and its frame: the camera's snapshot
     speed = rng.uniform(8.0, 14.0)
     state = "CRUISE"
     for frame in range(frames):
         t = frame * _FRAME_NS
         error = abs(error + rng.gauss(0.0, 0.05 * drift)) * 0.98 + 0.01 * drift
         rows.append(Row("localization", t, {"frame": frame, "error": round(error, 6)}))
+        if round(error, 6) > worst[0]:
+            worst = (round(error, 6), frame)
         acceleration = round(rng.gauss(0.0, 1.2), 4)
         speed = max(0.0, speed + acceleration * 0.1)
         rows.append(Row("vehicle", t, {"speed": round(speed, 4), "acceleration": acceleration}))
@@ -305,6 +362,11 @@ def job_rows(seed: int, job: JobSpec, frames: int) -> list[Row] | None:
             },
         )
     )
+    if frames:
+        # Derived from the rows above, drawing nothing from `rng`: the other rows are
+        # the same with or without it.
+        snapshot = {"frame": worst[1], "error": worst[0], "snapshot": f"frame_{worst[1]:04d}.png"}
+        rows.append(Row("camera", worst[1] * _FRAME_NS, snapshot))
     return rows
 
 

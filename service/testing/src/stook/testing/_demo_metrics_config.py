@@ -12,7 +12,7 @@ import time
 from collections.abc import Callable
 from pathlib import Path
 
-from stook.emulator import EMISSIONS_CONFIG_YAML
+from stook.emulator import write_emissions_config
 from stook.sdk import MetricStatus, read_job_metrics
 from stook.service.modes import BatchInputs, detect, for_stream, load, run_batch, run_on_event_loop
 
@@ -37,9 +37,7 @@ def run_config_metrics_demo(
     """Runs batch mode on `inputs` with the emulated project's config; returns how many
     outputs were invalid (0 or 1)."""
     folder = output / "metrics-config"
-    config_file = folder / ".resim" / "metrics" / "config.resim.yml"
-    config_file.parent.mkdir(parents=True, exist_ok=True)
-    config_file.write_text(EMISSIONS_CONFIG_YAML, encoding="utf-8")
+    config_file = write_emissions_config(folder / ".resim" / "metrics")
     toml = folder / "stook.toml"
     toml.write_text(CONFIG_TOML, encoding="utf-8")
     print(f"\n== config-defined metrics: {config_file.name} over the batch's emissions ==")
