@@ -45,8 +45,9 @@ _EVENT_NAMES: Final = ("Hard brake", "Near miss")
 _FRAME_NS: Final = 100_000_000
 
 # The emulated project's `.resim/metrics/config.resim.yml`: topics (one of them an event
-# topic), metrics at the three levels, two metrics sets and a dashboard, written the way
-# ReSim's documentation and public example configs write them.
+# topic), metrics at the three levels (image metrics and a custom template among them),
+# two metrics sets and a dashboard, written the way ReSim's documentation and public
+# example configs write them.
 CONFIG_YAML: Final = """\
 version: 1
 
