@@ -35,7 +35,7 @@ from __future__ import annotations
 import uuid
 from collections.abc import Callable, Iterable, Mapping
 from types import MappingProxyType
-from typing import TYPE_CHECKING, Any, Final, Literal, TypeVar
+from typing import Final, Literal, TypeVar
 
 from google.protobuf.message import Error as ProtobufError
 from google.protobuf.message import Message
@@ -53,24 +53,9 @@ from stook.sdk._enums import (
 from stook.sdk._errors import MalformedError, read_error
 from stook.sdk._views import EventView, JobMetricsView, MetricsDataView, MetricView
 
-if TYPE_CHECKING:
-    from stook.sdk._series import KIND_DTYPE, STATUS_DTYPE
-else:
-
-    def __getattr__(name: str) -> Any:
-        # The polars dtypes, imported with polars on first use (see `_views`).
-        if name in ("KIND_DTYPE", "STATUS_DTYPE"):
-            from stook.sdk import _series
-
-            return getattr(_series, name)
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-
-
-# The views and dtypes are listed with the entry points that hand them out, so that
+# The views are listed with the entry points that hand them out, so that
 # code importing them from here keeps working; the public home is `stook.sdk`.
 __all__ = [
-    "KIND_DTYPE",
-    "STATUS_DTYPE",
     "EventView",
     "JobMetricsView",
     "MetricView",
