@@ -22,7 +22,6 @@ from stook.service.api import (
     AuthError,
     IncompleteBodyError,
     NotFoundError,
-    Origin,
     OriginUnavailableError,
     OriginUnreachableError,
     PresignedUrlExpiredError,
@@ -33,7 +32,7 @@ from stook.service.api import (
     TransferStats,
     TransportError,
 )
-from stook.service.api._retry import is_retryable, parse_retry_after, send
+from stook.service.api._retry import Origin, is_retryable, parse_retry_after, send
 from stook.service.api._transport import transport_error
 from tests.service.conftest import RecordingSleep
 from tests.service.scripted_server import ScriptedServer, answer, answer_json
@@ -149,7 +148,7 @@ async def test_send_counts_and_gives_up(sleep: RecordingSleep) -> None:
     assert stats.retry_reasons == {"HTTP 503": 3}
     assert caught.value.attempts == 4
     assert caught.value.__cause__ is None
-    assert stats.as_dict()["retries"] == 3
+    assert stats.retries == 3
 
 
 async def test_send_lets_permanent_errors_through(sleep: RecordingSleep) -> None:

@@ -1,13 +1,7 @@
-"""The API layer: transport, retry policy, limits, clients, models, errors and redaction.
+"""The ReSim API layer: clients, models, errors, retries, limits and redaction; it imports no
+higher layer."""
 
-It imports nothing from the layers above it (fetch, modes, cli), and inside it the
-transport knows nothing of the retry policy above it.
-"""
-
-from stook.service.api._client import (
-    ApiClient,
-    IdLike,
-)
+from stook.service.api._client import ApiClient
 from stook.service.api._errors import (
     ApiError,
     ApiResponseError,
@@ -25,23 +19,8 @@ from stook.service.api._errors import (
     StorageError,
     TransportError,
 )
-from stook.service.api._job_logs import (
-    ExecutionStep,
-    JobLog,
-    LogType,
-)
-from stook.service.api._limits import (
-    AimdLimiter,
-    ConcurrencyLimit,
-    FixedLimit,
-    LimitStats,
-    NestedLimit,
-)
-from stook.service.api._logging import (
-    configure_logging,
-    get_logger,
-    redact_event,
-)
+from stook.service.api._job_logs import ExecutionStep, JobLog, LogType
+from stook.service.api._limits import AimdLimiter, ConcurrencyLimit, FixedLimit, LimitStats
 from stook.service.api._models import (
     ApiMetric,
     ApiMetricsData,
@@ -62,26 +41,10 @@ from stook.service.api._models import (
     MetricsDataStorageType,
     Report,
 )
-from stook.service.api._redact import (
-    redact_text,
-    redact_url,
-    register_secret,
-)
-from stook.service.api._retry import (
-    Origin,
-    RetryPolicy,
-)
-from stook.service.api._storage import (
-    StorageClient,
-)
-from stook.service.api._transport import (
-    BodyCap,
-    HttpTransport,
-    Response,
-    TransferStats,
-    Transport,
-    body_cap_mb,
-)
+from stook.service.api._redact import redact_text, redact_url
+from stook.service.api._retry import Origin, RetryPolicy
+from stook.service.api._storage import StorageClient
+from stook.service.api._transport import BodyCap, Response, TransferStats, Transport, body_cap_mb
 
 __all__ = [
     "AimdLimiter",
@@ -107,8 +70,6 @@ __all__ = [
     "ExecutionStep",
     "ExperienceTag",
     "FixedLimit",
-    "HttpTransport",
-    "IdLike",
     "IncompleteBodyError",
     "Job",
     "JobEventListing",
@@ -118,7 +79,6 @@ __all__ = [
     "LogType",
     "MetricOwner",
     "MetricsDataStorageType",
-    "NestedLimit",
     "NotFoundError",
     "Origin",
     "OriginUnavailableError",
@@ -136,10 +96,6 @@ __all__ = [
     "Transport",
     "TransportError",
     "body_cap_mb",
-    "configure_logging",
-    "get_logger",
-    "redact_event",
     "redact_text",
     "redact_url",
-    "register_secret",
 ]
