@@ -20,8 +20,7 @@ _URL_IN_TEXT: Final = re.compile(r"""https?://[^\s'"<>`]+""", re.IGNORECASE)
 _TRAILING_PUNCTUATION: Final = ").,;:!?]}"
 # A short lower-case word after "bearer" ("invalid bearer token") is prose, not a secret.
 _BEARER_IN_TEXT: Final = re.compile(
-    r"(Bearer\s+)(?!(?-i:[a-z]{1,10})(?![A-Za-z0-9._~+/=-]))[A-Za-z0-9._~+/=-]+",
-    re.IGNORECASE,
+    r"(Bearer\s+)(?!(?-i:[a-z]{1,10})(?![A-Za-z0-9._~+/=-]))[A-Za-z0-9._~+/=-]+", re.IGNORECASE
 )
 
 

@@ -1,18 +1,13 @@
 """Retries through tenacity, the first attempt included: what, how long, and together.
 
-* 5xx and 429 answers, connection failures, timeouts and cut bodies are retried; any other
-  failure ends the request at once.
-* For a time, ``retry_for``, not a count: pauses grow with full jitter from
-  ``initial_backoff`` to ``max_backoff`` and never sleep past the budget. A ``Retry-After``
-  is honoured up to ``max_retry_after``; a longer one, or one past the budget, ends the
-  request at once.
-* First contact: until an origin has answered, a wrong URL is likelier than an outage. A
-  name that does not resolve ends the request at once, a refused or reset connection gets
-  ``first_contact_for``; both raise :class:`OriginUnreachableError` naming the setting.
-* Each :class:`Origin` has a gate: transient failures of ``trip_after`` different requests
-  with no answer between close it for a jittered backoff (at most ``MAX_PROBE_INTERVAL``, at
-  least a ``Retry-After``); its requests wait there, one probe goes out, and an answer to a
-  request sent since the closure opens it for all. The gate is plain state on one event loop.
+5xx, 429, connection failures, timeouts and cut bodies are retried, for a time
+(``retry_for``), with full-jitter pauses that never sleep past it; a ``Retry-After`` is
+honoured up to ``max_retry_after``, and a longer one ends the request at once. Until an
+origin has answered, a wrong URL is likelier than an outage: a name that does not resolve
+ends the request at once, a refused or reset connection gets ``first_contact_for``. Each
+:class:`Origin` has a gate: transient failures of ``trip_after`` different requests with no
+answer between close it; its requests then wait there while one probe goes out at a time,
+and an answer to a request sent since the closure opens it for all.
 """
 
 from __future__ import annotations
@@ -243,11 +238,12 @@ class Origin:
 
 
 class _Request:
-    """One request's retries: its budget, tenacity's stop and wait, the error that ends it."""
+    """One request's retries once it failed: tenacity's state, its budget, what ends it."""
 
-    def __init__(self, origin: Origin, url: URL, stats: TransferStats) -> None:
+    def __init__(self, origin: Origin, url: URL, stats: TransferStats, started: float) -> None:
         self.origin, self.policy, self.url, self.stats = origin, origin.policy, url, stats
-        self.started = self.policy.clock()
+        self.started = started
+        self.state = RetryCallState(origin.tenacity, fn=None, args=(self,), kwargs={})
         self.last: BaseException | None = None
         self.error: Exception | None = None  # what ends it, once tenacity stops
         self.counted = False  # in origin.retrying
@@ -262,18 +258,18 @@ class _Request:
         )
 
     def deadline(self) -> float:
-        budget = self.policy.retry_for
-        if self.first_contact():
-            budget = min(budget, self.policy.first_contact_for)
-        return self.started + budget
+        policy = self.policy
+        return self.started + (
+            min(policy.retry_for, policy.first_contact_for)
+            if self.first_contact()
+            else policy.retry_for
+        )
 
     def failed(self, exc: Exception, sent_in: int, probe: bool) -> None:
-        """Tell the origin what `exc` says about it."""
+        """Note `exc`, and tell the origin what it says about it."""
         origin = self.origin
         self.last = exc
-        status = (
-            getattr(exc, "status", None) if isinstance(exc, ApiStatusError | StorageError) else None
-        )
+        status = exc.status if isinstance(exc, ApiStatusError | StorageError) else None
         if (status is not None and status >= 500) or isinstance(exc, TransportError):
             # The origin failing (a 5xx, no answer), not pacing us (429) or refusing.
             origin.answered = origin.answered or status is not None
@@ -283,24 +279,33 @@ class _Request:
             origin.answer(sent_in)
         if isinstance(exc, TransportError) and exc.kind == "dns" and not origin.answered:
             # The name does not resolve and never did: no retry can fix a wrong URL.
-            raise self.unreachable(exc.reason) from None
+            raise OriginUnreachableError(
+                label=origin.label,
+                origin=self.url.origin(),
+                setting=origin.setting,
+                reason=exc.reason,
+            ) from None
 
     def stop(self, state: RetryCallState) -> bool:
-        policy = self.policy
-        retry_after = _retry_after(self.last)
+        policy, attempts, last = self.policy, state.attempt_number, self.last
+        retry_after = _retry_after(last)
         left = self.deadline() - policy.clock()
-        if policy.max_attempts is not None and state.attempt_number >= policy.max_attempts:
-            self.error = self.exhausted(state.attempt_number, budget_spent=False)
+        limit = ""
+        if policy.max_attempts is not None and attempts >= policy.max_attempts:
+            self.error = self.exhausted(attempts, budget_spent=False)
         elif retry_after is not None and retry_after > policy.max_retry_after:
-            self.error = self.too_long(
-                retry_after, f"the {policy.max_retry_after:g} s stook waits at most"
-            )
+            limit = f"the {policy.max_retry_after:g} s stook waits at most"
         elif left <= 0:
-            self.error = self.exhausted(state.attempt_number, budget_spent=True)
+            self.error = self.exhausted(attempts, budget_spent=True)
         elif retry_after is not None and retry_after > left:
-            self.error = self.too_long(
-                retry_after,
-                f"the {left:.1f} s left of its {policy.retry_for:g} s [fetch] retry_for",
+            limit = f"the {left:.1f} s left of its {policy.retry_for:g} s [fetch] retry_for"
+        if limit:
+            self.error = RetryAfterTooLongError(
+                method="GET",
+                url=self.url,
+                status=getattr(last, "status", None),
+                retry_after=retry_after or 0.0,
+                limit=limit,
             )
         return self.error is not None
 
@@ -329,23 +334,14 @@ class _Request:
             wait_s=round(state.upcoming_sleep, 3),
         )
 
-    def unreachable(self, reason: str) -> OriginUnreachableError:
-        origin = self.origin
-        return OriginUnreachableError(
-            label=origin.label, origin=self.url.origin(), setting=origin.setting, reason=reason
-        )
-
-    def too_long(self, retry_after: float, limit: str) -> RetryAfterTooLongError:
-        status = getattr(self.last, "status", None)
-        return RetryAfterTooLongError(
-            method="GET", url=self.url, status=status, retry_after=retry_after, limit=limit
-        )
-
     def exhausted(self, attempts: int, *, budget_spent: bool) -> Exception:
         policy, origin, last = self.policy, self.origin, self.last
         reason = describe_failure(last) if last is not None else origin.last_failure
         if budget_spent and self.first_contact():
-            return self.unreachable(f"{reason}; tried for {policy.first_contact_for:g} s")
+            reason = f"{reason}; tried for {policy.first_contact_for:g} s"
+            return OriginUnreachableError(
+                label=origin.label, origin=self.url.origin(), setting=origin.setting, reason=reason
+            )
         if budget_spent and not origin.is_open:
             # Requests of many kinds fail and none is answered: the origin is down.
             return OriginUnavailableError(
@@ -375,22 +371,25 @@ async def send(
     :class:`RetriesExhaustedError`; a ``Retry-After`` that cannot be honoured raises
     :class:`RetryAfterTooLongError` at once.
     """
-    request = _Request(origin, url, stats)
     # tenacity decides after each failure whether to retry, stop and how long to wait: the
     # loop of AsyncRetrying.__call__ on tenacity's synchronous core, which saves the
     # coroutines AsyncRetrying wraps around every step (80 µs a request at 0 ms latency).
-    state: RetryCallState | None = None  # made with the first failure
+    policy = origin.policy
+    started = policy.clock()
+    request: _Request | None = None  # made with the first failure
     try:
         while True:
-            probe = False if origin.is_open else await origin.enter(request.deadline())
+            probe = False
+            if not origin.is_open:
+                deadline = request.deadline() if request else started + policy.retry_for
+                probe = await origin.enter(deadline)
             sent_in = origin.closures
             try:
                 result = await attempt()
             except Exception as exc:  # a cancellation is no failure: it ends the request
+                request = request or _Request(origin, url, stats, started)
                 request.failed(exc, sent_in, probe)
-                if state is None:
-                    state = RetryCallState(origin.tenacity, fn=None, args=(request,), kwargs={})
-                state.set_exception(sys.exc_info())  # type: ignore[arg-type]
+                request.state.set_exception(sys.exc_info())  # type: ignore[arg-type]
             else:
                 origin.answer(sent_in)
                 return result
@@ -398,16 +397,18 @@ async def send(
                 if probe:
                     origin.probe_finished()
             # Raises the failure when it is not retried, RetryError when retries stop.
-            do = origin.tenacity.iter(state)
+            do = origin.tenacity.iter(request.state)
             assert isinstance(do, DoSleep)
-            state.prepare_for_next_attempt()
-            await request.policy.sleep(do)
+            request.state.prepare_for_next_attempt()
+            await policy.sleep(do)
     except _GateTimeoutError:
-        sent = state.attempt_number - 1 if state is not None else 0  # the last one was not
+        request = request or _Request(origin, url, stats, started)
+        sent = request.state.attempt_number - 1 if request.last else 0  # the last one was not
         raise request.exhausted(sent, budget_spent=True) from None
     except RetryError:
+        assert request is not None
         assert request.error is not None
         raise request.error from None
     finally:
-        if request.counted:
+        if request is not None and request.counted:
             origin.retrying -= 1

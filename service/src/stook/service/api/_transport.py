@@ -1,11 +1,6 @@
-"""The transport: one aiohttp session that sends a GET and returns the whole answer, any status.
-
-Each request's timeout starts once it holds a slot of its limiter; a body is read whole, up to
-its :class:`BodyCap` (counted after decompression) and no shorter than its
-``Content-Length``; aiohttp's and the sockets' failures become :class:`TransportError` here
-only (:func:`transport_error`); a transport with ``credentials_allowed=False`` (object
-storage) sends no ``Authorization``, URL user info or ``.netrc`` credentials.
-"""
+"""One aiohttp session that sends a GET and returns the whole answer, any status: timed from
+when it holds a slot of its limiter, its body capped after decompression, aiohttp's failures
+turned into :class:`TransportError` (here only), and no credentials at all to storage."""
 
 from __future__ import annotations
 
@@ -16,7 +11,6 @@ import time
 from collections import Counter
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from types import TracebackType
 from typing import Final, Protocol, Self
 
 import aiohttp
@@ -104,7 +98,6 @@ class HttpTransport:
         name: str,
         concurrency: int,
         request_timeout: float,
-        stats: TransferStats | None = None,
         headers: Mapping[str, str] | None = None,
         follow_redirects: bool = True,
         credentials_allowed: bool = True,
@@ -119,7 +112,7 @@ class HttpTransport:
         if not credentials_allowed and credentials & {k.lower() for k in self._headers}:
             raise ValueError(f"{name} transport must not carry credential headers")
         self.name = name
-        self.stats = stats or TransferStats()
+        self.stats = TransferStats()
         self.limiter: ConcurrencyLimit = limiter or FixedLimit(concurrency)
         self._concurrency = concurrency
         self._timeout = request_timeout
@@ -134,12 +127,7 @@ class HttpTransport:
         await self.open()
         return self
 
-    async def __aexit__(
-        self,
-        exc_type: type[BaseException] | None,
-        exc: BaseException | None,
-        tb: TracebackType | None,
-    ) -> None:
+    async def __aexit__(self, *exc_info: object) -> None:
         await self.close()
 
     async def open(self) -> None:
