@@ -71,7 +71,6 @@ PUBLIC_API: dict[str, list[str]] = {
         "ConcurrencyLimit",
         "ExecutionStep",
         "FixedLimit",
-        "IncompleteBodyError",
         "Job",
         "JobEventListing",
         "JobLog",

@@ -20,7 +20,6 @@ from stook.service.api import (
     ApiClient,
     ApiStatusError,
     AuthError,
-    IncompleteBodyError,
     NotFoundError,
     OriginUnavailableError,
     OriginUnreachableError,
@@ -80,7 +79,7 @@ async def retried(
         (StorageError("x", url=URL), False),
         (TransportError(method="GET", url=URL, reason="reset"), True),
         (TransportError(method="GET", url=URL, reason="bad cert", kind="permanent"), False),
-        (IncompleteBodyError(method="GET", url=URL, received=1, expected=2), True),
+        (TransportError(method="GET", url=URL, reason="body ended after 1 of 2 bytes"), True),
         (ValueError("a bug"), False),
     ],
 )

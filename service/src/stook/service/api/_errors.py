@@ -117,15 +117,6 @@ class TransportError(ApiError):
         return self.kind != "permanent"
 
 
-class IncompleteBodyError(TransportError):
-    """A response body ended before its ``Content-Length``."""
-
-    def __init__(self, *, method: str, url: str | URL, received: int, expected: int) -> None:
-        self.received, self.expected = received, expected
-        reason = f"body ended after {received} of {expected} bytes"
-        super().__init__(method=method, url=url, reason=reason)
-
-
 class BodyTooLargeError(TransportError):
     """An answer's body (decompressed) grew past its cap; asking again would fetch it again."""
 

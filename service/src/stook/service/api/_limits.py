@@ -173,36 +173,30 @@ _RAMP: Final = 1.25  # growth per window after slow start and before the first t
 _GOLDEN: Final = 0.6180339887498949  # dithers a fractional limit's extra slot evenly
 
 
+@dataclass(kw_only=True, eq=False)
 class AimdLimiter(_Slots):
     """An additive-increase, multiplicative-decrease bound between `minimum` and `maximum`."""
 
-    def __init__(
-        self,
-        *,
-        maximum: int,
-        initial: float = 4,
-        minimum: int = 1,
-        backoff: float = 0.9,
-        latency_backoff: float = 0.8,
-        latency_tolerance: float = 2.0,
-        hold: float = 1.0,
-        slow_start_until: int = 32,
-        probe: float = 0.05,
-        clock: Callable[[], float] = time.monotonic,
-    ) -> None:
-        if not 1 <= minimum <= maximum:
-            raise ValueError(f"need 1 <= minimum <= maximum, got {minimum} and {maximum}")
-        if not 0 < backoff < 1 or not 0 < latency_backoff < 1:
+    maximum: int
+    initial: float = 4
+    minimum: int = 1
+    backoff: float = 0.9
+    latency_backoff: float = 0.8
+    latency_tolerance: float = 2.0
+    hold: float = 1.0
+    slow_start_until: int = 32
+    probe: float = 0.05
+    clock: Callable[[], float] = time.monotonic
+
+    def __post_init__(self) -> None:
+        if not 1 <= self.minimum <= self.maximum:
+            raise ValueError(f"need 1 <= minimum <= maximum, got {self.minimum} and {self.maximum}")
+        if not 0 < self.backoff < 1 or not 0 < self.latency_backoff < 1:
             raise ValueError("backoff factors must lie strictly between 0 and 1")
-        if hold < 0 or latency_tolerance <= 1 or probe <= 0:
+        if self.hold < 0 or self.latency_tolerance <= 1 or self.probe <= 0:
             raise ValueError("need hold >= 0, latency_tolerance > 1 and probe > 0")
-        self.minimum, self.maximum = minimum, maximum
-        self._limit = float(min(max(initial, minimum), maximum))
+        self._limit = float(min(max(self.initial, self.minimum), self.maximum))
         super().__init__(LimitStats(self._limit, peak_limit=self.limit))
-        self._backoff, self._latency_backoff = backoff, latency_backoff
-        self._tolerance, self._hold, self._probe = latency_tolerance, hold, probe
-        self._slow_start_until = slow_start_until
-        self._clock = clock
         self._slow_start = True
         self._phase = 0.0
         self._last_decrease = self._last_trip = -math.inf
@@ -211,10 +205,10 @@ class AimdLimiter(_Slots):
         self._evidence_from = -math.inf
         self._best_rtt = math.inf
         self._last_rate = 0.0
-        self._ceiling = float(maximum)  # the limit of the last decrease
+        self._ceiling = float(self.maximum)  # the limit of the last decrease
         # Closed windows of the last second or so: (end, seconds, answers, successes, load).
         self._recent: deque[tuple[float, float, int, int, int]] = deque()
-        self._new_window(clock(), self.limit)
+        self._new_window(self.clock(), self.limit)
 
     def _new_window(self, now: float, size: int) -> None:
         """A window ends after two of the best round trips (before the first, `size` answers)."""
@@ -261,7 +255,7 @@ class AimdLimiter(_Slots):
     def release(self, status: int | None, seconds: float) -> None:
         self._load += self.in_flight
         self.in_flight -= 1
-        now = self._clock()
+        now = self.clock()
         self._done += 1
         if self._evidence_from == math.inf and self.in_flight <= self.limit:
             self._evidence_from = now
@@ -299,22 +293,22 @@ class AimdLimiter(_Slots):
         if self._throttled:
             # Within `hold` of a trip, a refusal now and then is the emptied bucket filling
             # up again, not a new overload; a quarter of the answers refused is.
-            if now > self._last_trip + self._hold or 4 * self._throttled >= max(
+            if now > self._last_trip + self.hold or 4 * self._throttled >= max(
                 self._done, self.limit
             ):
                 self._throttle(now)
         elif (
             mean_rtt is not None
-            and mean_rtt > self._tolerance * self._best_rtt
+            and mean_rtt > self.latency_tolerance * self._best_rtt
             and rate <= self._last_rate * 1.05
         ):
-            self._decrease(self._limit * self._latency_backoff, now, self._limit)
+            self._decrease(self._limit * self.latency_backoff, now, self._limit)
             self._counts.latency_decreases += 1
         elif (
             # Grow only a limit that was the bottleneck; an idle one proves nothing.
             self._limited
             and not self._echoed
-            and now >= self._last_decrease + self._hold
+            and now >= self._last_decrease + self.hold
             and self._limit < self.maximum
         ):
             self._grow(elapsed)
@@ -329,10 +323,10 @@ class AimdLimiter(_Slots):
         answers = sum(r[2] for r in self._recent)
         in_flight = sum(r[4] for r in self._recent) / answers
         through = in_flight * sum(r[3] for r in self._recent) / answers
-        target = self._backoff * min(self._limit, max(through, self._limit / 4))
+        target = self.backoff * min(self._limit, max(through, self._limit / 4))
         # Further cuts within `hold` belong to the same trip and keep its ceiling.
         ceiling = self._limit
-        if now > self._last_trip + self._hold:
+        if now > self._last_trip + self.hold:
             self._counts.trips += 1
         else:
             ceiling = max(ceiling, self._ceiling)
@@ -342,13 +336,13 @@ class AimdLimiter(_Slots):
 
     def _grow(self, elapsed: float) -> None:
         if self._slow_start:
-            factor = 2.0 if self._limit < self._slow_start_until else _RAMP
+            factor = 2.0 if self._limit < self.slow_start_until else _RAMP
             grown = self._limit * factor
-            if self._limit < self._slow_start_until:
-                grown = min(grown, max(float(self._slow_start_until), self._limit + 1))
+            if self._limit < self.slow_start_until:
+                grown = min(grown, max(float(self.slow_start_until), self._limit + 1))
         else:
             # Back to the ceiling quickly, beyond it slowly; per second, whatever the RTT.
-            step = max(0.25 * (self._ceiling - self._limit), self._probe * self._limit)
+            step = max(0.25 * (self._ceiling - self._limit), self.probe * self._limit)
             grown = self._limit + step * min(elapsed, 1.0)
         self._limit = min(float(self.maximum), grown)
         self._counts.increases += 1

@@ -22,7 +22,6 @@ from yarl import URL
 from stook.service.api._errors import (
     BodyTooLargeError,
     FailureKind,
-    IncompleteBodyError,
     TransportError,
 )
 from stook.service.api._limits import ConcurrencyLimit, FixedLimit
@@ -88,38 +87,29 @@ class Transport(Protocol):
     async def get(self, url: URL) -> Response: ...
 
 
+@dataclass(kw_only=True, eq=False, repr=False)  # no repr: the headers hold the token
 class HttpTransport:
     """An aiohttp session for up to ``concurrency`` parallel GETs; ``async with`` opens it.
     ``limiter`` (by default a :class:`FixedLimit` of ``concurrency``) may be shared."""
 
-    def __init__(
-        self,
-        *,
-        name: str,
-        concurrency: int,
-        request_timeout: float,
-        headers: Mapping[str, str] | None = None,
-        follow_redirects: bool = True,
-        credentials_allowed: bool = True,
-        limiter: ConcurrencyLimit | None = None,
-        proxy_for: URL | None = None,
-        body_cap: BodyCap | None = None,
-    ) -> None:
-        if concurrency < 1:
-            raise ValueError(f"concurrency must be at least 1, got {concurrency}")
-        self._headers = dict(headers or {})
-        credentials = {"authorization", "proxy-authorization"}
-        if not credentials_allowed and credentials & {k.lower() for k in self._headers}:
-            raise ValueError(f"{name} transport must not carry credential headers")
-        self.name = name
+    name: str
+    concurrency: int
+    request_timeout: float
+    headers: Mapping[str, str] = field(default_factory=dict)
+    follow_redirects: bool = True
+    credentials_allowed: bool = True  # False (storage): no token, user info or .netrc
+    limiter: ConcurrencyLimit | None = None
+    proxy_for: URL | None = None
+    body_cap: BodyCap | None = None
+
+    def __post_init__(self) -> None:
+        if self.concurrency < 1:
+            raise ValueError(f"concurrency must be at least 1, got {self.concurrency}")
+        names = {name.lower() for name in self.headers}
+        if not self.credentials_allowed and names & {"authorization", "proxy-authorization"}:
+            raise ValueError(f"{self.name} transport must not carry credential headers")
         self.stats = TransferStats()
-        self.limiter: ConcurrencyLimit = limiter or FixedLimit(concurrency)
-        self._concurrency = concurrency
-        self._timeout = request_timeout
-        self._follow_redirects = follow_redirects
-        self._credentials_allowed = credentials_allowed
-        self._proxy_for = proxy_for
-        self._body_cap = body_cap
+        self._limit = self.limiter or FixedLimit(self.concurrency)
         self._session: aiohttp.ClientSession | None = None
         self._debug = False
 
@@ -133,10 +123,10 @@ class HttpTransport:
     async def open(self) -> None:
         # Asked once: the debug line costs a redact_url per request.
         self._debug = _log.is_enabled_for(logging.DEBUG)
-        proxy = self._proxy_for
+        proxy = self.proxy_for
         self._session = aiohttp.ClientSession(
-            connector=aiohttp.TCPConnector(limit=self._concurrency, limit_per_host=0),
-            headers=self._headers,
+            connector=aiohttp.TCPConnector(limit=self.concurrency, limit_per_host=0),
+            headers=self.headers,
             # The timeout is the slot's (see `get`): aiohttp's would count the wait for one.
             timeout=aiohttp.ClientTimeout(total=None),
             # trust_env would send ~/.netrc credentials to storage and read the environment
@@ -156,18 +146,18 @@ class HttpTransport:
         session = self._session
         if session is None:
             raise RuntimeError(f"{self.name} transport is not open; use 'async with'")
-        if not self._credentials_allowed and (url.raw_user, url.raw_password) != (None, None):
+        if not self.credentials_allowed and (url.raw_user, url.raw_password) != (None, None):
             url = url.with_user(None)  # aiohttp would send user info as Basic auth
-        await self.limiter.acquire()
+        await self._limit.acquire()
         started = time.monotonic()
         status: int | None = None
         try:
             self.stats.requests += 1
-            async with asyncio.timeout(self._timeout):
+            async with asyncio.timeout(self.request_timeout):
                 # Awaited, not `async with`: a frame less in every resumption; a body read
                 # to its end already gave its connection back.
                 answer = await session.get(
-                    url, allow_redirects=self._follow_redirects, max_redirects=5
+                    url, allow_redirects=self.follow_redirects, max_redirects=5
                 )
                 try:
                     body = await self._read(answer)
@@ -176,12 +166,10 @@ class HttpTransport:
                         answer.release()
                 response = Response(answer.status, answer.headers, body, answer.url)
             status = response.status
-        except TransportError:
-            raise
         except (aiohttp.ClientError, OSError, TimeoutError) as exc:
-            raise transport_error(exc, url, self._timeout) from None
+            raise transport_error(exc, url, self.request_timeout) from None
         finally:
-            self.limiter.release(status, time.monotonic() - started)  # an AIMD limit learns
+            self._limit.release(status, time.monotonic() - started)  # an AIMD limit learns
         self.stats.statuses[status] += 1
         self.stats.bytes_received += len(body)
         if self._debug:
@@ -197,7 +185,7 @@ class HttpTransport:
 
     async def _read(self, answer: aiohttp.ClientResponse) -> bytes:
         """The whole body, capped after decompression (a gzip bomb stops at the cap too)."""
-        cap = self._body_cap
+        cap = self.body_cap
         declared = answer.content_length
         if answer.status in _NO_BODY_STATUSES or hdrs.CONTENT_ENCODING in answer.headers:
             declared = None  # no body whatever it says, or a count of compressed bytes
@@ -205,9 +193,8 @@ class HttpTransport:
             try:  # aiohttp ends the body at its length: exactly that many bytes, at once
                 return await answer.content.readexactly(declared)
             except asyncio.IncompleteReadError as short:
-                raise IncompleteBodyError(
-                    method="GET", url=answer.url, received=len(short.partial), expected=declared
-                ) from None
+                reason = f"body ended after {len(short.partial)} of {declared} bytes"
+                raise TransportError(method="GET", url=answer.url, reason=reason) from None
         chunks: list[bytes] = []
         size = declared or 0  # a declared size past the cap: no read
         while cap is None or size <= cap.max_bytes:
