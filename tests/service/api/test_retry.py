@@ -144,10 +144,8 @@ async def test_send_counts_and_gives_up(sleep: RecordingSleep) -> None:
         await retried(always_503, policy, stats=stats)
     assert calls == 4
     assert stats.retries == 3
-    assert stats.retry_reasons == {"HTTP 503": 3}
     assert caught.value.attempts == 4
     assert caught.value.__cause__ is None
-    assert stats.retries == 3
 
 
 async def test_send_lets_permanent_errors_through(sleep: RecordingSleep) -> None:

@@ -21,15 +21,7 @@ from dataclasses import dataclass
 from typing import Final, TypeVar
 
 import structlog
-from tenacity import (
-    DoSleep,
-    RetryCallState,
-    RetryError,
-    Retrying,
-    retry_if_exception,
-    wait_random_exponential,
-)
-from tenacity.wait import wait_base
+import tenacity
 from yarl import URL
 
 from stook.service.api._errors import (
@@ -66,7 +58,7 @@ class RetryPolicy:
     max_retry_after: float = 60.0
     request_timeout: float = 30.0
     max_attempts: int | None = None
-    backoff: wait_base | None = None
+    backoff: tenacity.wait.wait_base | None = None
     sleep: Callable[[float], Awaitable[None]] = asyncio.sleep
     clock: Callable[[], float] = time.monotonic
 
@@ -102,7 +94,7 @@ def parse_retry_after(value: str | None, *, now: float | None = None) -> float |
     if not value:
         return None
     try:
-        return max(0.0, float(value.strip()))
+        return max(0.0, float(value))
     except ValueError:
         pass
     try:
@@ -132,7 +124,7 @@ class Origin:
         self, label: str, policy: RetryPolicy, *, setting: str, trip_after: int = TRIP_AFTER
     ) -> None:
         self.label, self.policy, self.setting = label, policy, setting
-        self.backoff = policy.backoff or wait_random_exponential(
+        self.backoff = policy.backoff or tenacity.wait_random_exponential(
             multiplier=policy.initial_backoff, max=policy.max_backoff
         )
         self.answered = False  # ever: after that, failures are outages, not a wrong URL
@@ -148,11 +140,11 @@ class Origin:
         self._probing = False
         self._changed = asyncio.Event()
         # One for all its requests: `iter` runs without an await, so they take turns on it;
-        # what is each request's is in its RetryCallState.
-        self.tenacity = Retrying(
+        # what is each request's is in its RetryCallState (args[0]: its _Request).
+        self.tenacity = tenacity.Retrying(
             stop=lambda state: state.args[0].stop(state),
             wait=lambda state: state.args[0].wait(state),
-            retry=retry_if_exception(is_retryable),
+            retry=tenacity.retry_if_exception(is_retryable),
             before_sleep=lambda state: state.args[0].before_sleep(state),
         )
         self.tenacity.begin()
@@ -225,8 +217,13 @@ class Origin:
                 timer.cancel()
         return False
 
+    def unreachable(self, url: URL, reason: str) -> OriginUnreachableError:
+        return OriginUnreachableError(
+            label=self.label, origin=url.origin(), setting=self.setting, reason=reason
+        )
+
     def _close_for(self, attempt: int, retry_after: float | None) -> float:
-        state = RetryCallState(Retrying(), None, (), {})
+        state = tenacity.RetryCallState(tenacity.Retrying(), None, (), {})
         state.attempt_number = attempt
         wait = max(min(self.backoff(state), MAX_PROBE_INTERVAL), retry_after or 0.0)
         self._until = self.policy.clock() + wait
@@ -243,7 +240,7 @@ class _Request:
     def __init__(self, origin: Origin, url: URL, stats: TransferStats, started: float) -> None:
         self.origin, self.policy, self.url, self.stats = origin, origin.policy, url, stats
         self.started = started
-        self.state = RetryCallState(origin.tenacity, fn=None, args=(self,), kwargs={})
+        self.state = tenacity.RetryCallState(origin.tenacity, fn=None, args=(self,), kwargs={})
         self.last: BaseException | None = None
         self.error: Exception | None = None  # what ends it, once tenacity stops
         self.counted = False  # in origin.retrying
@@ -259,11 +256,9 @@ class _Request:
 
     def deadline(self) -> float:
         policy = self.policy
-        return self.started + (
-            min(policy.retry_for, policy.first_contact_for)
-            if self.first_contact()
-            else policy.retry_for
-        )
+        if self.first_contact():
+            return self.started + min(policy.retry_for, policy.first_contact_for)
+        return self.started + policy.retry_for
 
     def failed(self, exc: Exception, sent_in: int, probe: bool) -> None:
         """Note `exc`, and tell the origin what it says about it."""
@@ -279,16 +274,11 @@ class _Request:
             origin.answer(sent_in)
         if isinstance(exc, TransportError) and exc.kind == "dns" and not origin.answered:
             # The name does not resolve and never did: no retry can fix a wrong URL.
-            raise OriginUnreachableError(
-                label=origin.label,
-                origin=self.url.origin(),
-                setting=origin.setting,
-                reason=exc.reason,
-            ) from None
+            raise origin.unreachable(self.url, exc.reason) from None
 
-    def stop(self, state: RetryCallState) -> bool:
-        policy, attempts, last = self.policy, state.attempt_number, self.last
-        retry_after = _retry_after(last)
+    def stop(self, state: tenacity.RetryCallState) -> bool:
+        policy, attempts = self.policy, state.attempt_number
+        retry_after = _retry_after(self.last)
         left = self.deadline() - policy.clock()
         limit = ""
         if policy.max_attempts is not None and attempts >= policy.max_attempts:
@@ -300,16 +290,13 @@ class _Request:
         elif retry_after is not None and retry_after > left:
             limit = f"the {left:.1f} s left of its {policy.retry_for:g} s [fetch] retry_for"
         if limit:
+            status = getattr(self.last, "status", None)
             self.error = RetryAfterTooLongError(
-                method="GET",
-                url=self.url,
-                status=getattr(last, "status", None),
-                retry_after=retry_after or 0.0,
-                limit=limit,
+                method="GET", url=self.url, status=status, retry_after=retry_after or 0, limit=limit
             )
         return self.error is not None
 
-    def wait(self, state: RetryCallState) -> float:
+    def wait(self, state: tenacity.RetryCallState) -> float:
         """The server's pause first; at a closed gate none (the request waits there, to
         resume with the others); else the backoff. Never past the budget."""
         left = max(0.0, self.deadline() - self.policy.clock())
@@ -318,10 +305,9 @@ class _Request:
             return min(retry_after, self.policy.max_retry_after, left)
         return min(self.origin.backoff(state), left) if self.origin.is_open else 0.0
 
-    def before_sleep(self, state: RetryCallState) -> None:
+    def before_sleep(self, state: tenacity.RetryCallState) -> None:
         reason = describe_failure(self.last) if self.last is not None else "unknown"
         self.stats.retries += 1
-        self.stats.retry_reasons[reason.split(":", 1)[0]] += 1
         if not self.counted:
             self.counted = True
             self.origin.retrying += 1
@@ -338,25 +324,18 @@ class _Request:
         policy, origin, last = self.policy, self.origin, self.last
         reason = describe_failure(last) if last is not None else origin.last_failure
         if budget_spent and self.first_contact():
-            reason = f"{reason}; tried for {policy.first_contact_for:g} s"
-            return OriginUnreachableError(
-                label=origin.label, origin=self.url.origin(), setting=origin.setting, reason=reason
-            )
+            tried = f"{reason}; tried for {policy.first_contact_for:g} s"
+            return origin.unreachable(self.url, tried)
         if budget_spent and not origin.is_open:
             # Requests of many kinds fail and none is answered: the origin is down.
+            where, retry_for = origin.url or self.url.origin(), policy.retry_for
             return OriginUnavailableError(
-                label=origin.label,
-                origin=origin.url or self.url.origin(),
-                retry_for=policy.retry_for,
-                last_reason=reason,
+                label=origin.label, origin=where, retry_for=retry_for, last_reason=reason
             )
         status = getattr(last, "status", None)
+        status = status if isinstance(status, int) else None
         return RetriesExhaustedError(
-            method="GET",
-            url=self.url,
-            attempts=attempts,
-            last_reason=reason,
-            last_status=status if isinstance(status, int) else None,
+            method="GET", url=self.url, attempts=attempts, last_reason=reason, last_status=status
         )
 
 
@@ -398,14 +377,14 @@ async def send(
                     origin.probe_finished()
             # Raises the failure when it is not retried, RetryError when retries stop.
             do = origin.tenacity.iter(request.state)
-            assert isinstance(do, DoSleep)
+            assert isinstance(do, tenacity.DoSleep)
             request.state.prepare_for_next_attempt()
             await policy.sleep(do)
     except _GateTimeoutError:
         request = request or _Request(origin, url, stats, started)
         sent = request.state.attempt_number - 1 if request.last else 0  # the last one was not
         raise request.exhausted(sent, budget_spent=True) from None
-    except RetryError:
+    except tenacity.RetryError:
         assert request is not None
         assert request.error is not None
         raise request.error from None

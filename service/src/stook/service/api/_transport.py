@@ -71,8 +71,7 @@ class TransferStats:
     requests: int = 0
     retries: int = 0
     bytes_received: int = 0
-    statuses: Counter[int] = field(default_factory=Counter)
-    retry_reasons: Counter[str] = field(default_factory=Counter)
+    statuses: Counter[int] = field(default_factory=Counter)  # read by `stook bench --probe`
 
 
 class Transport(Protocol):
