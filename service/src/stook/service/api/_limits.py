@@ -33,11 +33,8 @@ THROTTLE_STATUSES: Final = frozenset({429, 503})
 
 @dataclass(slots=True)
 class LimitStats:
-    """What a limiter did (a copy, its ``stats``): for logs, tests and benchmarks.
-
-    ``limit`` may be fractional (adaptive). ``trips`` counts throttle episodes: throttling
-    answers (fixed) or cuts for throttling (adaptive) more than ``hold`` after the last.
-    """
+    """What a limiter did (a copy, its ``stats``). ``trips`` counts throttle episodes:
+    throttling answers (fixed) or cuts (adaptive) more than ``hold`` after the last."""
 
     limit: float
     in_flight: int = 0
@@ -142,14 +139,14 @@ class FixedLimit(_Slots):
             self._last_throttle = now
 
 
+@dataclass(frozen=True)
 class NestedLimit:
     """A slot from `inner` (one origin's pace), then from `outer` (a bound shared with other
     origins): one held back by its own origin's pace sits on no shared slot. Both learn from
     the outcome; ``stats`` are the inner limit's."""
 
-    def __init__(self, inner: ConcurrencyLimit, outer: ConcurrencyLimit) -> None:
-        self.inner = inner
-        self.outer = outer
+    inner: ConcurrencyLimit
+    outer: ConcurrencyLimit
 
     @property
     def stats(self) -> LimitStats:
@@ -324,22 +321,18 @@ class AimdLimiter(_Slots):
         in_flight = sum(r[4] for r in self._recent) / answers
         through = in_flight * sum(r[3] for r in self._recent) / answers
         target = self.backoff * min(self._limit, max(through, self._limit / 4))
-        # Further cuts within `hold` belong to the same trip and keep its ceiling.
-        ceiling = self._limit
-        if now > self._last_trip + self.hold:
+        same_trip = now <= self._last_trip + self.hold  # keeps that trip's ceiling
+        if not same_trip:
             self._counts.trips += 1
-        else:
-            ceiling = max(ceiling, self._ceiling)
         self._last_trip = now
-        self._decrease(target, now, ceiling)
+        self._decrease(target, now, max(self._limit, self._ceiling) if same_trip else self._limit)
         self._counts.throttle_decreases += 1
 
     def _grow(self, elapsed: float) -> None:
-        if self._slow_start:
-            factor = 2.0 if self._limit < self.slow_start_until else _RAMP
-            grown = self._limit * factor
-            if self._limit < self.slow_start_until:
-                grown = min(grown, max(float(self.slow_start_until), self._limit + 1))
+        if self._slow_start and self._limit < self.slow_start_until:
+            grown = min(self._limit * 2, max(float(self.slow_start_until), self._limit + 1))
+        elif self._slow_start:
+            grown = self._limit * _RAMP
         else:
             # Back to the ceiling quickly, beyond it slowly; per second, whatever the RTT.
             step = max(0.25 * (self._ceiling - self._limit), self.probe * self._limit)

@@ -1,13 +1,9 @@
-"""The object-storage client: presigned URLs fetched with retries and without credentials.
-
-Its transport carries no token, reads no ``.netrc``, and leaves redirects to this client,
-which sends each hop through it: no host a presigned URL names can receive the token.
-"""
+"""The object-storage client: presigned URLs fetched with retries and no credentials at all;
+it follows redirects itself, each hop through its transport, so that no host gets a token."""
 
 from __future__ import annotations
 
 import re
-from types import TracebackType
 from typing import Final, Self
 
 from yarl import URL
@@ -77,22 +73,12 @@ class StorageClient:
         await self._transport.open()
         return self
 
-    async def __aexit__(
-        self,
-        exc_type: type[BaseException] | None,
-        exc: BaseException | None,
-        tb: TracebackType | None,
-    ) -> None:
+    async def __aexit__(self, *exc_info: object) -> None:
         await self._transport.close()
 
     async def fetch_bytes(self, url: str) -> bytes:
-        """The whole object behind a presigned URL.
-
-        Raises :class:`PresignedUrlExpiredError` when storage refuses the signature (list
-        again for a fresh URL), :class:`StorageError` for other refusals, and
-        :class:`RetriesExhaustedError` when transient failures outlast the retry policy
-        (:class:`OriginUnavailableError` when storage as a whole is failing).
-        """
+        """The whole object behind a presigned URL; :class:`PresignedUrlExpiredError` when
+        storage refuses the signature (list again for a fresh URL)."""
         # encoded=True: re-quoting would alter the signed query string and void the signature.
         target = URL(url, encoded=True)
         if target.scheme not in ("http", "https") or not target.raw_host:
