@@ -150,8 +150,8 @@ class Origin:
         self.tenacity.begin()
 
     def answer(self, sent_in: int) -> None:
-        """An answer (not a transient failure) to a request sent when `closures` was
-        `sent_in`: it opens the gate, unless the request left before the gate closed."""
+        """An answer to a request sent when `closures` was `sent_in`: it opens the gate,
+        unless the request left before the gate closed."""
         self.answered = True
         self._failing.clear()
         if not self.is_open and sent_in == self.closures:
@@ -160,8 +160,7 @@ class Origin:
             self._notify()
 
     def fail(self, request: object, exc: BaseException, url: URL, probe: bool) -> None:
-        """A transient failure of `request`: a probe's, or those of enough requests with no
-        answer between them, close the gate."""
+        """A transient failure of `request`; a probe's, or enough requests', close the gate."""
         self.last_failure = describe_failure(exc)
         self.url = str(url.origin())
         retry_after = _retry_after(exc)
@@ -342,17 +341,11 @@ class _Request:
 async def send(
     attempt: Callable[[], Awaitable[_T]], origin: Origin, *, url: URL, stats: TransferStats
 ) -> _T:
-    """Await ``attempt()`` until it succeeds, fails for good, or its budget is spent.
-
-    A failure that is not transient propagates unchanged. A spent budget raises
-    :class:`OriginUnavailableError` while the origin's gate is closed,
-    :class:`OriginUnreachableError` when the origin never answered, else
-    :class:`RetriesExhaustedError`; a ``Retry-After`` that cannot be honoured raises
-    :class:`RetryAfterTooLongError` at once.
-    """
-    # tenacity decides after each failure whether to retry, stop and how long to wait: the
-    # loop of AsyncRetrying.__call__ on tenacity's synchronous core, which saves the
-    # coroutines AsyncRetrying wraps around every step (80 µs a request at 0 ms latency).
+    """Await ``attempt()`` until it succeeds, fails for good (raised unchanged), or its budget
+    is spent (:class:`OriginUnavailableError` while the gate is closed, else
+    :class:`OriginUnreachableError` or :class:`RetriesExhaustedError`)."""
+    # tenacity decides after each failure: AsyncRetrying's loop on tenacity's synchronous
+    # core, without the coroutines it wraps around every step (80 µs a request).
     policy = origin.policy
     started = policy.clock()
     request: _Request | None = None  # made with the first failure

@@ -88,21 +88,18 @@ class StorageClient:
         )
 
     async def _fetch_once(self, url: URL) -> bytes:
-        response = await self._transport.get(url)
-        if response.ok:
-            return response.body
-        # Redirects, each hop sent through the transport so that each is checked.
-        for _hop in range(_MAX_REDIRECTS):
-            location = response.headers.get("Location")
-            if response.status not in _REDIRECT_STATUSES or not location:
-                raise _storage_error(response)
-            url = url.join(URL(location, encoded=True))
+        hops = 0  # redirects followed, each hop sent through the transport to be checked
+        while True:
             response = await self._transport.get(url)
             if response.ok:
                 return response.body
-        if response.status in _REDIRECT_STATUSES and response.headers.get("Location"):
-            raise StorageError(f"more than {_MAX_REDIRECTS} redirects from object storage", url=url)
-        raise _storage_error(response)
+            location = response.headers.get("Location")
+            if response.status not in _REDIRECT_STATUSES or not location:
+                raise _storage_error(response)
+            if hops == _MAX_REDIRECTS:
+                raise StorageError(f"more than {hops} redirects from object storage", url=url)
+            url = url.join(URL(location, encoded=True))
+            hops += 1
 
 
 def answer_retry_after(response: Response) -> float | None:
@@ -133,9 +130,7 @@ def _storage_error(response: Response) -> StorageError:
         message = "object storage is unavailable or throttling"
     else:
         message = "object storage refused the request"
+    retry_after = answer_retry_after(response)
     return StorageError(
-        f"{said}: {message}",
-        url=response.url,
-        status=status,
-        retry_after=answer_retry_after(response),
+        f"{said}: {message}", url=response.url, status=status, retry_after=retry_after
     )
