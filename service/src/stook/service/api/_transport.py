@@ -19,11 +19,7 @@ from aiohttp import hdrs
 from multidict import CIMultiDictProxy
 from yarl import URL
 
-from stook.service.api._errors import (
-    BodyTooLargeError,
-    FailureKind,
-    TransportError,
-)
+from stook.service.api._errors import BodyTooLargeError, FailureKind, TransportError
 from stook.service.api._limits import ConcurrencyLimit, FixedLimit
 from stook.service.api._redact import redact_text, redact_url
 
@@ -172,14 +168,8 @@ class HttpTransport:
         self.stats.statuses[status] += 1
         self.stats.bytes_received += len(body)
         if self._debug:
-            _log.debug(
-                "http response",
-                transport=self.name,
-                url=redact_url(response.url),
-                status=status,
-                bytes=len(body),
-                ms=round((time.monotonic() - started) * 1000, 1),
-            )
+            ms = round((time.monotonic() - started) * 1000, 1)
+            _log.debug("http response", url=redact_url(response.url), status=status, ms=ms)
         return response
 
     async def _read(self, answer: aiohttp.ClientResponse) -> bytes:
