@@ -139,15 +139,6 @@ class Origin:
         self._failed_probes = 0
         self._probing = False
         self._changed = asyncio.Event()
-        # One for all its requests: `iter` runs without an await, so they take turns on it;
-        # what is each request's is in its RetryCallState (args[0]: its _Request).
-        self.tenacity = tenacity.Retrying(
-            stop=lambda state: state.args[0].stop(state),
-            wait=lambda state: state.args[0].wait(state),
-            retry=tenacity.retry_if_exception(is_retryable),
-            before_sleep=lambda state: state.args[0].before_sleep(state),
-        )
-        self.tenacity.begin()
 
     def answer(self, sent_in: int) -> None:
         """An answer to a request sent when `closures` was `sent_in`: it opens the gate,
@@ -239,18 +230,23 @@ class _Request:
     def __init__(self, origin: Origin, url: URL, stats: TransferStats, started: float) -> None:
         self.origin, self.policy, self.url, self.stats = origin, origin.policy, url, stats
         self.started = started
-        self.state = tenacity.RetryCallState(origin.tenacity, fn=None, args=(self,), kwargs={})
+        self.tenacity = tenacity.Retrying(
+            stop=self.stop,
+            wait=self.wait,
+            retry=tenacity.retry_if_exception(is_retryable),
+            before_sleep=self.before_sleep,
+        )
+        self.tenacity.begin()
+        self.state = tenacity.RetryCallState(self.tenacity, fn=None, args=(), kwargs={})
         self.last: BaseException | None = None
         self.error: Exception | None = None  # what ends it, once tenacity stops
         self.counted = False  # in origin.retrying
 
     def first_contact(self) -> bool:
         """The origin never answered and this request failed to connect: the short budget."""
-        last = self.last
+        last, answered = self.last, self.origin.answered
         return (
-            not self.origin.answered
-            and isinstance(last, TransportError)
-            and last.kind in ("connect", "broken")
+            not answered and isinstance(last, TransportError) and last.kind in ("connect", "broken")
         )
 
     def deadline(self) -> float:
@@ -369,7 +365,7 @@ async def send(
                 if probe:
                     origin.probe_finished()
             # Raises the failure when it is not retried, RetryError when retries stop.
-            do = origin.tenacity.iter(request.state)
+            do = request.tenacity.iter(request.state)
             assert isinstance(do, tenacity.DoSleep)
             request.state.prepare_for_next_attempt()
             await policy.sleep(do)
