@@ -1,21 +1,16 @@
 """How many requests may be in flight: a fixed bound, or one that adapts (AIMD).
 
-A client's transports share one fixed bound; in adaptive mode each also has a limiter of its
-own inside it (`NestedLimit`): two servers, two paces. `release()` reports the status (None
-for a transport failure) and the seconds the slot was held, so the adaptive limiter learns.
-
-The adaptive limiter is built for gateways' token buckets that answer 429 with a whole-second
-`Retry-After`: overshooting costs a second per refused request, so staying just below the
-rate finishes first. It doubles until `slow_start_until`, then grows by a quarter per window;
-a throttle (429, 503) to a request sent after the last cut took hold cuts it to `backoff`
-times what the server let through over the last second (Little's law), by at most three
-quarters, and the limit it tripped at becomes the ceiling. Within `hold` it does not grow,
-and only a quarter of a window refused cuts again. It then closes a quarter of its gap to
-the ceiling per second, growing at least by `probe` per second. Latency past
-`latency_tolerance` times the best, with no more throughput, cuts it by a fifth. The limit
-is fractional: at 6.4 the seventh slot is granted to about 40 % of the admissions needing it.
-A window lasts two of the best round trips (before the first, as many answers as requests
-were in flight at its start).
+A client's transports share one fixed bound; in adaptive mode each also has its own limiter
+inside it (`NestedLimit`). `release()` reports the status and the seconds the slot was held.
+The adaptive limiter aims just below a gateway's token bucket (429 with a whole-second
+`Retry-After`: overshooting costs a second per refusal). It doubles until `slow_start_until`,
+then grows a quarter per window; a throttle to a request sent after the last cut cuts it to
+`backoff` times what the server let through over the last second (Little's law), at most
+three quarters off, and the limit it tripped at becomes the ceiling. Within `hold` it does
+not grow, and only a quarter of a window refused cuts again; then it closes a quarter of its
+gap to the ceiling per second, at least `probe` per second. Latency past `latency_tolerance`
+times the best, with no more throughput, cuts a fifth. A fractional limit (6.4) grants its
+last slot part of the time (to about 40 % of the admissions needing it).
 """
 
 from __future__ import annotations
