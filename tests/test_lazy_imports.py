@@ -183,8 +183,9 @@ def test_previewing_imports_neither_plotly_nor_polars(tmp_path: Path) -> None:
 
 
 # What a batch run imports only once answers arrive: polars and numpy with the first
-# series decoded (tenacity sends every request, the first one too).
-AFTER_THE_FIRST_ANSWERS = ("polars", "numpy")
+# series decoded (tenacity sends every request, the first one too); and what it never
+# imports: the report's aggregations (report mode's).
+AFTER_THE_FIRST_ANSWERS = ("polars", "numpy", "stook.sdk.aggregations.report")
 
 # `stook run` until a signal, then the modules of AFTER_THE_FIRST_ANSWERS it has imported.
 RUN_UNTIL_SIGNALLED = """

@@ -33,7 +33,6 @@ from stook.sdk.aggregations._registry import (
     build,
     build_all,
     default_batch_aggregations,
-    default_report_aggregations,
 )
 from stook.sdk.aggregations._scalar_defaults import ScalarDefaults
 from stook.sdk.aggregations._scalar_stats import ScalarStats
@@ -108,7 +107,6 @@ __all__ = [
     "build_all",
     "decode_summary",
     "default_batch_aggregations",
-    "default_report_aggregations",
     "encode_summary",
     "summary_columns_from_data",
     "summary_from_data",
