@@ -184,8 +184,13 @@ def test_previewing_imports_neither_plotly_nor_polars(tmp_path: Path) -> None:
 
 # What a batch run imports only once answers arrive: polars and numpy with the first
 # series decoded (tenacity sends every request, the first one too); and what it never
-# imports: the report's aggregations (report mode's).
-AFTER_THE_FIRST_ANSWERS = ("polars", "numpy", "stook.sdk.aggregations.report")
+# imports: the report's aggregations (report mode's) and the sharded engine (a local run).
+AFTER_THE_FIRST_ANSWERS = (
+    "polars",
+    "numpy",
+    "stook.sdk.aggregations.report",
+    "stook.service.modes._engine",
+)
 
 # `stook run` until a signal, then the modules of AFTER_THE_FIRST_ANSWERS it has imported.
 RUN_UNTIL_SIGNALLED = """

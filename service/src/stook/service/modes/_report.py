@@ -15,7 +15,6 @@ from stook.service.api import ApiClient, RetryPolicy
 from stook.service.fetch import ReportFetcher, ReportOutcome
 from stook.service.modes._config import ConfigError, EngineSettings, StookConfig
 from stook.service.modes._config_metrics import config_metrics_step, write_config_metrics
-from stook.service.modes._engine import ReportPlan, fold_sharded
 from stook.service.modes._inputs import ReportInputs
 from stook.service.modes._progress import NoProgress, Progress, Snapshot
 from stook.service.modes._steps import (
@@ -122,6 +121,9 @@ async def run_report(
 
         outcome, traffic = await fold_here(run, fetcher_for)
     else:
+        # The sharded engine (worker processes or Ray) comes with the runs that use it.
+        from stook.service.modes._engine import ReportPlan, fold_sharded
+
         outcome, traffic = await fold_sharded(run, ReportPlan(inputs, config), engine, config.file)
 
     check_job_metric_names(config, outcome)
