@@ -28,6 +28,7 @@ HEAVY = ("polars", "numpy", "scipy", "ruptures", "plotly", "ray", "duckdb", "sql
 PACKAGES = [
     "stook.sdk",
     "stook.sdk.aggregations",
+    "stook.sdk.aggregations.baseline",
     "stook.sdk.aggregations.report",
     "stook.sdk.stats",
     "stook.service",
@@ -184,11 +185,14 @@ def test_previewing_imports_neither_plotly_nor_polars(tmp_path: Path) -> None:
 
 # What a batch run imports only once answers arrive: polars and numpy with the first
 # series decoded (tenacity sends every request, the first one too); and what it never
-# imports: the report's aggregations (report mode's) and the sharded engine (a local run).
+# imports: the report's aggregations (report mode's), the baseline comparison and its
+# statistics (a run without [batch.baseline]) and the sharded engine (a local run).
 AFTER_THE_FIRST_ANSWERS = (
     "polars",
     "numpy",
     "stook.sdk.aggregations.report",
+    "stook.sdk.aggregations.baseline",
+    "stook.sdk.stats",
     "stook.service.modes._engine",
 )
 

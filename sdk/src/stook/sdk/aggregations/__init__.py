@@ -8,13 +8,6 @@ or register it under the ``stook.aggregations`` entry-point group.
 """
 
 from stook.sdk.aggregations._base import Aggregation, BatchAggregation, Needs, ReportAggregation
-from stook.sdk.aggregations._baseline import (
-    BaselineComparison,
-    BaselineInfo,
-    ComparisonResult,
-    MetricComparison,
-    PassRateComparison,
-)
 from stook.sdk.aggregations._by_tag import ByExperienceTag
 from stook.sdk.aggregations._category_totals import CategoryTotals
 from stook.sdk.aggregations._columns import JobColumns, JobSummary, ScalarColumn
@@ -69,8 +62,6 @@ __all__ = [
     "UNKNOWN_STATUS",
     "Aggregation",
     "AggregationConfigError",
-    "BaselineComparison",
-    "BaselineInfo",
     "BatchAggregation",
     "BatchRecord",
     "BatchSummary",
@@ -78,7 +69,6 @@ __all__ = [
     "ByExperienceTag",
     "CategoryTotals",
     "ColumnarSummary",
-    "ComparisonResult",
     "EventCounts",
     "JobColumns",
     "JobDataError",
@@ -87,12 +77,10 @@ __all__ = [
     "JobStatusCounts",
     "JobSummary",
     "MergedHistogram",
-    "MetricComparison",
     "MetricStatusCounts",
     "Needs",
     "ParameterSweep",
     "PassRate",
-    "PassRateComparison",
     "ReportAggregation",
     "Scalar",
     "ScalarColumn",

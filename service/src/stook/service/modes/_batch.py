@@ -7,10 +7,10 @@ import difflib
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from stook.sdk import MetricStatus, MetricsWriter
 from stook.sdk.aggregations import (
-    BaselineComparison,
     BatchAggregation,
     BatchSummaryWriter,
     Needs,
@@ -31,6 +31,9 @@ from stook.service.modes._steps import (
     write_missing_jobs,
     write_output,
 )
+
+if TYPE_CHECKING:
+    from stook.sdk.aggregations.baseline import BaselineComparison
 
 BatchResult = RunResult[FetchOutcome]
 
