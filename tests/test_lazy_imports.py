@@ -28,6 +28,7 @@ HEAVY = ("polars", "numpy", "scipy", "ruptures", "plotly", "ray", "duckdb", "sql
 PACKAGES = [
     "stook.sdk",
     "stook.sdk.aggregations",
+    "stook.sdk.aggregations.baseline",
     "stook.sdk.aggregations.report",
     "stook.sdk.stats",
     "stook.service",
@@ -183,8 +184,17 @@ def test_previewing_imports_neither_plotly_nor_polars(tmp_path: Path) -> None:
 
 
 # What a batch run imports only once answers arrive: polars and numpy with the first
-# series decoded (tenacity sends every request, the first one too).
-AFTER_THE_FIRST_ANSWERS = ("polars", "numpy")
+# series decoded (tenacity sends every request, the first one too); and what it never
+# imports: the report's aggregations (report mode's), the baseline comparison and its
+# statistics (a run without [batch.baseline]) and the sharded engine (a local run).
+AFTER_THE_FIRST_ANSWERS = (
+    "polars",
+    "numpy",
+    "stook.sdk.aggregations.report",
+    "stook.sdk.aggregations.baseline",
+    "stook.sdk.stats",
+    "stook.service.modes._engine",
+)
 
 # `stook run` until a signal, then the modules of AFTER_THE_FIRST_ANSWERS it has imported.
 RUN_UNTIL_SIGNALLED = """

@@ -86,8 +86,6 @@ PUBLIC_API: dict[str, list[str]] = {
         "UNKNOWN_STATUS",
         "Aggregation",
         "AggregationConfigError",
-        "BaselineComparison",
-        "BaselineInfo",
         "BatchAggregation",
         "BatchRecord",
         "BatchSummary",
@@ -95,7 +93,6 @@ PUBLIC_API: dict[str, list[str]] = {
         "ByExperienceTag",
         "CategoryTotals",
         "ColumnarSummary",
-        "ComparisonResult",
         "EventCounts",
         "JobColumns",
         "JobDataError",
@@ -104,12 +101,10 @@ PUBLIC_API: dict[str, list[str]] = {
         "JobStatusCounts",
         "JobSummary",
         "MergedHistogram",
-        "MetricComparison",
         "MetricStatusCounts",
         "Needs",
         "ParameterSweep",
         "PassRate",
-        "PassRateComparison",
         "ReportAggregation",
         "Scalar",
         "ScalarColumn",
@@ -124,7 +119,6 @@ PUBLIC_API: dict[str, list[str]] = {
         "build_all",
         "decode_summary",
         "default_batch_aggregations",
-        "default_report_aggregations",
         "encode_summary",
         "summary_columns_from_data",
         "summary_from_data",
@@ -148,6 +142,13 @@ PUBLIC_API: dict[str, list[str]] = {
         "seed_from",
         "wilson_interval",
     ],
+    "stook.sdk.aggregations.baseline": [
+        "BaselineComparison",
+        "BaselineInfo",
+        "ComparisonResult",
+        "MetricComparison",
+        "PassRateComparison",
+    ],
     "stook.sdk.aggregations.report": [
         "BatchMetricStatusCounts",
         "ChangePointSummary",
@@ -162,6 +163,7 @@ PUBLIC_API: dict[str, list[str]] = {
         "UnstableExperiences",
         "Verdict",
         "check",
+        "default_report_aggregations",
     ],
 }
 
@@ -232,7 +234,6 @@ def test_names_the_service_uses_are_public() -> None:
         "SeriesByName",
         "build_all",
         "default_batch_aggregations",
-        "default_report_aggregations",
     ):
         assert name in aggregations.__all__, name
 

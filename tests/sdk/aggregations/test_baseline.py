@@ -9,7 +9,8 @@ from datetime import UTC, datetime
 import pytest
 
 from stook.sdk import MetricStatus, MetricType
-from stook.sdk.aggregations import BaselineComparison, BaselineInfo, JobRecord, Scalar
+from stook.sdk.aggregations import JobRecord, Scalar
+from stook.sdk.aggregations.baseline import BaselineComparison, BaselineInfo
 from stook.sdk.stats import ComparisonVerdict as V
 from tests.sdk.aggregations.support import BATCH_ID, Output
 

@@ -20,8 +20,6 @@ import pytest
 
 from stook.sdk import MetricsWriter
 from stook.sdk.aggregations import (
-    BaselineComparison,
-    BaselineInfo,
     BatchAggregation,
     BatchSummaryWriter,
     ByExperienceTag,
@@ -40,6 +38,7 @@ from stook.sdk.aggregations import (
     default_batch_aggregations,
 )
 from stook.sdk.aggregations._registry import BUILTIN
+from stook.sdk.aggregations.baseline import BaselineComparison, BaselineInfo
 from tests.sdk.aggregations.job_outputs import job_with
 from tests.sdk.aggregations.support import BATCH_ID
 

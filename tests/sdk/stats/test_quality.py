@@ -16,7 +16,8 @@ import uuid
 import numpy as np
 import pytest
 
-from stook.sdk.aggregations import BaselineComparison, BaselineInfo, JobRecord, Scalar
+from stook.sdk.aggregations import JobRecord, Scalar
+from stook.sdk.aggregations.baseline import BaselineComparison, BaselineInfo
 from stook.sdk.stats import ComparisonVerdict
 
 METRICS = [f"metric {j:02d}" for j in range(20)]

@@ -7,7 +7,7 @@ from typing import Any
 
 import pytest
 
-from stook.sdk.aggregations import BaselineComparison
+from stook.sdk.aggregations.baseline import BaselineComparison
 from stook.service.modes._batch import batch_aggregations
 from stook.service.modes._config import ConfigError, parse
 

@@ -18,8 +18,8 @@ from stook.sdk.aggregations import (
     BatchSummaryWriter,
     JobRecord,
     default_batch_aggregations,
-    default_report_aggregations,
 )
+from stook.sdk.aggregations.report import default_report_aggregations
 from stook.service.api import AuthError, NotFoundError
 from stook.service.fetch import MissingJob
 from stook.service.modes import ConfigError, EngineSettings, StookConfig, engine_for, parse

@@ -9,7 +9,7 @@ themselves.
 from __future__ import annotations
 
 from stook.sdk import MetricStatus
-from stook.sdk.aggregations import Scalar, build_all, default_report_aggregations
+from stook.sdk.aggregations import Scalar, build_all
 from stook.sdk.aggregations.report import (
     ChangePoints,
     FlakyExperiences,
@@ -18,6 +18,7 @@ from stook.sdk.aggregations.report import (
     ScalarLines,
     TestStatusOverTime,
     UnstableExperiences,
+    default_report_aggregations,
 )
 from tests.sdk.aggregations.report.support import PROJECT_ID, Output, batch, fold, scrambled
 

@@ -21,7 +21,6 @@ from stook.sdk.aggregations import (
     JobSummary,
     ReportAggregation,
     Scalar,
-    default_report_aggregations,
 )
 from stook.sdk.aggregations._registry import REPORT_BUILTIN
 from stook.sdk.aggregations.report import (
@@ -34,6 +33,7 @@ from stook.sdk.aggregations.report import (
     ScalarLines,
     TestStatusOverTime,
     UnstableExperiences,
+    default_report_aggregations,
 )
 
 REPORT_ID = uuid.UUID("0e0e0e0e-1111-4222-8333-444444444444")

@@ -8,13 +8,6 @@ or register it under the ``stook.aggregations`` entry-point group.
 """
 
 from stook.sdk.aggregations._base import Aggregation, BatchAggregation, Needs, ReportAggregation
-from stook.sdk.aggregations._baseline import (
-    BaselineComparison,
-    BaselineInfo,
-    ComparisonResult,
-    MetricComparison,
-    PassRateComparison,
-)
 from stook.sdk.aggregations._by_tag import ByExperienceTag
 from stook.sdk.aggregations._category_totals import CategoryTotals
 from stook.sdk.aggregations._columns import JobColumns, JobSummary, ScalarColumn
@@ -33,7 +26,6 @@ from stook.sdk.aggregations._registry import (
     build,
     build_all,
     default_batch_aggregations,
-    default_report_aggregations,
 )
 from stook.sdk.aggregations._scalar_defaults import ScalarDefaults
 from stook.sdk.aggregations._scalar_stats import ScalarStats
@@ -70,8 +62,6 @@ __all__ = [
     "UNKNOWN_STATUS",
     "Aggregation",
     "AggregationConfigError",
-    "BaselineComparison",
-    "BaselineInfo",
     "BatchAggregation",
     "BatchRecord",
     "BatchSummary",
@@ -79,7 +69,6 @@ __all__ = [
     "ByExperienceTag",
     "CategoryTotals",
     "ColumnarSummary",
-    "ComparisonResult",
     "EventCounts",
     "JobColumns",
     "JobDataError",
@@ -88,12 +77,10 @@ __all__ = [
     "JobStatusCounts",
     "JobSummary",
     "MergedHistogram",
-    "MetricComparison",
     "MetricStatusCounts",
     "Needs",
     "ParameterSweep",
     "PassRate",
-    "PassRateComparison",
     "ReportAggregation",
     "Scalar",
     "ScalarColumn",
@@ -108,7 +95,6 @@ __all__ = [
     "build_all",
     "decode_summary",
     "default_batch_aggregations",
-    "default_report_aggregations",
     "encode_summary",
     "summary_columns_from_data",
     "summary_from_data",

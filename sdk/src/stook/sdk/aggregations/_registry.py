@@ -18,17 +18,6 @@ from stook.sdk._errors import StookError
 from stook.sdk.aggregations._base import Aggregation
 from stook.sdk.aggregations._scalar_defaults import ScalarDefaults
 from stook.sdk.aggregations._status_counts import JobStatusCounts, MetricStatusCounts, PassRate
-from stook.sdk.aggregations.report import (
-    BatchMetricStatusCounts,
-    ChangePoints,
-    FlakyExperiences,
-    JobMetricStatusCounts,
-    JobScalarDistributions,
-    MostFailedExperiences,
-    ScalarLines,
-    TestStatusOverTime,
-    UnstableExperiences,
-)
 
 ENTRY_POINT_GROUP = "stook.aggregations"
 ENTRY_POINT_GROUPS = {"batch": ENTRY_POINT_GROUP, "report": "stook.report_aggregations"}
@@ -96,39 +85,6 @@ class AggregationConfigError(StookError):
 def default_batch_aggregations() -> list[Aggregation[Any]]:
     """What every batch gets, with or without a config."""
     return [ScalarDefaults(), JobStatusCounts(), MetricStatusCounts(), PassRate()]
-
-
-def default_report_aggregations(
-    *,
-    project_id: str,
-    top_n: int = 10,
-    regression_window: int = 10,
-    regression_threshold: float = 3.5,
-    job_metrics: Sequence[str] | None = None,
-    change_points: bool = True,
-    change_penalty: float = 3.0,
-    unstable_experiences: bool = True,
-) -> list[Aggregation[Any]]:
-    """What every report gets; the arguments are the ``[report]`` settings."""
-    aggregations: list[Aggregation[Any]] = [
-        ScalarLines(
-            window=regression_window,
-            threshold=regression_threshold,
-            change_points=change_points,
-            change_penalty=change_penalty,
-        ),
-        MostFailedExperiences(top_n=top_n),
-        TestStatusOverTime(project_id=project_id),
-        JobMetricStatusCounts(),
-        BatchMetricStatusCounts(),
-        JobScalarDistributions(metrics=job_metrics),
-        FlakyExperiences(top_n=top_n),
-    ]
-    if change_points:
-        aggregations.append(ChangePoints(penalty=change_penalty, top_n=top_n))
-    if unstable_experiences:
-        aggregations.append(UnstableExperiences(top_n=top_n, metrics=job_metrics))
-    return aggregations
 
 
 def load_class(reference: str, *, where: str) -> type[Aggregation[Any]]:

@@ -58,7 +58,6 @@ from stook.service.modes import (
     run_report,
     run_test_mode,
 )
-from stook.service.preview import PREVIEW_NAME, write_preview
 
 log = structlog.get_logger("stook.run")
 
@@ -179,6 +178,8 @@ def _preview(output: Path, options: RunOptions, config: StookConfig) -> None:
     """metrics.html beside the output when asked for (--preview, [output] preview)."""
     if not (options.preview or config.preview):
         return
+    from stook.service.preview import PREVIEW_NAME, write_preview  # only the runs that preview
+
     preview = write_preview([output], output.with_name(PREVIEW_NAME))
     log.info("preview written", preview=str(preview))
 

@@ -16,14 +16,14 @@ from typing import TYPE_CHECKING
 
 import structlog
 
-from stook.sdk.aggregations import BaselineInfo
 from stook.service.api import ApiClient
 from stook.service.fetch import BatchFetcher, FetchOutcome, failure_directions, find_baseline
 from stook.service.modes._baseline_config import BaselineSettings
 
 if TYPE_CHECKING:
     # The comparison's module (and its statistics) is imported by the run that has one.
-    from stook.sdk.aggregations import BaselineComparison, JobRecord, Needs
+    from stook.sdk.aggregations import JobRecord, Needs
+    from stook.sdk.aggregations.baseline import BaselineComparison
 
 log = structlog.get_logger("stook.baseline")
 
@@ -105,6 +105,8 @@ async def fetch_baseline(
     log.info("baseline found", baseline_id=str(baseline.batch_id), chosen_as=found.chosen_as)
     fetcher = BatchFetcher(api, project_id, baseline.batch_id, comparison.needs(), workers=workers)
     outcome = await fetcher.run(comparison.update_baseline)
+    from stook.sdk.aggregations.baseline import BaselineInfo  # imported by comparison()
+
     comparison.set_baseline(
         BaselineInfo(
             batch_id=baseline.batch_id,

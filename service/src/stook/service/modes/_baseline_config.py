@@ -18,11 +18,8 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
-from stook.sdk.aggregations import BaselineComparison
-
 if TYPE_CHECKING:
-    # Imported by the config that has a [batch.baseline] (comparison), not by every run.
-    from stook.sdk.aggregations import BaselineComparison
+    from stook.sdk.aggregations.baseline import BaselineComparison
     from stook.sdk.stats import Better
 
 _KEYS = {
@@ -61,6 +58,9 @@ class BaselineSettings:
 
     def comparison(self) -> BaselineComparison:
         """A fresh comparison aggregation with these options."""
+        # Imported by the run that has a [batch.baseline], with its statistics: not by every run.
+        from stook.sdk.aggregations.baseline import BaselineComparison
+
         return BaselineComparison(
             metrics=self.metrics,
             better=dict(self.better),

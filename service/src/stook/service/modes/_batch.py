@@ -7,10 +7,10 @@ import difflib
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from stook.sdk import MetricStatus, MetricsWriter
 from stook.sdk.aggregations import (
-    BaselineComparison,
     BatchAggregation,
     BatchSummaryWriter,
     Needs,
@@ -21,7 +21,6 @@ from stook.service.fetch import BatchFetcher, FetchOutcome
 from stook.service.modes._baseline import ComparedFetcher
 from stook.service.modes._config import ConfigError, EngineSettings, StookConfig
 from stook.service.modes._config_metrics import config_metrics_step, write_config_metrics
-from stook.service.modes._engine import BatchPlan, fold_sharded
 from stook.service.modes._inputs import BatchInputs
 from stook.service.modes._progress import NoProgress, Progress, Snapshot
 from stook.service.modes._steps import (
@@ -32,6 +31,9 @@ from stook.service.modes._steps import (
     write_missing_jobs,
     write_output,
 )
+
+if TYPE_CHECKING:
+    from stook.sdk.aggregations.baseline import BaselineComparison
 
 BatchResult = RunResult[FetchOutcome]
 
@@ -94,6 +96,9 @@ async def run_batch(
         fetcher_for = _fetcher_for(inputs, config, needs, aggregations.comparison)
         outcome, traffic = await fold_here(run, fetcher_for)
     else:
+        # The sharded engine (worker processes or Ray) comes with the runs that use it.
+        from stook.service.modes._engine import BatchPlan, fold_sharded
+
         plan = BatchPlan(inputs, config, aggregations.comparison)
         outcome, traffic = await fold_sharded(run, plan, engine, config.file)
 

@@ -30,11 +30,11 @@ import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any, Protocol, cast
+from typing import TYPE_CHECKING, Any, Protocol, cast
 
 import structlog
 
-from stook.sdk.aggregations import Aggregation, BaselineComparison, Needs
+from stook.sdk.aggregations import Aggregation, Needs
 from stook.service.api import ApiClient, Batch, Job, Report, redact_text
 from stook.service.fetch import FetchOutcome, ReportFetcher, ReportOutcome, fetch_deadline
 from stook.service.modes._baseline import fetch_baseline, set_directions
@@ -55,6 +55,9 @@ from stook.service.modes._shards import (
 )
 from stook.service.modes._steps import FetchRun, show_progress, tick
 from stook.service.modes._user_code import import_folders
+
+if TYPE_CHECKING:
+    from stook.sdk.aggregations.baseline import BaselineComparison
 
 __all__ = ["BatchPlan", "ReportPlan", "fold_sharded"]
 

@@ -7,16 +7,14 @@ import difflib
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from stook.sdk import MetricStatus, MetricsWriter
-from stook.sdk.aggregations import Aggregation, default_report_aggregations
-from stook.sdk.aggregations.report import RegressionSummary, ScalarLines
+from stook.sdk.aggregations import Aggregation
 from stook.service.api import ApiClient, RetryPolicy
 from stook.service.fetch import ReportFetcher, ReportOutcome
 from stook.service.modes._config import ConfigError, EngineSettings, StookConfig
 from stook.service.modes._config_metrics import config_metrics_step, write_config_metrics
-from stook.service.modes._engine import ReportPlan, fold_sharded
 from stook.service.modes._inputs import ReportInputs
 from stook.service.modes._progress import NoProgress, Progress, Snapshot
 from stook.service.modes._steps import (
@@ -28,6 +26,9 @@ from stook.service.modes._steps import (
     write_output,
 )
 
+if TYPE_CHECKING:
+    from stook.sdk.aggregations.report import RegressionSummary
+
 
 @dataclass(frozen=True, slots=True)
 class ReportResult(RunResult[ReportOutcome]):
@@ -37,6 +38,10 @@ class ReportResult(RunResult[ReportOutcome]):
 
 
 def report_aggregations(config: StookConfig, project_id: str) -> list[Aggregation[Any]]:
+    # The report aggregations' modules are imported by the report run that builds them:
+    # `stook.service.modes` exports both modes, and a batch run has no use for them.
+    from stook.sdk.aggregations.report import default_report_aggregations
+
     settings = config.report
     defaults: list[Aggregation[Any]] = []
     if settings.defaults:
@@ -116,6 +121,9 @@ async def run_report(
 
         outcome, traffic = await fold_here(run, fetcher_for)
     else:
+        # The sharded engine (worker processes or Ray) comes with the runs that use it.
+        from stook.service.modes._engine import ReportPlan, fold_sharded
+
         outcome, traffic = await fold_sharded(run, ReportPlan(inputs, config), engine, config.file)
 
     check_job_metric_names(config, outcome)
@@ -124,6 +132,8 @@ async def run_report(
     write_summary(writer, outcome)
     await write_config_metrics(config_metrics, writer, config.fetch, retry, started=started)
     output = write_output(writer, aggregations, outputs_dir)
+    from stook.sdk.aggregations.report import ScalarLines  # imported by report_aggregations
+
     lines = [a for a in aggregations if isinstance(a, ScalarLines)]
     return ReportResult(
         kind="report",

@@ -4,6 +4,7 @@ Each folds in one `BatchRecord` at a time, like batch aggregations fold in jobs.
 """
 
 from stook.sdk.aggregations.report._change_report import ChangePoints, ChangePointSummary
+from stook.sdk.aggregations.report._defaults import default_report_aggregations
 from stook.sdk.aggregations.report._experiences import FlakyExperiences, MostFailedExperiences
 from stook.sdk.aggregations.report._job_distributions import JobScalarDistributions
 from stook.sdk.aggregations.report._lines import RegressionSummary, ScalarLines
@@ -29,4 +30,5 @@ __all__ = [
     "UnstableExperiences",
     "Verdict",
     "check",
+    "default_report_aggregations",
 ]
