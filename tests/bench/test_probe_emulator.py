@@ -21,7 +21,7 @@ import structlog
 from stook.bench import probe, read_plan
 from stook.bench._probe_results import NEAR_BEST, P95_GROWTH
 from stook.emulator import EmulatorConfig, EmulatorProcess
-from stook.service.api import configure_logging
+from stook.service.modes import configure_logging
 
 pytestmark = pytest.mark.slow
 

@@ -38,7 +38,6 @@ LAYERS = ["api", "fetch", "preview", "metrics_config", "modes", "cli"]
 # Within the API layer, lowest first: each may import only those before it.
 API_ORDER = [
     "_redact",
-    "_logging",
     "_errors",
     "_fields",
     "_limits",

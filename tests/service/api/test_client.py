@@ -816,7 +816,6 @@ def test_storage_transport_refuses_credential_headers_at_construction() -> None:
             name="storage",
             concurrency=1,
             request_timeout=1.0,
-            stats=TransferStats(),
             headers={"authorization": "Bearer x"},
             credentials_allowed=False,
         )

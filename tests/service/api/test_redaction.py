@@ -20,11 +20,10 @@ from stook.service.api._errors import (
     StorageError,
     TransportError,
     body_excerpt,
-    redact_url,
 )
-from stook.service.api._logging import configure_logging, get_logger, redact_event, register_secret
-from stook.service.api._redact import redact_text
+from stook.service.api._redact import redact_text, redact_url, register_secret
 from stook.service.api._retry import RetryPolicy
+from stook.service.modes._logging import configure_logging, redact_event
 from tests.service.conftest import RecordingSleep
 from tests.service.scripted_server import ScriptedServer, answer, answer_json
 
@@ -125,7 +124,7 @@ def test_redact_event_walks_nested_values() -> None:
 def test_rendered_json_lines_never_contain_secrets() -> None:
     stream = io.StringIO()
     configure_logging(json=True, level="debug", stream=stream)
-    log = get_logger("test")
+    log = structlog.get_logger("test")
     log.info("careless", url=f"https://s.example.com/o?X-Amz-Signature={SIGNATURE}", token=TOKEN)
     try:
         raise RuntimeError(f"failed with Bearer {TOKEN}")
@@ -135,7 +134,6 @@ def test_rendered_json_lines_never_contain_secrets() -> None:
     assert len(lines) == 2
     records = [json.loads(line) for line in lines]
     assert records[0]["event"] == "careless"
-    assert records[0]["logger_name"] == "test"
     assert records[0]["url"] == "https://s.example.com/o?X-Amz-Signature=***"
     assert "RuntimeError" in records[1]["exception"]
     assert SIGNATURE not in stream.getvalue()
@@ -145,7 +143,7 @@ def test_rendered_json_lines_never_contain_secrets() -> None:
 def test_console_renderer_is_used_for_terminals_and_is_redacted() -> None:
     stream = io.StringIO()
     configure_logging(json=False, stream=stream)
-    get_logger("test").info("hello", token=TOKEN)
+    structlog.get_logger("test").info("hello", token=TOKEN)
     assert "hello" in stream.getvalue()
     assert TOKEN not in stream.getvalue()
     with pytest.raises(json.JSONDecodeError):
@@ -155,14 +153,14 @@ def test_console_renderer_is_used_for_terminals_and_is_redacted() -> None:
 def test_non_tty_stream_gets_json_by_default() -> None:
     stream = io.StringIO()
     configure_logging(stream=stream)
-    get_logger("test").info("hello")
+    structlog.get_logger("test").info("hello")
     assert json.loads(stream.getvalue())["event"] == "hello"
 
 
 def test_level_filters_and_unknown_level_is_rejected() -> None:
     stream = io.StringIO()
     configure_logging(json=True, level="warning", stream=stream)
-    get_logger("test").info("hidden")
+    structlog.get_logger("test").info("hidden")
     assert stream.getvalue() == ""
     with pytest.raises(ValueError, match="unknown log level"):
         configure_logging(level="chatty")
@@ -211,7 +209,7 @@ async def test_client_logs_rendered_as_json_carry_no_secrets(
 def test_capture_logs_with_the_redaction_processor() -> None:
     structlog.reset_defaults()
     with capture_logs(processors=[redact_event]) as captured:
-        get_logger("test").info("oops", header=f"Bearer {TOKEN}")
+        structlog.get_logger("test").info("oops", header=f"Bearer {TOKEN}")
     assert captured[0]["header"] == "Bearer ***"
 
 

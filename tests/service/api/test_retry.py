@@ -20,9 +20,7 @@ from stook.service.api import (
     ApiClient,
     ApiStatusError,
     AuthError,
-    IncompleteBodyError,
     NotFoundError,
-    Origin,
     OriginUnavailableError,
     OriginUnreachableError,
     PresignedUrlExpiredError,
@@ -33,7 +31,7 @@ from stook.service.api import (
     TransferStats,
     TransportError,
 )
-from stook.service.api._retry import is_retryable, parse_retry_after, send
+from stook.service.api._retry import Origin, is_retryable, parse_retry_after, send
 from stook.service.api._transport import transport_error
 from tests.service.conftest import RecordingSleep
 from tests.service.scripted_server import ScriptedServer, answer, answer_json
@@ -81,7 +79,7 @@ async def retried(
         (StorageError("x", url=URL), False),
         (TransportError(method="GET", url=URL, reason="reset"), True),
         (TransportError(method="GET", url=URL, reason="bad cert", kind="permanent"), False),
-        (IncompleteBodyError(method="GET", url=URL, received=1, expected=2), True),
+        (TransportError(method="GET", url=URL, reason="body ended after 1 of 2 bytes"), True),
         (ValueError("a bug"), False),
     ],
 )
@@ -146,10 +144,8 @@ async def test_send_counts_and_gives_up(sleep: RecordingSleep) -> None:
         await retried(always_503, policy, stats=stats)
     assert calls == 4
     assert stats.retries == 3
-    assert stats.retry_reasons == {"HTTP 503": 3}
     assert caught.value.attempts == 4
     assert caught.value.__cause__ is None
-    assert stats.as_dict()["retries"] == 3
 
 
 async def test_send_lets_permanent_errors_through(sleep: RecordingSleep) -> None:

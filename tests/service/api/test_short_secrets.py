@@ -7,14 +7,15 @@ import json
 import uuid
 
 import pytest
+import structlog
 
 from stook.service.api import _redact
 from stook.service.api._client import ApiClient
 from stook.service.api._errors import AuthError
-from stook.service.api._logging import configure_logging, get_logger
 from stook.service.api._redact import MASK, redact_text, redact_url, register_secret
 from stook.service.api._retry import RetryPolicy
 from stook.service.cli._run import explain
+from stook.service.modes._logging import configure_logging
 from tests.service.scripted_server import ScriptedServer, answer
 
 PROJECT = uuid.UUID(int=1)
@@ -85,7 +86,7 @@ async def test_a_short_token_echoed_by_the_server_stays_out_of_errors_and_logs(
         with pytest.raises(AuthError) as caught:
             await api.get_batch(PROJECT, BATCH)
     line = explain(caught.value)
-    get_logger("test").error("stook failed", error=line, token=token)
+    structlog.get_logger("test").error("stook failed", error=line, token=token)
     assert server.hits(path)[0].headers["Authorization"] == f"Bearer {token}"
     assert token not in line
     assert f"token {MASK} is not valid" in line

@@ -15,10 +15,10 @@ from stook.sdk.aggregations import Needs
 from stook.service.api import (
     ApiMetric,
     ApiMetricsData,
-    MetricsDataStorageType,
     PresignedUrlExpiredError,
     StorageClient,
 )
+from stook.service.api._models import MetricsDataStorageType
 from stook.service.fetch._job_blobs import JobBlobs
 from stook.service.fetch._presigned import fetch_listed
 

@@ -1,20 +1,13 @@
-"""The API layer: transport, retry policy, limits, clients, models, errors and redaction.
+"""The ReSim API layer: clients, models, errors, retries, limits and redaction; it imports no
+higher layer."""
 
-It imports nothing from the layers above it (fetch, modes, cli), and inside it the
-transport knows nothing of the retry policy above it.
-"""
-
-from stook.service.api._client import (
-    ApiClient,
-    IdLike,
-)
+from stook.service.api._client import ApiClient
 from stook.service.api._errors import (
     ApiError,
     ApiResponseError,
     ApiStatusError,
     AuthError,
     BodyTooLargeError,
-    IncompleteBodyError,
     NotFoundError,
     OriginUnavailableError,
     OriginUnreachableError,
@@ -25,70 +18,30 @@ from stook.service.api._errors import (
     StorageError,
     TransportError,
 )
-from stook.service.api._job_logs import (
-    ExecutionStep,
-    JobLog,
-    LogType,
-)
-from stook.service.api._limits import (
-    AimdLimiter,
-    ConcurrencyLimit,
-    FixedLimit,
-    LimitStats,
-    NestedLimit,
-)
-from stook.service.api._logging import (
-    configure_logging,
-    get_logger,
-    redact_event,
-)
+from stook.service.api._job_logs import ExecutionStep, JobLog, LogType
+from stook.service.api._limits import AimdLimiter, ConcurrencyLimit, FixedLimit, LimitStats
 from stook.service.api._models import (
     ApiMetric,
     ApiMetricsData,
-    ApiMetricStatus,
     ApiMetricType,
     Batch,
     BatchStatus,
-    Branch,
     Build,
-    ConflatedBatchStatus,
-    ConflatedJobStatus,
-    EventTimestampType,
-    ExperienceTag,
     Job,
     JobEventListing,
-    JobStatus,
     MetricOwner,
-    MetricsDataStorageType,
     Report,
 )
-from stook.service.api._redact import (
-    redact_text,
-    redact_url,
-    register_secret,
-)
-from stook.service.api._retry import (
-    Origin,
-    RetryPolicy,
-)
-from stook.service.api._storage import (
-    StorageClient,
-)
-from stook.service.api._transport import (
-    BodyCap,
-    HttpTransport,
-    Response,
-    TransferStats,
-    Transport,
-    body_cap_mb,
-)
+from stook.service.api._redact import redact_text, redact_url
+from stook.service.api._retry import Origin, RetryPolicy
+from stook.service.api._storage import StorageClient
+from stook.service.api._transport import BodyCap, Response, TransferStats, Transport, body_cap_mb
 
 __all__ = [
     "AimdLimiter",
     "ApiClient",
     "ApiError",
     "ApiMetric",
-    "ApiMetricStatus",
     "ApiMetricType",
     "ApiMetricsData",
     "ApiResponseError",
@@ -98,27 +51,16 @@ __all__ = [
     "BatchStatus",
     "BodyCap",
     "BodyTooLargeError",
-    "Branch",
     "Build",
     "ConcurrencyLimit",
-    "ConflatedBatchStatus",
-    "ConflatedJobStatus",
-    "EventTimestampType",
     "ExecutionStep",
-    "ExperienceTag",
     "FixedLimit",
-    "HttpTransport",
-    "IdLike",
-    "IncompleteBodyError",
     "Job",
     "JobEventListing",
     "JobLog",
-    "JobStatus",
     "LimitStats",
     "LogType",
     "MetricOwner",
-    "MetricsDataStorageType",
-    "NestedLimit",
     "NotFoundError",
     "Origin",
     "OriginUnavailableError",
@@ -136,10 +78,6 @@ __all__ = [
     "Transport",
     "TransportError",
     "body_cap_mb",
-    "configure_logging",
-    "get_logger",
-    "redact_event",
     "redact_text",
     "redact_url",
-    "register_secret",
 ]

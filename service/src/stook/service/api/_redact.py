@@ -1,11 +1,6 @@
-"""Scrubbing of credentials from anything that may end up in a message or a log line.
-
-Two kinds of secret reach the service: the API bearer token (from the platform's config
-file) and the signatures in presigned object-storage URLs. The token is registered once
-and replaced wherever it appears; URLs lose their query string values, which is where every
-presigned-URL scheme (S3 ``X-Amz-Signature``, GCS ``X-Goog-Signature``, Azure ``sig``)
-carries the signature and credentials.
-"""
+"""Masking of the two secrets that reach stook: the API token (registered once, masked
+wherever it appears) and presigned-URL signatures (every URL loses its query values, where
+S3, GCS and Azure carry them)."""
 
 from __future__ import annotations
 
@@ -15,64 +10,44 @@ from typing import Final
 from yarl import URL
 
 MASK: Final = "***"
-
-# Query parameters that carry no credential and help when reading a log: which page failed.
+# Query parameters that carry no credential and tell a reader which page failed.
 _SAFE_QUERY_PARAMS: Final = frozenset({"pageSize", "pageToken"})
-
-# From this length on a secret is masked wherever it appears, even inside a longer word;
-# real tokens are far longer. A shorter one is masked where it stands alone (see
-# register_secret), so that a two-letter token does not cut "about" into "***out".
+# A secret this long is masked even inside a longer word; a shorter one only where it stands
+# alone, so that a two-letter token does not cut "about" into "***out".
 _SUBSTRING_SECRET_LENGTH: Final = 8
-# What may touch a short secret on either side for it still to count as standing alone.
-_WORD_CHAR: Final = "A-Za-z0-9"
-
-# Each registered secret with the pattern that finds it.
 _secrets: dict[str, re.Pattern[str]] = {}
-
 _URL_IN_TEXT: Final = re.compile(r"""https?://[^\s'"<>`]+""", re.IGNORECASE)
 _TRAILING_PUNCTUATION: Final = ").,;:!?]}"
-# A short lower-case word after "bearer" ("invalid bearer token") is prose, not a secret;
-# registered secrets are masked whatever their shape (see _mask_secrets).
+# A short lower-case word after "bearer" ("invalid bearer token") is prose, not a secret.
 _BEARER_IN_TEXT: Final = re.compile(
-    r"(Bearer\s+)(?!(?-i:[a-z]{1,10})(?![A-Za-z0-9._~+/=-]))[A-Za-z0-9._~+/=-]+",
-    re.IGNORECASE,
+    r"(Bearer\s+)(?!(?-i:[a-z]{1,10})(?![A-Za-z0-9._~+/=-]))[A-Za-z0-9._~+/=-]+", re.IGNORECASE
 )
 
 
 def register_secret(secret: str) -> None:
-    """Mask ``secret`` wherever :func:`redact_text` (and so every log line) meets it.
-
-    A secret of any length is masked. One of 8 characters or more is masked wherever it
-    appears; a shorter one wherever it is not part of a longer run of letters and digits
-    (``token ab refused``, ``"ab"``, ``/ab/``), since masking every "ab" would garble
-    every message while a server that echoes a token echoes it as a token.
-    """
+    """Mask ``secret`` wherever :func:`redact_text` (and so every log line) meets it: one
+    under 8 characters where no letter or digit touches it (``token ab refused``)."""
     if not secret or secret in _secrets:
         return
     escaped = re.escape(secret)
     if len(secret) < _SUBSTRING_SECRET_LENGTH:
-        escaped = f"(?<![{_WORD_CHAR}]){escaped}(?![{_WORD_CHAR}])"
+        escaped = f"(?<![A-Za-z0-9]){escaped}(?![A-Za-z0-9])"
     _secrets[secret] = re.compile(escaped)
 
 
 def redact_url(url: str | URL) -> str:
-    """The URL with scheme, host, port and path kept; user info, fragment and query values masked.
-
-    Query parameter names are kept (``?X-Amz-Signature=***``) because they tell a reader which
-    kind of URL failed without revealing anything that grants access.
-    """
-    # yarl parses the authority lazily: a bad port fails on first access, not in URL().
-    try:
+    """The URL's scheme, host, port and path; user info and fragment dropped, query values
+    masked (names kept: ``?X-Amz-Signature=***`` says which kind of URL failed)."""
+    try:  # yarl parses the authority lazily: a bad port fails on first access
         parsed = url if isinstance(url, URL) else URL(url, encoded=True)
         if not parsed.absolute:
-            # A relative reference has no authority to keep; its path is all that is safe.
-            return parsed.path or "<relative URL>"
-        origin = f"{parsed.scheme}://{parsed.raw_host or ''}"
+            return parsed.path or "<relative URL>"  # no authority: the path is all that is safe
+        text = f"{parsed.scheme}://{parsed.raw_host or ''}"
         if parsed.explicit_port is not None:
-            origin += f":{parsed.explicit_port}"
+            text += f":{parsed.explicit_port}"
     except (ValueError, TypeError):
         return "<unparseable URL>"
-    text = origin + parsed.raw_path
+    text += parsed.raw_path
     if parsed.query:
         text += "?" + "&".join(
             f"{name}={value if name in _SAFE_QUERY_PARAMS else MASK}"

@@ -1,49 +1,27 @@
-"""Retries: which failures, how long, and how requests to a failing origin wait together.
+"""Retries through tenacity, the first attempt included: what, how long, and together.
 
-Every request's attempts run through :func:`send` on tenacity, the first one included.
-
-* What is retried: 5xx and 429 answers, connection failures, timeouts, bodies cut short.
-  Any other 4xx, and a failure another attempt cannot fix, ends the request at once.
-* How long: a budget in time, ``retry_for`` (120 s), not a count of attempts, so an API
-  down for a minute costs the run a minute. Pauses grow exponentially with full jitter
-  from ``initial_backoff`` to ``max_backoff`` and never sleep past the budget. A
-  ``Retry-After`` is honoured up to ``max_retry_after``; a longer one, or one past the
-  budget, ends the request at once with an error naming it.
-* First contact: until an origin has answered once, a wrong URL is more likely than an
-  outage. A host name that does not resolve ends the request at once, and a connection
-  refused or reset gets ``first_contact_for`` (10 s), not the whole ``retry_for``; both
-  end in :class:`OriginUnreachableError`, naming the setting the URL came from.
-* Together: each :class:`Origin` (the API, object storage) has a gate. Transient failures
-  of ``trip_after`` different requests with no answer between them close it for a backoff
-  (full jitter, at most ``MAX_PROBE_INTERVAL``, at least what a ``Retry-After`` asked for);
-  requests then wait at it instead of sending, one probe goes out when the backoff ends,
-  and any answer to a request sent since it closed opens it and wakes them all. One
-  request failing again and again (a job whose listing always answers 500) does not.
-
-The gate is plain state on one event loop, changed only between awaits: no lock is held
-across a network call. Tests inject ``sleep``, ``clock`` and ``backoff`` in the policy.
+5xx, 429, connection failures, timeouts and cut bodies are retried, for a time
+(``retry_for``), with full-jitter pauses that never sleep past it; a ``Retry-After`` is
+honoured up to ``max_retry_after``, and a longer one ends the request at once. Until an
+origin has answered, a wrong URL is likelier than an outage: a name that does not resolve
+ends the request at once, a refused or reset connection gets ``first_contact_for``. Each
+:class:`Origin` has a gate: transient failures of ``trip_after`` different requests with no
+answer between close it; its requests then wait there while one probe goes out at a time,
+and an answer to a request sent since the closure opens it for all.
 """
 
 from __future__ import annotations
 
 import asyncio
 import email.utils
-import enum
 import sys
 import time
 from collections.abc import Awaitable, Callable
 from dataclasses import dataclass
 from typing import Final, TypeVar
 
-from tenacity import (
-    DoSleep,
-    RetryCallState,
-    RetryError,
-    Retrying,
-    retry_if_exception,
-    wait_random_exponential,
-)
-from tenacity.wait import wait_base
+import structlog
+import tenacity
 from yarl import URL
 
 from stook.service.api._errors import (
@@ -55,41 +33,23 @@ from stook.service.api._errors import (
     StorageError,
     TransportError,
 )
-from stook.service.api._logging import get_logger
 from stook.service.api._redact import redact_text, redact_url
 from stook.service.api._transport import TransferStats
 
-__all__ = [
-    "RETRYABLE_STATUSES",
-    "Origin",
-    "RetryPolicy",
-    "describe_failure",
-    "is_retryable",
-    "parse_retry_after",
-    "send",
-]
-
-_log = get_logger("stook.service.retry")
+_log = structlog.get_logger("stook.service.retry")
 _T = TypeVar("_T")
 
-RETRYABLE_STATUSES: Final = frozenset({429}) | frozenset(range(500, 600))
-# The longest pause between two probes of a closed gate: the run resumes within two
-# seconds of the origin answering again.
-MAX_PROBE_INTERVAL: Final = 2.0
-# Requests failing with no answer between them that close the gate: with 64 in flight an
-# outage reaches it at once; a 10 % fault rate almost never does.
+RETRYABLE_STATUSES: Final = frozenset({429, *range(500, 600)})
+MAX_PROBE_INTERVAL: Final = 2.0  # the run resumes within 2 s of the origin answering again
+# With 64 in flight an outage closes the gate at once; a 10 % fault rate almost never does.
 TRIP_AFTER: Final = 5
 
 
 @dataclass(frozen=True, slots=True)
 class RetryPolicy:
-    """How long and how patiently to retry one request.
-
-    ``backoff``, ``sleep`` and ``clock`` let tests run without waiting: a ``backoff`` of
-    ``tenacity.wait_none()`` never pauses, a recording ``sleep`` shows which pauses were
-    asked for, and a ``clock`` that advances with it spends the budget at once.
-    ``max_attempts`` caps attempts for such tests; runs are bounded by time alone.
-    """
+    """How long and how patiently to retry one request. Tests pass ``backoff`` (e.g.
+    ``tenacity.wait_none()``), a recording ``sleep`` and a ``clock`` that advances with it,
+    and may cap ``max_attempts``; runs are bounded by time alone."""
 
     retry_for: float = 120.0
     first_contact_for: float = 10.0
@@ -98,7 +58,7 @@ class RetryPolicy:
     max_retry_after: float = 60.0
     request_timeout: float = 30.0
     max_attempts: int | None = None
-    backoff: wait_base | None = None
+    backoff: tenacity.wait.wait_base | None = None
     sleep: Callable[[float], Awaitable[None]] = asyncio.sleep
     clock: Callable[[], float] = time.monotonic
 
@@ -111,21 +71,12 @@ class RetryPolicy:
         if self.max_retry_after < 0:
             raise ValueError(f"max_retry_after cannot be negative, got {self.max_retry_after}")
 
-    def backoff_wait(self) -> wait_base:
-        """The pause before a retry when the server named none: full-jitter exponential."""
-        if self.backoff is not None:
-            return self.backoff
-        return wait_random_exponential(multiplier=self.initial_backoff, max=self.max_backoff)
-
 
 def is_retryable(exc: BaseException) -> bool:
     """Whether asking again could give a different answer."""
     if isinstance(exc, ApiStatusError | StorageError):
         return exc.status in RETRYABLE_STATUSES
     return isinstance(exc, TransportError) and exc.retryable
-
-
-_RETRYABLE: Final = retry_if_exception(is_retryable)
 
 
 def describe_failure(exc: BaseException) -> str:
@@ -143,7 +94,7 @@ def parse_retry_after(value: str | None, *, now: float | None = None) -> float |
     if not value:
         return None
     try:
-        return max(0.0, float(value.strip()))
+        return max(0.0, float(value))
     except ValueError:
         pass
     try:
@@ -160,31 +111,22 @@ def _retry_after(exc: BaseException | None) -> float | None:
     return float(value) if isinstance(value, int | float) else None
 
 
-def _is_answer(exc: BaseException) -> bool:
-    """An HTTP status: the origin is there, though it refused (404, 429, 503...)."""
-    return isinstance(exc, ApiStatusError | StorageError) and exc.status is not None
-
-
-class _Passage(enum.Enum):
-    OPEN = "open"  # the gate was open: an ordinary request
-    PROBE = "probe"  # the gate was closed; this request tests whether the origin is back
-    TIMED_OUT = "timed out"  # the request's budget ran out while it waited
+class _GateTimeoutError(Exception):
+    """The request's budget ran out while it waited at its origin's closed gate."""
 
 
 class Origin:
     """One origin's health as its requests see it: whether it ever answered, its gate, and
-    whether requests are being retried now (for the progress display).
-
-    ``setting`` names where its URL came from (``apiURL``), for a first contact that fails.
-    """
+    how many requests are between attempts now (for the progress display). ``setting``
+    names where its URL came from (``apiURL``), for a first contact that fails."""
 
     def __init__(
         self, label: str, policy: RetryPolicy, *, setting: str, trip_after: int = TRIP_AFTER
     ) -> None:
-        self.label = label
-        self.policy = policy
-        self.backoff = policy.backoff_wait()
-        self.setting = setting
+        self.label, self.policy, self.setting = label, policy, setting
+        self.backoff = policy.backoff or tenacity.wait_random_exponential(
+            multiplier=policy.initial_backoff, max=policy.max_backoff
+        )
         self.answered = False  # ever: after that, failures are outages, not a wrong URL
         self.retrying = 0  # requests between attempts now
         self.url = ""  # scheme://host[:port] of the last failure
@@ -197,28 +139,19 @@ class Origin:
         self._failed_probes = 0
         self._probing = False
         self._changed = asyncio.Event()
-        # One for all of the origin's requests: its loop (`iter`) runs without an await,
-        # so they take turns on it; what is each request's is in its RetryCallState.
-        self.tenacity = Retrying(
-            stop=_stop, wait=_wait, retry=_RETRYABLE, before_sleep=_before_sleep
-        )
-        self.tenacity.begin()
 
     def answer(self, sent_in: int) -> None:
-        """An answer (any but a transient failure) to a request sent when `closures` was
-        `sent_in`: it opens the gate, unless the request left before the gate closed."""
+        """An answer to a request sent when `closures` was `sent_in`: it opens the gate,
+        unless the request left before the gate closed."""
         self.answered = True
         self._failing.clear()
         if not self.is_open and sent_in == self.closures:
-            self.is_open = True
-            self._failed_probes = 0
-            self._probing = False
+            self.is_open, self._failed_probes, self._probing = True, 0, False
             _log.info("origin answers again; requests resume", origin=self.label)
             self._notify()
 
     def fail(self, request: object, exc: BaseException, url: URL, probe: bool) -> None:
-        """A transient failure of `request`: a probe's, or those of enough requests with no
-        answer between them, close the gate."""
+        """A transient failure of `request`; a probe's, or enough requests', close the gate."""
         self.last_failure = describe_failure(exc)
         self.url = str(url.origin())
         retry_after = _retry_after(exc)
@@ -235,9 +168,8 @@ class Origin:
         if len(self._failing) < self._trip_after:
             return
         self._failing.clear()
-        self.is_open = False
+        self.is_open, self._failed_probes = False, 0
         self.closures += 1
-        self._failed_probes = 0
         wait = self._close_for(1, retry_after)
         _log.warning(
             "origin failing; requests wait at its gate",
@@ -253,16 +185,17 @@ class Origin:
             self._probing = False
             self._notify()
 
-    async def enter(self, deadline: float) -> _Passage:
-        """Wait until the gate lets a request through, or until `deadline` (clock time)."""
+    async def enter(self, deadline: float) -> bool:
+        """Wait until the gate lets a request through (True for the probe), or raise
+        :class:`_GateTimeoutError` at `deadline` (clock time)."""
         clock = self.policy.clock
         while not self.is_open:
             now = clock()
             if now >= deadline:
-                return _Passage.TIMED_OUT
+                raise _GateTimeoutError
             if not self._probing and now >= self._until:
                 self._probing = True
-                return _Passage.PROBE
+                return True
             # Until the backoff ends, or, while a probe is out, until its outcome.
             wake = min(self._until if now < self._until else deadline, deadline)
             changed = asyncio.ensure_future(self._changed.wait())
@@ -272,14 +205,17 @@ class Origin:
             finally:
                 changed.cancel()
                 timer.cancel()
-        return _Passage.OPEN
+        return False
+
+    def unreachable(self, url: URL, reason: str) -> OriginUnreachableError:
+        return OriginUnreachableError(
+            label=self.label, origin=url.origin(), setting=self.setting, reason=reason
+        )
 
     def _close_for(self, attempt: int, retry_after: float | None) -> float:
-        state = RetryCallState(Retrying(), None, (), {})
+        state = tenacity.RetryCallState(tenacity.Retrying(), None, (), {})
         state.attempt_number = attempt
-        wait = min(self.backoff(state), MAX_PROBE_INTERVAL)
-        if retry_after is not None:
-            wait = max(wait, retry_after)
+        wait = max(min(self.backoff(state), MAX_PROBE_INTERVAL), retry_after or 0.0)
         self._until = self.policy.clock() + wait
         return wait
 
@@ -288,108 +224,85 @@ class Origin:
         self._changed = asyncio.Event()
 
 
-class _GateTimeoutError(Exception):
-    """The request's budget ran out while it waited at its origin's closed gate."""
-
-
-class _GiveUp(enum.Enum):
-    ATTEMPTS = "attempts"
-    BUDGET = "budget"
-    RETRY_AFTER_CAP = "Retry-After above the cap"
-    RETRY_AFTER_BUDGET = "Retry-After beyond the budget"
-
-
 class _Request:
-    """One request's attempts: its budget, tenacity's stop and wait, and what ends it."""
+    """One request's retries once it failed: tenacity's state, its budget, what ends it."""
 
-    def __init__(self, origin: Origin, url: URL, stats: TransferStats) -> None:
-        self.origin = origin
-        self.policy = origin.policy
-        self.url = url
-        self.stats = stats
-        self.started = self.policy.clock()
+    def __init__(self, origin: Origin, url: URL, stats: TransferStats, started: float) -> None:
+        self.origin, self.policy, self.url, self.stats = origin, origin.policy, url, stats
+        self.started = started
+        self.tenacity = tenacity.Retrying(
+            stop=self.stop,
+            wait=self.wait,
+            retry=tenacity.retry_if_exception(is_retryable),
+            before_sleep=self.before_sleep,
+        )
+        self.tenacity.begin()
+        self.state = tenacity.RetryCallState(self.tenacity, fn=None, args=(), kwargs={})
         self.last: BaseException | None = None
-        self.why: _GiveUp | None = None
-        self.left_at_stop = 0.0
+        self.error: Exception | None = None  # what ends it, once tenacity stops
         self.counted = False  # in origin.retrying
 
     def first_contact(self) -> bool:
-        """Whether the origin never answered and this request failed to connect: the
-        short budget, not the whole `retry_for`."""
-        last = self.last
+        """The origin never answered and this request failed to connect: the short budget."""
+        last, answered = self.last, self.origin.answered
         return (
-            not self.origin.answered
-            and isinstance(last, TransportError)
-            and last.kind in ("connect", "broken")
+            not answered and isinstance(last, TransportError) and last.kind in ("connect", "broken")
         )
 
     def deadline(self) -> float:
         policy = self.policy
-        budget = policy.retry_for
         if self.first_contact():
-            budget = min(budget, policy.first_contact_for)
-        return self.started + budget
+            return self.started + min(policy.retry_for, policy.first_contact_for)
+        return self.started + policy.retry_for
 
-    async def attempt(self, send: Callable[[], Awaitable[_T]]) -> _T:
+    def failed(self, exc: Exception, sent_in: int, probe: bool) -> None:
+        """Note `exc`, and tell the origin what it says about it."""
         origin = self.origin
-        passage = _Passage.OPEN
-        if not origin.is_open:
-            passage = await origin.enter(self.deadline())
-            if passage is _Passage.TIMED_OUT:
-                raise _GateTimeoutError
-        sent_in = origin.closures
-        try:
-            result = await send()
-        except Exception as exc:
-            self.last = exc
-            status = getattr(exc, "status", None) if _is_answer(exc) else None
-            if (status is not None and status >= 500) or isinstance(exc, TransportError):
-                # The origin failing (a 5xx, no answer), not pacing us (429) or refusing.
-                origin.answered = origin.answered or status is not None
-                if is_retryable(exc):
-                    origin.fail(self, exc, self.url, passage is _Passage.PROBE)
-            elif status is not None:
-                origin.answer(sent_in)
-            if isinstance(exc, TransportError) and exc.kind == "dns" and not origin.answered:
-                # The name does not resolve and never did: no retry can fix a wrong URL.
-                raise self.unreachable(exc.reason) from None
-            raise
-        else:
+        self.last = exc
+        status = exc.status if isinstance(exc, ApiStatusError | StorageError) else None
+        if (status is not None and status >= 500) or isinstance(exc, TransportError):
+            # The origin failing (a 5xx, no answer), not pacing us (429) or refusing.
+            origin.answered = origin.answered or status is not None
+            if is_retryable(exc):
+                origin.fail(self, exc, self.url, probe)
+        elif status is not None:
             origin.answer(sent_in)
-            return result
-        finally:
-            if passage is _Passage.PROBE:
-                origin.probe_finished()
+        if isinstance(exc, TransportError) and exc.kind == "dns" and not origin.answered:
+            # The name does not resolve and never did: no retry can fix a wrong URL.
+            raise origin.unreachable(self.url, exc.reason) from None
 
-    def stop(self, state: RetryCallState) -> bool:
-        policy = self.policy
+    def stop(self, state: tenacity.RetryCallState) -> bool:
+        policy, attempts = self.policy, state.attempt_number
         retry_after = _retry_after(self.last)
-        left = self.left_at_stop = self.deadline() - policy.clock()
-        if policy.max_attempts is not None and state.attempt_number >= policy.max_attempts:
-            self.why = _GiveUp.ATTEMPTS
+        left = self.deadline() - policy.clock()
+        limit = ""
+        if policy.max_attempts is not None and attempts >= policy.max_attempts:
+            self.error = self.exhausted(attempts, budget_spent=False)
         elif retry_after is not None and retry_after > policy.max_retry_after:
-            self.why = _GiveUp.RETRY_AFTER_CAP
+            limit = f"the {policy.max_retry_after:g} s stook waits at most"
         elif left <= 0:
-            self.why = _GiveUp.BUDGET
+            self.error = self.exhausted(attempts, budget_spent=True)
         elif retry_after is not None and retry_after > left:
-            self.why = _GiveUp.RETRY_AFTER_BUDGET
-        return self.why is not None
+            limit = f"the {left:.1f} s left of its {policy.retry_for:g} s [fetch] retry_for"
+        if limit:
+            status = getattr(self.last, "status", None)
+            self.error = RetryAfterTooLongError(
+                method="GET", url=self.url, status=status, retry_after=retry_after or 0, limit=limit
+            )
+        return self.error is not None
 
-    def wait(self, state: RetryCallState) -> float:
+    def wait(self, state: tenacity.RetryCallState) -> float:
         """The server's pause first; at a closed gate none (the request waits there, to
         resume with the others); else the backoff. Never past the budget."""
         left = max(0.0, self.deadline() - self.policy.clock())
         retry_after = _retry_after(self.last)
         if retry_after is not None:
             return min(retry_after, self.policy.max_retry_after, left)
-        if not self.origin.is_open:
-            return 0.0
-        return min(self.origin.backoff(state), left)
+        return min(self.origin.backoff(state), left) if self.origin.is_open else 0.0
 
-    def before_sleep(self, state: RetryCallState) -> None:
+    def before_sleep(self, state: tenacity.RetryCallState) -> None:
         reason = describe_failure(self.last) if self.last is not None else "unknown"
         self.stats.retries += 1
-        self.stats.retry_reasons[reason.split(":", 1)[0]] += 1
         if not self.counted:
             self.counted = True
             self.origin.retrying += 1
@@ -402,107 +315,68 @@ class _Request:
             wait_s=round(state.upcoming_sleep, 3),
         )
 
-    def unreachable(self, reason: str) -> OriginUnreachableError:
-        origin = self.origin
-        return OriginUnreachableError(
-            label=origin.label,
-            origin=self.url.origin(),
-            setting=origin.setting,
-            reason=reason,
-        )
-
-    def give_up(self, attempts: int) -> Exception:
-        """The error that ends a request whose retries stopped."""
+    def exhausted(self, attempts: int, *, budget_spent: bool) -> Exception:
         policy, origin, last = self.policy, self.origin, self.last
-        retry_after = _retry_after(last)
-        status = getattr(last, "status", None)
-        if self.why is _GiveUp.RETRY_AFTER_CAP and retry_after is not None:
-            limit = f"the {policy.max_retry_after:g} s stook waits at most"
-        elif self.why is _GiveUp.RETRY_AFTER_BUDGET and retry_after is not None:
-            limit = (
-                f"the {max(self.left_at_stop, 0.0):.1f} s left of its "
-                f"{policy.retry_for:g} s [fetch] retry_for"
-            )
-        else:
-            limit = ""
-        if limit:
-            return RetryAfterTooLongError(
-                method="GET",
-                url=self.url,
-                status=status,
-                retry_after=retry_after or 0.0,
-                limit=limit,
-            )
         reason = describe_failure(last) if last is not None else origin.last_failure
-        if self.first_contact() and self.why is _GiveUp.BUDGET:
-            return self.unreachable(f"{reason}; tried for {policy.first_contact_for:g} s")
-        if self.why is _GiveUp.BUDGET and not origin.is_open:
+        if budget_spent and self.first_contact():
+            tried = f"{reason}; tried for {policy.first_contact_for:g} s"
+            return origin.unreachable(self.url, tried)
+        if budget_spent and not origin.is_open:
             # Requests of many kinds fail and none is answered: the origin is down.
+            where, retry_for = origin.url or self.url.origin(), policy.retry_for
             return OriginUnavailableError(
-                label=origin.label,
-                origin=origin.url or self.url.origin(),
-                retry_for=policy.retry_for,
-                last_reason=reason,
+                label=origin.label, origin=where, retry_for=retry_for, last_reason=reason
             )
+        status = getattr(last, "status", None)
+        status = status if isinstance(status, int) else None
         return RetriesExhaustedError(
-            method="GET",
-            url=self.url,
-            attempts=attempts,
-            last_reason=reason,
-            last_status=status if isinstance(status, int) else None,
+            method="GET", url=self.url, attempts=attempts, last_reason=reason, last_status=status
         )
-
-
-def _stop(state: RetryCallState) -> bool:
-    return bool(state.args[0].stop(state))
-
-
-def _wait(state: RetryCallState) -> float:
-    return float(state.args[0].wait(state))
-
-
-def _before_sleep(state: RetryCallState) -> None:
-    state.args[0].before_sleep(state)
 
 
 async def send(
     attempt: Callable[[], Awaitable[_T]], origin: Origin, *, url: URL, stats: TransferStats
 ) -> _T:
-    """Await ``attempt()`` until it succeeds, fails for good, or its budget is spent.
-
-    A failure that is not transient propagates unchanged. A spent budget raises
-    :class:`OriginUnavailableError` while the origin's gate is closed (the origin is down,
-    not just this request), :class:`OriginUnreachableError` when the origin never
-    answered, else :class:`RetriesExhaustedError`; a ``Retry-After`` that cannot be
-    honoured raises :class:`RetryAfterTooLongError` at once.
-    """
-    request = _Request(origin, url, stats)
-    retrying = origin.tenacity
-    # Each attempt's failure goes to tenacity, which says whether to retry, whether to
-    # stop and how long to wait: the loop of AsyncRetrying.__call__, on tenacity's
-    # synchronous core. AsyncRetrying would also wrap each step in a coroutine on every
-    # attempt, and its bookkeeping of a success hands the result back unchanged: together
-    # 80 µs a request at 0 ms latency, a third of the client's CPU.
-    state: RetryCallState | None = None  # the call's, made with its first failure
+    """Await ``attempt()`` until it succeeds, fails for good (raised unchanged), or its budget
+    is spent (:class:`OriginUnavailableError` while the gate is closed, else
+    :class:`OriginUnreachableError` or :class:`RetriesExhaustedError`)."""
+    # tenacity decides after each failure: AsyncRetrying's loop on tenacity's synchronous
+    # core, without the coroutines it wraps around every step (80 µs a request).
+    policy = origin.policy
+    started = policy.clock()
+    request: _Request | None = None  # made with the first failure
     try:
         while True:
+            probe = False
+            if not origin.is_open:
+                deadline = request.deadline() if request else started + policy.retry_for
+                probe = await origin.enter(deadline)
+            sent_in = origin.closures
             try:
-                return await request.attempt(attempt)
-            except Exception:  # a cancellation is no failure: it ends the request as it is
-                if state is None:
-                    state = RetryCallState(retrying, fn=None, args=(request,), kwargs={})
-                state.set_exception(sys.exc_info())  # type: ignore[arg-type]
+                result = await attempt()
+            except Exception as exc:  # a cancellation is no failure: it ends the request
+                request = request or _Request(origin, url, stats, started)
+                request.failed(exc, sent_in, probe)
+                request.state.set_exception(sys.exc_info())  # type: ignore[arg-type]
+            else:
+                origin.answer(sent_in)
+                return result
+            finally:
+                if probe:
+                    origin.probe_finished()
             # Raises the failure when it is not retried, RetryError when retries stop.
-            do = retrying.iter(state)
-            assert isinstance(do, DoSleep)
-            state.prepare_for_next_attempt()
-            await request.policy.sleep(do)
+            do = request.tenacity.iter(request.state)
+            assert isinstance(do, tenacity.DoSleep)
+            request.state.prepare_for_next_attempt()
+            await policy.sleep(do)
     except _GateTimeoutError:
-        request.why = _GiveUp.BUDGET
-        sent = state.attempt_number - 1 if state is not None else 0  # the last one was not
-        raise request.give_up(sent) from None
-    except RetryError as exhausted:
-        raise request.give_up(exhausted.last_attempt.attempt_number) from None
+        request = request or _Request(origin, url, stats, started)
+        sent = request.state.attempt_number - 1 if request.last else 0  # the last one was not
+        raise request.exhausted(sent, budget_spent=True) from None
+    except tenacity.RetryError:
+        assert request is not None
+        assert request.error is not None
+        raise request.error from None
     finally:
-        if request.counted:
+        if request is not None and request.counted:
             origin.retrying -= 1

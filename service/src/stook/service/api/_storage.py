@@ -1,14 +1,9 @@
-"""The object-storage client: presigned URLs fetched with retries and without any credentials.
-
-Its transport is built without the API's token, does not read ``.netrc``, and follows
-redirects itself so that each hop is checked: it cannot hand the token to whichever host a
-presigned URL (or a redirect from it) names.
-"""
+"""The object-storage client: presigned URLs fetched with retries and no credentials at all;
+it follows redirects itself, each hop through its transport, so that no host gets a token."""
 
 from __future__ import annotations
 
 import re
-from types import TracebackType
 from typing import Final, Self
 
 from yarl import URL
@@ -33,29 +28,21 @@ from stook.service.api._transport import (
     body_cap_mb,
 )
 
-__all__ = ["DEFAULT_CONCURRENCY", "DEFAULT_MAX_BODY_MB", "StorageClient", "answer_retry_after"]
-
 DEFAULT_CONCURRENCY: Final = 64
-# What one download may hold, decompressed: generous for metrics data. A real answer never
-# comes near; a hostile or broken one is stopped at the cap.
+# What one download may hold, decompressed: generous for metrics data, a stop for a bomb.
 DEFAULT_MAX_BODY_MB: Final = 256.0
 _REDIRECT_STATUSES: Final = frozenset({301, 302, 303, 307, 308})
-_MAX_STORAGE_REDIRECTS: Final = 5
-_STORAGE_ERROR_CODE: Final = re.compile(rb"<Code>\s*([A-Za-z0-9_.-]{1,64})\s*</Code>")
+_MAX_REDIRECTS: Final = 5
+_ERROR_CODE: Final = re.compile(rb"<Code>\s*([A-Za-z0-9_.-]{1,64})\s*</Code>")
 _EXPIRED_CODES: Final = frozenset({b"ExpiredToken", b"AccessDenied", b"RequestExpired"})
 
 
 class StorageClient:
     """Fetches presigned object-storage URLs, with retries and without any credentials.
 
-    Usually owned by an :class:`ApiClient` (``api.storage``); it can also be used alone::
-
-        async with StorageClient() as storage:
-            payload = await storage.fetch_bytes(url)
-
-    ``limiter`` bounds the fetches in flight (a fixed bound of ``concurrency`` by default).
-    ``transport`` replaces the HTTP transport built from these settings: one passed in
-    brings its own limiter, timeout and body cap, and must carry no credentials.
+    Usually an :class:`ApiClient`'s (``api.storage``); alone, ``async with StorageClient() as
+    storage: await storage.fetch_bytes(url)``. ``limiter`` bounds the fetches in flight; a
+    ``transport`` passed in brings its own limiter, timeout and body cap, and no credentials.
     """
 
     def __init__(
@@ -67,43 +54,31 @@ class StorageClient:
         body_cap: BodyCap | None = None,
         transport: Transport | None = None,
     ) -> None:
-        self._policy = retry or RetryPolicy()
+        policy = retry or RetryPolicy()
         # Shared by every storage request: when storage fails, they wait together.
-        self.origin = Origin("object storage", self._policy, setting="the URLs the API listed")
-        if transport is None:
-            transport = HttpTransport(
-                name="storage",
-                body_cap=body_cap or body_cap_mb(DEFAULT_MAX_BODY_MB, "max_body_mb"),
-                concurrency=concurrency,
-                request_timeout=self._policy.request_timeout,
-                headers={"User-Agent": USER_AGENT},
-                follow_redirects=False,
-                credentials_allowed=False,
-                limiter=limiter,
-            )
-        self._transport = transport
-        self.stats: TransferStats = transport.stats
+        self.origin = Origin("object storage", policy, setting="the URLs the API listed")
+        self._transport = transport or HttpTransport(
+            name="storage",
+            body_cap=body_cap or body_cap_mb(DEFAULT_MAX_BODY_MB, "max_body_mb"),
+            concurrency=concurrency,
+            request_timeout=policy.request_timeout,
+            headers={"User-Agent": USER_AGENT},
+            follow_redirects=False,
+            credentials_allowed=False,
+            limiter=limiter,
+        )
+        self.stats: TransferStats = self._transport.stats
 
     async def __aenter__(self) -> Self:
         await self._transport.open()
         return self
 
-    async def __aexit__(
-        self,
-        exc_type: type[BaseException] | None,
-        exc: BaseException | None,
-        tb: TracebackType | None,
-    ) -> None:
+    async def __aexit__(self, *exc_info: object) -> None:
         await self._transport.close()
 
     async def fetch_bytes(self, url: str) -> bytes:
-        """The whole object behind a presigned URL.
-
-        Raises :class:`PresignedUrlExpiredError` when storage refuses the signature (list
-        again for a fresh URL), :class:`StorageError` for other refusals, and
-        :class:`RetriesExhaustedError` when transient failures outlast the retry policy
-        (:class:`OriginUnavailableError` when storage as a whole is failing).
-        """
+        """The whole object behind a presigned URL; :class:`PresignedUrlExpiredError` when
+        storage refuses the signature (list again for a fresh URL)."""
         # encoded=True: re-quoting would alter the signed query string and void the signature.
         target = URL(url, encoded=True)
         if target.scheme not in ("http", "https") or not target.raw_host:
@@ -113,26 +88,18 @@ class StorageClient:
         )
 
     async def _fetch_once(self, url: URL) -> bytes:
-        response = await self._transport.get(url)
-        return response.body if response.ok else await self._follow(response, url)
-
-    async def _follow(self, response: Response, url: URL) -> bytes:
-        """Where a first answer that was not a success leads: the body at the end of its
-        redirects (each hop sent through the transport, so each is checked), or the error
-        the answer stands for."""
-        for _hop in range(_MAX_STORAGE_REDIRECTS):
-            location = response.headers.get("Location")
-            if response.status not in _REDIRECT_STATUSES or not location:
-                raise _storage_error(response)
-            url = url.join(URL(location, encoded=True))
+        hops = 0  # redirects followed, each hop sent through the transport to be checked
+        while True:
             response = await self._transport.get(url)
             if response.ok:
                 return response.body
-        if response.status in _REDIRECT_STATUSES and response.headers.get("Location"):
-            raise StorageError(
-                f"more than {_MAX_STORAGE_REDIRECTS} redirects from object storage", url=url
-            )
-        raise _storage_error(response)
+            location = response.headers.get("Location")
+            if response.status not in _REDIRECT_STATUSES or not location:
+                raise _storage_error(response)
+            if hops == _MAX_REDIRECTS:
+                raise StorageError(f"more than {hops} redirects from object storage", url=url)
+            url = url.join(URL(location, encoded=True))
+            hops += 1
 
 
 def answer_retry_after(response: Response) -> float | None:
@@ -143,15 +110,17 @@ def answer_retry_after(response: Response) -> float | None:
 
 
 def _storage_error(response: Response) -> StorageError:
-    """Map a storage refusal; only the error code is kept (S3 bodies echo the signature)."""
-    match = _STORAGE_ERROR_CODE.search(response.body[:4096])
+    """A storage refusal; of its body only the error code is kept (S3's echo the signature)."""
+    match = _ERROR_CODE.search(response.body[:4096])
     code = match.group(1) if match else None
-    code_text = f" ({code.decode()})" if code else ""
     status = response.status
+    said = f"GET {redact_url(response.url)} answered HTTP {status}"
+    if code:
+        said += f" ({code.decode()})"
     if status == 403 or (status == 400 and code in _EXPIRED_CODES):
         return PresignedUrlExpiredError(
-            f"GET {redact_url(response.url)} answered HTTP {status}{code_text}: the presigned "
-            "URL has expired or its signature is invalid; list again for a fresh URL",
+            f"{said}: the presigned URL has expired or its signature is invalid; list again "
+            "for a fresh URL",
             url=response.url,
             status=status,
         )
@@ -161,9 +130,7 @@ def _storage_error(response: Response) -> StorageError:
         message = "object storage is unavailable or throttling"
     else:
         message = "object storage refused the request"
+    retry_after = answer_retry_after(response)
     return StorageError(
-        f"GET {redact_url(response.url)} answered HTTP {status}{code_text}: {message}",
-        url=response.url,
-        status=status,
-        retry_after=answer_retry_after(response),
+        f"{said}: {message}", url=response.url, status=status, retry_after=retry_after
     )

@@ -1,19 +1,6 @@
-"""The transport: one aiohttp session that sends a GET and returns the whole answer.
-
-It knows nothing of JSON, paging, retries or what a status code means; the clients build
-those on top. What it guarantees:
-
-* at most as many requests in flight as its limiter allows, and each request's timeout
-  starts only once it holds a slot, so queued requests do not time out while they wait;
-* a body shorter than its ``Content-Length`` is an error, and one longer than the
-  transport's :class:`BodyCap` (counted after decompression) is an error as soon as the
-  cap is passed;
-* every failure leaves as a :class:`TransportError` with a redacted message, made in one
-  place (:func:`transport_error`), never as an aiohttp exception whose text could hold a
-  presigned URL;
-* a transport built with ``credentials_allowed=False`` (object storage) never sends an
-  ``Authorization`` header, URL user info or ``.netrc`` credentials.
-"""
+"""One aiohttp session that sends a GET and returns the whole answer, any status: timed from
+when it holds a slot of its limiter, its body capped after decompression, aiohttp's failures
+turned into :class:`TransportError` (here only), and no credentials at all to storage."""
 
 from __future__ import annotations
 
@@ -24,41 +11,22 @@ import time
 from collections import Counter
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from types import TracebackType
 from typing import Final, Protocol, Self
 
 import aiohttp
+import structlog
 from aiohttp import hdrs
 from multidict import CIMultiDictProxy
 from yarl import URL
 
-from stook.service.api._errors import (
-    BodyTooLargeError,
-    FailureKind,
-    IncompleteBodyError,
-    TransportError,
-)
+from stook.service.api._errors import BodyTooLargeError, FailureKind, TransportError
 from stook.service.api._limits import ConcurrencyLimit, FixedLimit
-from stook.service.api._logging import get_logger
 from stook.service.api._redact import redact_text, redact_url
 
-__all__ = [
-    "USER_AGENT",
-    "BodyCap",
-    "HttpTransport",
-    "Response",
-    "TransferStats",
-    "Transport",
-    "body_cap_mb",
-    "transport_error",
-]
-
-_log = get_logger("stook.service.http")
+_log = structlog.get_logger("stook.service.http")
 
 USER_AGENT: Final = "stook/0.1 (+aiohttp)"
-_MAX_REDIRECTS: Final = 5
 _NO_BODY_STATUSES: Final = frozenset({204, 304})
-_CREDENTIAL_HEADERS: Final = frozenset({"authorization", "proxy-authorization"})
 
 
 @dataclass(frozen=True, slots=True)
@@ -80,12 +48,11 @@ def body_cap_mb(megabytes: float, setting: str) -> BodyCap:
 
 @dataclass(frozen=True, slots=True)
 class Response:
-    """A complete answer: status, headers and the whole body."""
+    """A complete answer; ``url`` (after redirects, maybe presigned) is kept out of repr."""
 
     status: int
     headers: CIMultiDictProxy[str]
     body: bytes
-    # The final URL after redirects; kept out of repr because it may be presigned.
     url: URL = field(repr=False)
 
     @property
@@ -95,27 +62,16 @@ class Response:
 
 @dataclass(slots=True)
 class TransferStats:
-    """Counters of one client's traffic; one event loop updates them, so no lock."""
+    """Counters of one client's traffic (one event loop updates them: no lock)."""
 
     requests: int = 0
     retries: int = 0
     bytes_received: int = 0
-    statuses: Counter[int] = field(default_factory=Counter)
-    retry_reasons: Counter[str] = field(default_factory=Counter)
-
-    def as_dict(self) -> dict[str, object]:
-        return {
-            "requests": self.requests,
-            "retries": self.retries,
-            "bytes_received": self.bytes_received,
-            "statuses": dict(sorted(self.statuses.items())),
-            "retry_reasons": dict(self.retry_reasons),
-        }
+    statuses: Counter[int] = field(default_factory=Counter)  # read by `stook bench --probe`
 
 
 class Transport(Protocol):
-    """What a client needs from its transport: :class:`HttpTransport`, or a stand-in
-    (as httpx takes ``transport=``)."""
+    """What a client needs from its transport: :class:`HttpTransport` or a stand-in."""
 
     stats: TransferStats
 
@@ -126,41 +82,29 @@ class Transport(Protocol):
     async def get(self, url: URL) -> Response: ...
 
 
+@dataclass(kw_only=True, eq=False, repr=False)  # no repr: the headers hold the token
 class HttpTransport:
     """An aiohttp session for up to ``concurrency`` parallel GETs; ``async with`` opens it.
+    ``limiter`` (by default a :class:`FixedLimit` of ``concurrency``) may be shared."""
 
-    ``limiter`` bounds the requests in flight (a :class:`FixedLimit` of ``concurrency`` by
-    default); one shared with another transport makes one bound for both.
-    """
+    name: str
+    concurrency: int
+    request_timeout: float
+    headers: Mapping[str, str] = field(default_factory=dict)
+    follow_redirects: bool = True
+    credentials_allowed: bool = True  # False (storage): no token, user info or .netrc
+    limiter: ConcurrencyLimit | None = None
+    proxy_for: URL | None = None
+    body_cap: BodyCap | None = None
 
-    def __init__(
-        self,
-        *,
-        name: str,
-        concurrency: int,
-        request_timeout: float,
-        stats: TransferStats | None = None,
-        headers: Mapping[str, str] | None = None,
-        follow_redirects: bool = True,
-        credentials_allowed: bool = True,
-        limiter: ConcurrencyLimit | None = None,
-        proxy_for: URL | None = None,
-        body_cap: BodyCap | None = None,
-    ) -> None:
-        if concurrency < 1:
-            raise ValueError(f"concurrency must be at least 1, got {concurrency}")
-        self._headers = dict(headers or {})
-        if not credentials_allowed and _CREDENTIAL_HEADERS & {k.lower() for k in self._headers}:
-            raise ValueError(f"{name} transport must not carry credential headers")
-        self.name = name
-        self.stats = TransferStats() if stats is None else stats
-        self.limiter: ConcurrencyLimit = limiter or FixedLimit(concurrency)
-        self._concurrency = concurrency
-        self._timeout = request_timeout
-        self._follow_redirects = follow_redirects
-        self._credentials_allowed = credentials_allowed
-        self._proxy_for = proxy_for
-        self._body_cap = body_cap
+    def __post_init__(self) -> None:
+        if self.concurrency < 1:
+            raise ValueError(f"concurrency must be at least 1, got {self.concurrency}")
+        names = {name.lower() for name in self.headers}
+        if not self.credentials_allowed and names & {"authorization", "proxy-authorization"}:
+            raise ValueError(f"{self.name} transport must not carry credential headers")
+        self.stats = TransferStats()
+        self._limit = self.limiter or FixedLimit(self.concurrency)
         self._session: aiohttp.ClientSession | None = None
         self._debug = False
 
@@ -168,32 +112,23 @@ class HttpTransport:
         await self.open()
         return self
 
-    async def __aexit__(
-        self,
-        exc_type: type[BaseException] | None,
-        exc: BaseException | None,
-        tb: TracebackType | None,
-    ) -> None:
+    async def __aexit__(self, *exc_info: object) -> None:
         await self.close()
 
     async def open(self) -> None:
-        """Open the session; `get` needs it open."""
-        # Asked once, not per request: the level does not change during a run, and the
-        # debug line costs a redact_url per request.
+        # Asked once: the debug line costs a redact_url per request.
         self._debug = _log.is_enabled_for(logging.DEBUG)
+        proxy = self.proxy_for
         self._session = aiohttp.ClientSession(
-            connector=aiohttp.TCPConnector(limit=self._concurrency, limit_per_host=0),
-            headers=self._headers,
-            # The timeout is the limiter's slot's (see `get`), not aiohttp's: aiohttp's
-            # would count the wait for a pooled connection too.
+            connector=aiohttp.TCPConnector(limit=self.concurrency, limit_per_host=0),
+            headers=self.headers,
+            # The timeout is the slot's (see `get`): aiohttp's would count the wait for one.
             timeout=aiohttp.ClientTimeout(total=None),
-            # trust_env would attach ~/.netrc credentials to storage requests, and look up
-            # netrc and the proxy variables on every request; the API's proxy, if any, is
-            # looked up once here instead.
+            # trust_env would send ~/.netrc credentials to storage and read the environment
+            # on every request; the API's proxy is looked up once here instead.
             trust_env=False,
-            proxy=_env_proxy(self._proxy_for) if self._proxy_for is not None else None,
-            # No request needs a cookie: none is kept, so none travels to another host.
-            cookie_jar=aiohttp.DummyCookieJar(),
+            proxy=None if proxy is None else _env_proxy(proxy),
+            cookie_jar=aiohttp.DummyCookieJar(),  # no cookie travels to another host
         )
 
     async def close(self) -> None:
@@ -206,26 +141,18 @@ class HttpTransport:
         session = self._session
         if session is None:
             raise RuntimeError(f"{self.name} transport is not open; use 'async with'")
-        if not self._credentials_allowed and (
-            url.raw_user is not None or url.raw_password is not None
-        ):
-            # aiohttp would turn user info into a Basic Authorization header.
-            url = url.with_user(None)
-        await self.limiter.acquire()
+        if not self.credentials_allowed and (url.raw_user, url.raw_password) != (None, None):
+            url = url.with_user(None)  # aiohttp would send user info as Basic auth
+        await self._limit.acquire()
         started = time.monotonic()
         status: int | None = None
         try:
             self.stats.requests += 1
-            async with asyncio.timeout(self._timeout):
-                # Awaited, not entered with `async with`: aiohttp's context manager is a
-                # frame more in every resumption of the request, and all a GET's answer
-                # needs is a release unless its body was read to the end (which closed it
-                # and gave its connection back; releasing it again would still mark its
-                # stream with a "connection closed" error, a few µs a request).
+            async with asyncio.timeout(self.request_timeout):
+                # Awaited, not `async with`: a frame less in every resumption; a body read
+                # to its end already gave its connection back.
                 answer = await session.get(
-                    url,
-                    allow_redirects=self._follow_redirects,
-                    max_redirects=_MAX_REDIRECTS,
+                    url, allow_redirects=self.follow_redirects, max_redirects=5
                 )
                 try:
                     body = await self._read(answer)
@@ -234,31 +161,20 @@ class HttpTransport:
                         answer.release()
                 response = Response(answer.status, answer.headers, body, answer.url)
             status = response.status
-        except TransportError:
-            raise
         except (aiohttp.ClientError, OSError, TimeoutError) as exc:
-            raise transport_error(exc, url, self._timeout) from None
+            raise transport_error(exc, url, self.request_timeout) from None
         finally:
-            # The outcome goes back with the slot: an adaptive limit learns from it.
-            self.limiter.release(status, time.monotonic() - started)
+            self._limit.release(status, time.monotonic() - started)  # an AIMD limit learns
         self.stats.statuses[status] += 1
         self.stats.bytes_received += len(body)
         if self._debug:
-            _log.debug(
-                "http response",
-                transport=self.name,
-                url=redact_url(response.url),
-                status=status,
-                bytes=len(body),
-                ms=round((time.monotonic() - started) * 1000, 1),
-            )
+            ms = round((time.monotonic() - started) * 1000, 1)
+            _log.debug("http response", url=redact_url(response.url), status=status, ms=ms)
         return response
 
     async def _read(self, answer: aiohttp.ClientResponse) -> bytes:
-        """The whole body: BodyTooLargeError once more than the cap arrived (counted after
-        decompression, so a small gzip bomb stops at the cap too), IncompleteBodyError
-        when it ends before its ``Content-Length``."""
-        cap = self._body_cap
+        """The whole body, capped after decompression (a gzip bomb stops at the cap too)."""
+        cap = self.body_cap
         declared = answer.content_length
         if answer.status in _NO_BODY_STATUSES or hdrs.CONTENT_ENCODING in answer.headers:
             declared = None  # no body whatever it says, or a count of compressed bytes
@@ -266,11 +182,10 @@ class HttpTransport:
             try:  # aiohttp ends the body at its length: exactly that many bytes, at once
                 return await answer.content.readexactly(declared)
             except asyncio.IncompleteReadError as short:
-                raise IncompleteBodyError(
-                    method="GET", url=answer.url, received=len(short.partial), expected=declared
-                ) from None
+                reason = f"body ended after {len(short.partial)} of {declared} bytes"
+                raise TransportError(method="GET", url=answer.url, reason=reason) from None
         chunks: list[bytes] = []
-        size = 0 if declared is None else declared  # a declared size past the cap: no read
+        size = declared or 0  # a declared size past the cap: no read
         while cap is None or size <= cap.max_bytes:
             chunk = await answer.content.readany()
             if not chunk:
@@ -284,25 +199,17 @@ class HttpTransport:
 
 
 def transport_error(exc: BaseException, url: URL, timeout: float) -> TransportError:
-    """The one place where what aiohttp and sockets raise becomes stook's error: a
-    redacted reason, and what kind of failure it was (see `FailureKind`)."""
+    """The one place where what aiohttp and sockets raise becomes stook's error."""
     if isinstance(exc, TimeoutError):
-        return TransportError(
-            method="GET", url=url, reason=f"timed out after {timeout:g} s", kind="timeout"
-        )
-    kind: FailureKind
+        reason = f"timed out after {timeout:g} s"
+        return TransportError(method="GET", url=url, reason=reason, kind="timeout")
+    kind: FailureKind = "permanent"  # a certificate, bad URL or redirect loop does not heal
     if isinstance(exc, aiohttp.ClientSSLError | aiohttp.InvalidURL | aiohttp.TooManyRedirects):
-        kind = "permanent"  # a certificate, URL or redirect loop does not heal
-    elif isinstance(exc, aiohttp.ClientConnectorError) and isinstance(
-        exc.os_error, socket.gaierror
-    ):
-        kind = "dns"
+        pass
     elif isinstance(exc, aiohttp.ClientConnectorError):
-        kind = "connect"  # refused, unreachable: no connection was made
+        kind = "dns" if isinstance(exc.os_error, socket.gaierror) else "connect"
     elif isinstance(exc, aiohttp.ClientConnectionError | aiohttp.ClientPayloadError | OSError):
         kind = "broken"  # reset, disconnected, truncated: a connection was made
-    else:
-        kind = "permanent"
     text = redact_text(str(exc))
     reason = f"{type(exc).__name__}: {text}" if text else type(exc).__name__
     return TransportError(method="GET", url=url, reason=reason, kind=kind)
@@ -311,7 +218,6 @@ def transport_error(exc: BaseException, url: URL, timeout: float) -> TransportEr
 def _env_proxy(url: URL) -> URL | None:
     """The proxy that HTTP(S)_PROXY / NO_PROXY name for `url`, if any."""
     try:
-        proxy, _auth = aiohttp.helpers.get_env_proxy_for_url(url)
+        return aiohttp.helpers.get_env_proxy_for_url(url)[0]
     except LookupError:
         return None
-    return proxy

@@ -401,7 +401,7 @@ _QUIET_COMMANDS = ("show", "validate", "preview", "metrics-config")
 def _run_cli(argv: Sequence[str] | None, voice: Voice) -> int:
     args = _build_parser(_chosen_command(argv)).parse_args(argv)
     if hasattr(args, "log_format"):
-        from stook.service.api import configure_logging
+        from stook.service.modes import configure_logging
 
         json_logs = None if args.log_format == "auto" else args.log_format == "json"
         configure_logging(json=json_logs, level=args.log_level)
@@ -411,7 +411,7 @@ def _run_cli(argv: Sequence[str] | None, voice: Voice) -> int:
         json_logs = None if chosen not in ("json", "console") else chosen == "json"
 
         def set_up(json_logs: bool | None = json_logs) -> None:
-            from stook.service.api import configure_logging
+            from stook.service.modes import configure_logging
 
             configure_logging(json=json_logs, level="warning")
 

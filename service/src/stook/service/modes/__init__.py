@@ -25,6 +25,7 @@ from stook.service.modes._inputs import (
     detect,
 )
 from stook.service.modes._library import fetch_batch, fetch_batch_frame, fetch_report
+from stook.service.modes._logging import configure_logging
 from stook.service.modes._open_api import Traffic, open_api
 from stook.service.modes._outputs import OutputsError, check_outputs_folder
 from stook.service.modes._progress import (
@@ -68,6 +69,7 @@ __all__ = [
     "UserFunctionError",
     "batch_aggregations",
     "check_outputs_folder",
+    "configure_logging",
     "detect",
     "engine_for",
     "event_loop_factory",

@@ -23,7 +23,7 @@ from typing import TYPE_CHECKING, Any, TypeVar
 import structlog
 
 from stook.sdk.aggregations import BatchRecord, JobRecord, Needs
-from stook.service.api import ApiClient, configure_logging
+from stook.service.api import ApiClient
 from stook.service.fetch import (
     BatchFetcher,
     FetchOutcome,
@@ -43,6 +43,7 @@ from stook.service.modes._inputs import (
     ReportInputs,
     detect,
 )
+from stook.service.modes._logging import configure_logging
 from stook.service.modes._open_api import open_api
 from stook.service.modes._steps import MissingJobsError
 

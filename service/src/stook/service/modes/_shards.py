@@ -46,13 +46,13 @@ from stook.service.api import (
     Job,
     Report,
     RetryPolicy,
-    configure_logging,
     redact_text,
 )
 from stook.service.fetch import BatchFetcher, FetchOutcome, ReportFetcher, ReportOutcome
 from stook.service.modes._config import FetchSettings
 from stook.service.modes._event_loop import run_on_event_loop
 from stook.service.modes._inputs import ApiAccess
+from stook.service.modes._logging import configure_logging
 from stook.service.modes._open_api import Traffic, open_api
 
 #: Seconds between a shard's reports: the display redraws at most 4 times a second.

@@ -59,8 +59,14 @@ ENGINES: Final[tuple[tuple[str, dict[str, Any]], ...]] = (
 
 def measure_engine(info: EmulatorInfo, engine: dict[str, Any]) -> dict[str, Any]:
     """One batch run as `stook run` does it with `engine`, in this (fresh) process."""
-    from stook.service.api import configure_logging
-    from stook.service.modes import BatchInputs, detect, parse, run_batch, run_on_event_loop
+    from stook.service.modes import (
+        BatchInputs,
+        configure_logging,
+        detect,
+        parse,
+        run_batch,
+        run_on_event_loop,
+    )
 
     events = io.StringIO()
     configure_logging(json=True, level="info", stream=events)

@@ -56,7 +56,7 @@ def _needs(load: str) -> Any:
 def measure_fetch_load(info: EmulatorInfo, load: str, concurrency: int) -> Measurement:
     """One load through `fetch_batch`; each record is looked at and dropped, as a fold does."""
     from stook.service import fetch_batch
-    from stook.service.api import configure_logging
+    from stook.service.modes import configure_logging
 
     configure_logging(json=True, level="error")
     # Imported before the clock starts, as in `measure_stook`: start-up is measured apart.

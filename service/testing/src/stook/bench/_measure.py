@@ -118,9 +118,9 @@ def run_stook(
     info: EmulatorInfo, config_toml: str, concurrency: int, adaptive: bool = False
 ) -> tuple[Measurement, Traffic]:
     """`measure_stook`, with the run's traffic: its limiters' stats among it."""
-    from stook.service.api import configure_logging
     from stook.service.modes import (
         BatchInputs,
+        configure_logging,
         detect,
         event_loop_factory,
         parse,

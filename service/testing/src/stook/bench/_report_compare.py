@@ -24,8 +24,14 @@ from stook.emulator import EmulatorConfig, EmulatorInfo, EmulatorProcess
 
 
 def measure_stook_report(info: EmulatorInfo, concurrency: int) -> Measurement:
-    from stook.service.api import configure_logging
-    from stook.service.modes import ReportInputs, detect, parse, run_on_event_loop, run_report
+    from stook.service.modes import (
+        ReportInputs,
+        configure_logging,
+        detect,
+        parse,
+        run_on_event_loop,
+        run_report,
+    )
 
     configure_logging(json=True, level="error")
     config = parse({"fetch": {"concurrency": concurrency}}, source="bench")

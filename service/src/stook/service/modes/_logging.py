@@ -1,11 +1,6 @@
-"""structlog set-up for the service: JSON lines in the platform, readable lines at a terminal,
-and credentials scrubbed from every event before it is rendered.
-
-The scrubbing is a processor rather than a habit so that one careless ``log.info(url=...)``
-cannot leak a presigned-URL signature or the bearer token: :func:`redact_event` runs last
-before the renderer, after exceptions have been turned into text, so tracebacks are scrubbed
-too.
-"""
+"""structlog set-up for stook's runs: JSON lines in the platform, readable lines at a terminal,
+and the token and presigned-URL signatures scrubbed from every event (:func:`redact_event`,
+the last processor before the renderer, after exceptions became text)."""
 
 from __future__ import annotations
 
@@ -18,12 +13,12 @@ from enum import Enum
 from typing import TextIO, cast
 
 import structlog
-from structlog.typing import EventDict, FilteringBoundLogger, Processor, WrappedLogger
+from structlog.typing import EventDict, Processor, WrappedLogger
 from yarl import URL
 
-from stook.service.api._redact import redact_text, redact_url, register_secret
+from stook.service.api import redact_text, redact_url
 
-__all__ = ["configure_logging", "get_logger", "redact_event", "register_secret"]
+__all__ = ["configure_logging", "redact_event"]
 
 # Deeply nested event values are not expected; the limit only guards against cycles.
 _MAX_DEPTH = 8
@@ -51,48 +46,35 @@ def _redact_value(value: object, depth: int) -> object:
         return f"{type(value).__name__}: {redact_text(str(value))}"
     if isinstance(value, uuid.UUID | datetime | date | Enum):
         return str(value)
-    # Renderers would fall back to repr(), which for sessions, requests or responses can
-    # include a full URL; render it ourselves so the text passes through the scrubber.
+    # A renderer's repr() of a session or response may hold a full URL: scrub it here.
     return redact_text(repr(value))
 
 
 def configure_logging(
-    *,
-    json: bool | None = None,
-    level: str = "info",
-    stream: TextIO | None = None,
+    *, json: bool | None = None, level: str = "info", stream: TextIO | None = None
 ) -> None:
-    """Route structlog to ``stream`` (stderr by default).
-
-    ``json=None`` picks JSON lines when the stream is not a terminal (the platform collects
-    them) and coloured console lines when it is.
-    """
+    """Route structlog to ``stream`` (stderr by default); ``json=None`` picks JSON lines when
+    the stream is not a terminal (the platform collects them), coloured lines when it is."""
     out = sys.stderr if stream is None else stream
     # By default each line goes to whatever sys.stderr is when it is written: while a
     # progress bar is drawn, rich puts a proxy there that prints lines above the bar.
     target = cast(TextIO, _CurrentStderr()) if stream is None else stream
-    if json is None:
-        json = not _is_tty(out)
-    levels = logging.getLevelNamesMapping()
     try:
-        numeric_level = levels[level.upper()]
+        numeric_level = logging.getLevelNamesMapping()[level.upper()]
     except KeyError:
         raise ValueError(f"unknown log level {level!r}") from None
-
     renderer: Processor
-    if json:
+    if json if json is not None else not _is_tty(out):
         renderer = structlog.processors.JSONRenderer()
     else:
         renderer = structlog.dev.ConsoleRenderer(colors=_is_tty(out))
-
     structlog.configure(
         processors=[
             structlog.contextvars.merge_contextvars,
             structlog.processors.add_log_level,
             structlog.processors.TimeStamper(fmt="iso", utc=True),
             structlog.processors.StackInfoRenderer(),
-            # Exceptions become text here so that redact_event sees their messages.
-            structlog.processors.format_exc_info,
+            structlog.processors.format_exc_info,  # text, so that redact_event sees it
             redact_event,
             renderer,
         ],
@@ -101,14 +83,6 @@ def configure_logging(
         # Not cached: tests and `stook` subcommands reconfigure after loggers exist.
         cache_logger_on_first_use=False,
     )
-
-
-def get_logger(name: str) -> FilteringBoundLogger:
-    """A logger whose events carry ``logger_name=name``; configuration is looked up per call.
-
-    (``logger`` itself cannot be an initial value: structlog reserves that argument name.)
-    """
-    return cast(FilteringBoundLogger, structlog.get_logger(name, logger_name=name))
 
 
 class _CurrentStderr:
