@@ -43,7 +43,6 @@ API_ORDER = [
     "_fields",
     "_limits",
     "_models",
-    "_job_logs",
     "_paging",
     "_transport",
     "_retry",

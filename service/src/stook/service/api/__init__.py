@@ -25,11 +25,6 @@ from stook.service.api._errors import (
     StorageError,
     TransportError,
 )
-from stook.service.api._job_logs import (
-    ExecutionStep,
-    JobLog,
-    LogType,
-)
 from stook.service.api._limits import (
     AimdLimiter,
     ConcurrencyLimit,
@@ -54,10 +49,13 @@ from stook.service.api._models import (
     ConflatedBatchStatus,
     ConflatedJobStatus,
     EventTimestampType,
+    ExecutionStep,
     ExperienceTag,
     Job,
     JobEventListing,
+    JobLog,
     JobStatus,
+    LogType,
     MetricOwner,
     MetricsDataStorageType,
     Report,

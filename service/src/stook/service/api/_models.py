@@ -1,26 +1,12 @@
-"""Typed, immutable views of the API objects that batch and report modes read.
+"""Typed, immutable views of the API objects stook reads, each read by its own ``from_json``.
 
-Each ``from_json`` checks only what stook relies on and ignores every other key, so a newer
-API that adds fields keeps working. The spec's ``job``, ``batch``, ``metric`` and
-``metricsData`` schemas list no required field (ReSim's Go client omits empty ones), so
-required here are only the IDs stook cannot do without (an object's own ID, to fetch it or
-match it) and a report's search window. Everything else may be absent, with a documented
-meaning: a missing string reads as ``None`` (names as ``""``: unnamed), a metric's missing
-``status`` as ``NO_STATUS_REPORTED``, a missing ``metricsDataType`` as ``STANDARD`` (ReSim's
-own fetcher reads every metrics-data URL as a ``MetricsData`` message), a missing metric
-``type`` or job ``conflatedStatus`` as ``None``.
-
-Enumerations are open: a value this client does not know (one the platform adds later) is
-kept as its raw string, so that it is counted under its own name instead of failing a job.
-Known values are the ``StrEnum`` members, which are strings too.
-
-Field names and which keys exist follow ReSim's published client (``resim.sdk.client.models``).
-
-The two models a batch run reads by the dozen for every job (``ApiMetric``,
-``ApiMetricsData``) are frozen ``msgspec.Struct``s, the others frozen dataclasses: a Struct
-is as immutable and hashable, and is built in a fifth of the time a frozen dataclass's
-``__init__`` takes (its ``object.__setattr__`` per field), a fifth of such an item's whole
-decoding.
+Only what stook relies on is checked and every other key ignored, so a newer API keeps
+working. The spec requires no field of these objects (ReSim's Go client omits empty ones):
+required here are only an object's own ID and a report's search window; anything else may
+be absent, with the meaning each model documents. Enumerations are open: a value this
+client does not know is kept as its raw string. Field names follow ReSim's published client.
+``ApiMetric`` and ``ApiMetricsData``, read by the dozen per job, are frozen msgspec Structs
+(built in a fifth of a frozen dataclass's time); the others frozen dataclasses.
 """
 
 from __future__ import annotations
@@ -47,10 +33,13 @@ __all__ = [
     "ConflatedBatchStatus",
     "ConflatedJobStatus",
     "EventTimestampType",
+    "ExecutionStep",
     "ExperienceTag",
     "Job",
     "JobEventListing",
+    "JobLog",
     "JobStatus",
+    "LogType",
     "MetricOwner",
     "MetricsDataStorageType",
     "Report",
@@ -167,9 +156,8 @@ class Job:
     parameters: Mapping[str, str] = field(default_factory=dict, hash=False)
 
     @classmethod
-    def from_json(cls, data: Mapping[str, Any], *, ids: dict[str, uuid.UUID] | None = None) -> Self:
-        """``ids``: IDs read before, by their text, to parse each once (see ``Fields``)."""
-        f = Fields("Job", data, "jobID", ids)
+    def from_json(cls, data: Mapping[str, Any]) -> Self:
+        f = Fields("Job", data, "jobID")
         return cls(
             job_id=f.id("jobID"),
             conflated_status=f.opt_choice("conflatedStatus", ConflatedJobStatus),
@@ -231,21 +219,19 @@ class ApiMetric(msgspec.Struct, frozen=True):
         data: Mapping[str, Any],
         *,
         owner: MetricOwner,
-        ids: dict[str, uuid.UUID] | None = None,
     ) -> Self:
-        """``ids``: IDs read before, by their text, to parse each once (see ``Fields``)."""
-        f = Fields(_METRIC_KINDS[owner], data, "metricID", ids)
+        f = Fields(_METRIC_KINDS[owner], data, "metricID")
         # The order of evaluation decides which error an item with two bad fields gets.
         return cls(
             metric_id=f.id("metricID"),
             name=f.opt_string("name") or "",
             type=f.opt_choice("type", ApiMetricType),
-            status=f.choice("status", ApiMetricStatus, default=ApiMetricStatus.NO_STATUS_REPORTED),
+            status=f.opt_choice("status", ApiMetricStatus) or ApiMetricStatus.NO_STATUS_REPORTED,
             value=f.opt_number("value"),
             unit=f.opt_string("unit"),
             metric_url=f.opt_string("metricURL"),
             data_ids=f.ids("dataIDs"),
-            event_metric=f.flag("eventMetric", default=False),
+            event_metric=f.flag("eventMetric"),
             creation_timestamp=f.opt_timestamp("creationTimestamp"),
             owner=owner,
             job_id=f.opt_id("jobID") if owner is MetricOwner.JOB else None,
@@ -286,32 +272,19 @@ class ApiMetricsData(msgspec.Struct, frozen=True):
         data: Mapping[str, Any],
         *,
         owner: MetricOwner,
-        ids: dict[str, uuid.UUID] | None = None,
     ) -> Self:
-        """``ids``: IDs read before, by their text, to parse each once (see ``Fields``)."""
-        f = Fields(_DATA_KINDS[owner], data, "dataID", ids)
-        data_id = f.id("dataID")
-        name = f.opt_string("name") or ""
-        metrics_data_type = f.choice(
-            "metricsDataType", MetricsDataStorageType, default=MetricsDataStorageType.STANDARD
-        )
-        metrics_data_url = f.opt_string("metricsDataURL")
-        filename = f.opt_string("filename")
-        creation_timestamp = f.opt_timestamp("creationTimestamp")
-        if owner is MetricOwner.JOB:
-            job_id, batch_id = f.opt_id("jobID"), None
-        else:
-            job_id, batch_id = None, f.opt_id("batchID")
+        f = Fields(_DATA_KINDS[owner], data, "dataID")
         return cls(
-            data_id=data_id,
-            name=name,
-            metrics_data_type=metrics_data_type,
-            metrics_data_url=metrics_data_url,
-            filename=filename,
+            data_id=f.id("dataID"),
+            name=f.opt_string("name") or "",
+            metrics_data_type=f.opt_choice("metricsDataType", MetricsDataStorageType)
+            or MetricsDataStorageType.STANDARD,
+            metrics_data_url=f.opt_string("metricsDataURL"),
+            filename=f.opt_string("filename"),
+            creation_timestamp=f.opt_timestamp("creationTimestamp"),
             owner=owner,
-            job_id=job_id,
-            batch_id=batch_id,
-            creation_timestamp=creation_timestamp,
+            job_id=f.opt_id("jobID") if owner is MetricOwner.JOB else None,
+            batch_id=f.opt_id("batchID") if owner is MetricOwner.BATCH else None,
         )
 
 
@@ -343,9 +316,8 @@ class Batch:
     creation_timestamp: datetime | None = None
 
     @classmethod
-    def from_json(cls, data: Mapping[str, Any], *, ids: dict[str, uuid.UUID] | None = None) -> Self:
-        """``ids``: IDs read before, by their text, to parse each once (see ``Fields``)."""
-        f = Fields("Batch", data, "batchID", ids)
+    def from_json(cls, data: Mapping[str, Any]) -> Self:
+        f = Fields("Batch", data, "batchID")
         return cls(
             batch_id=f.id("batchID"),
             status=f.opt_choice("status", BatchStatus),
@@ -389,7 +361,7 @@ class Report:
             branch_id=f.id("branchID"),
             start_timestamp=f.timestamp("startTimestamp"),
             end_timestamp=f.timestamp("endTimestamp"),
-            respect_revision_boundary=f.flag("respectRevisionBoundary", default=False),
+            respect_revision_boundary=f.flag("respectRevisionBoundary"),
             name=f.opt_string("name") or "",
             creation_timestamp=f.opt_timestamp("creationTimestamp"),
         )
@@ -436,13 +408,12 @@ class JobEventListing:
     creation_timestamp: datetime | None = None
 
     @classmethod
-    def from_json(cls, data: Mapping[str, Any], *, ids: dict[str, uuid.UUID] | None = None) -> Self:
-        """``ids``: IDs read before, by their text, to parse each once (see ``Fields``)."""
-        f = Fields("Event", data, "eventID", ids)
+    def from_json(cls, data: Mapping[str, Any]) -> Self:
+        f = Fields("Event", data, "eventID")
         return cls(
             event_id=f.id("eventID"),
             name=f.opt_string("name") or "",
-            status=f.choice("status", ApiMetricStatus, default=ApiMetricStatus.NO_STATUS_REPORTED),
+            status=f.opt_choice("status", ApiMetricStatus) or ApiMetricStatus.NO_STATUS_REPORTED,
             timestamp=f.opt_timestamp("timestamp"),
             timestamp_type=f.opt_choice("timestampType", EventTimestampType),
             description=f.opt_string("description") or "",
@@ -461,9 +432,8 @@ class ExperienceTag:
     description: str = ""
 
     @classmethod
-    def from_json(cls, data: Mapping[str, Any], *, ids: dict[str, uuid.UUID] | None = None) -> Self:
-        """``ids``: IDs read before, by their text, to parse each once (see ``Fields``)."""
-        f = Fields("ExperienceTag", data, "experienceTagID", ids)
+    def from_json(cls, data: Mapping[str, Any]) -> Self:
+        f = Fields("ExperienceTag", data, "experienceTagID")
         return cls(
             experience_tag_id=f.id("experienceTagID"),
             name=f.opt_string("name") or "",
@@ -480,11 +450,70 @@ class Branch:
     branch_type: str | None = None
 
     @classmethod
-    def from_json(cls, data: Mapping[str, Any], *, ids: dict[str, uuid.UUID] | None = None) -> Self:
-        """``ids``: IDs read before, by their text, to parse each once (see ``Fields``)."""
-        f = Fields("Branch", data, "branchID", ids)
+    def from_json(cls, data: Mapping[str, Any]) -> Self:
+        f = Fields("Branch", data, "branchID")
         return cls(
             branch_id=f.id("branchID"),
             name=f.opt_string("name") or "",
             branch_type=f.opt_string("branchType"),
+        )
+
+
+class LogType(enum.StrEnum):
+    """The spec's `logType`."""
+
+    OTHER_LOG = "OTHER_LOG"
+    METRICS_OUTPUT_LOG = "METRICS_OUTPUT_LOG"
+    CONTAINER_LOG = "CONTAINER_LOG"
+    EXECUTION_LOG = "EXECUTION_LOG"
+    MCAP_LOG = "MCAP_LOG"
+    MP4_LOG = "MP4_LOG"
+    ARCHIVE_LOG = "ARCHIVE_LOG"
+    FOXGLOVE_MCAP_LOG = "FOXGLOVE_MCAP_LOG"
+    RERUN_IO_LOG = "RERUN_IO_LOG"
+    ERROR_LOG = "ERROR_LOG"
+    SERVICE_LOG = "SERVICE_LOG"
+    EMISSIONS_LOG = "EMISSIONS_LOG"
+    SYSTEM_LOG = "SYSTEM_LOG"
+
+
+class ExecutionStep(enum.StrEnum):
+    """The spec's `executionStep`: which step of the job wrote the log."""
+
+    EXPERIENCE = "EXPERIENCE"
+    METRICS = "METRICS"
+    BATCH_METRICS = "BATCH_METRICS"
+    REPORT = "REPORT"
+
+
+@dataclass(frozen=True, slots=True)
+class JobLog:
+    """One log of a job, as ``GET .../jobs/{jobID}/logs`` lists it (the spec's ``jobLog``):
+    a test's emissions are its EMISSIONS_LOG, downloaded from ``log_output_location``."""
+
+    log_id: uuid.UUID
+    file_name: str = ""
+    log_type: LogType | str | None = None
+    log_output_location: str | None = None
+    file_size: int | None = None
+    checksum: str | None = None
+    creation_timestamp: datetime | None = None
+    execution_step: ExecutionStep | str | None = None
+    file_path: str = ""
+    job_id: uuid.UUID | None = None
+
+    @classmethod
+    def from_json(cls, data: Mapping[str, Any]) -> Self:
+        f = Fields("JobLog", data, "logID")
+        return cls(
+            log_id=f.id("logID"),
+            file_name=f.opt_string("fileName") or "",
+            log_type=f.opt_choice("logType", LogType),
+            log_output_location=f.opt_string("logOutputLocation"),
+            file_size=f.opt_integer("fileSize"),
+            checksum=f.opt_string("checksum"),
+            creation_timestamp=f.opt_timestamp("creationTimestamp"),
+            execution_step=f.opt_choice("executionStep", ExecutionStep),
+            file_path=f.opt_string("filePath") or "",
+            job_id=f.opt_id("jobID"),
         )
