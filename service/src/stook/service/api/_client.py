@@ -124,7 +124,7 @@ class ApiClient:
         # Registered before any request so a token echoed in an error body or log is masked.
         register_secret(token)
         self._base = base.with_query(None).with_fragment(None)
-        self._base_text = str(self._base).rstrip("/")  # joined to every request's path
+        self._base_path = self._base.path.rstrip("/")  # "/v1", or ""
         self._policy = retry or RetryPolicy()
         self._page_size = page_size
         # Shared by every API request: when the API fails, they wait together.
@@ -395,10 +395,9 @@ class ApiClient:
         return f"/projects/{_id(project_id)}/batches/{_id(batch_id)}/jobs/{_id(job_id)}"
 
     def _url(self, path: str, params: Mapping[str, str | int] | None = None) -> URL:
-        """`path` under the base URL, with `params` as its query. Joined as text: yarl's
-        join() would drop the base path ("/v1") for "/projects/..."."""
-        url = URL(self._base_text + "/" + path.lstrip("/"))
-        return url.extend_query(params) if params else url
+        """`path` under the base URL's path (which yarl's join() would drop), `params` its query."""
+        url = self._base.with_path(self._base_path + "/" + path.lstrip("/"))
+        return url.with_query(params) if params else url
 
     async def _get_once(self, url: URL) -> Response:
         response = await self._transport.get(url)

@@ -18,22 +18,12 @@ import msgspec
 
 from stook.service.api._errors import ApiResponseError
 
-__all__ = ["Fields", "parse_rfc3339", "parse_uuid"]
+__all__ = ["Fields", "parse_rfc3339"]
 
 _E = TypeVar("_E", bound=enum.Enum)
 _T = TypeVar("_T")
-
-
-def parse_uuid(text: str) -> uuid.UUID:
-    """An ID as ``uuid.UUID(text)`` reads it (ValueError when it is not one).
-
-    msgspec parses the API's spelling in C, in two fifths of ``uuid.UUID``'s time (every
-    listed item has IDs); other spellings ``uuid.UUID`` accepts (braces, ``urn:uuid:``) go to it.
-    """
-    try:
-        return msgspec.convert(text, uuid.UUID)
-    except msgspec.ValidationError:
-        return uuid.UUID(text)
+# A present value to its type, or an error naming the object and field (`Fields._error`).
+_Converter = Callable[["Fields", str, Any], _T]
 
 
 # RFC 3339 as the platform's Go encoder writes it (up to nine fractional digits) and as the
@@ -75,6 +65,92 @@ def parse_rfc3339(text: str) -> datetime | None:
         return None
 
 
+def _optional(convert: _Converter[_T]) -> Callable[[Fields, str], _T | None]:
+    """The accessor of an optional field: absent, null and "" (the API's Go encoder writes
+    "" for unset) read as None, any other value through `convert`."""
+
+    def read(fields: Fields, key: str) -> _T | None:
+        value = fields._data.get(key)
+        return None if value is None or value == "" else convert(fields, key, value)
+
+    return read
+
+
+def _required(convert: _Converter[_T]) -> Callable[[Fields, str], _T]:
+    """The accessor of a required field: absent, null and "" are an error."""
+
+    def read(fields: Fields, key: str) -> _T:
+        value = fields._data.get(key)
+        if value is None or value == "":
+            raise fields._error(key, "is missing")
+        return convert(fields, key, value)
+
+    return read
+
+
+def _string(fields: Fields, key: str, value: Any) -> str:
+    if not isinstance(value, str):
+        raise fields._error(key, f"should be a string, got {_json_type(value)}")
+    return value
+
+
+def _id(fields: Fields, key: str, value: Any) -> uuid.UUID:
+    try:  # the API's spelling, parsed by msgspec in C in two fifths of uuid.UUID's time
+        return msgspec.convert(value, uuid.UUID)
+    except msgspec.ValidationError:
+        pass
+    text = _string(fields, key, value)
+    try:  # any other spelling uuid.UUID reads (braces, "urn:uuid:")
+        return uuid.UUID(text)
+    except ValueError:
+        raise fields._error(key, f"is not a UUID: {text!r}") from None
+
+
+def _integer(fields: Fields, key: str, value: Any) -> int:
+    if isinstance(value, float) and value.is_integer():
+        return int(value)
+    if not isinstance(value, int) or isinstance(value, bool):
+        raise fields._error(key, f"should be an integer, got {_json_type(value)}")
+    return value
+
+
+def _number(fields: Fields, key: str, value: Any) -> float:
+    if not isinstance(value, int | float) or isinstance(value, bool):
+        raise fields._error(key, f"should be a number, got {_json_type(value)}")
+    try:
+        return float(value)
+    except OverflowError:  # an integer of hundreds of digits
+        raise fields._error(key, "is a number too large for a double") from None
+
+
+def _flag(fields: Fields, key: str, value: Any) -> bool:
+    if not isinstance(value, bool):
+        raise fields._error(key, f"should be true or false, got {_json_type(value)}")
+    return value
+
+
+def _timestamp(fields: Fields, key: str, value: Any) -> datetime:
+    text = _string(fields, key, value)
+    moment = parse_rfc3339(text)
+    if moment is None:
+        raise fields._error(key, f"is not an RFC 3339 timestamp: {text!r}")
+    if moment.tzinfo is None:
+        raise fields._error(key, f"has no time zone: {text!r}")
+    return moment
+
+
+def _list(fields: Fields, key: str, value: Any) -> list[Any]:
+    if not isinstance(value, list):
+        raise fields._error(key, f"should be a list, got {_json_type(value)}")
+    return value
+
+
+def _mapping(fields: Fields, key: str, value: Any) -> Mapping[str, Any]:
+    if not isinstance(value, Mapping):
+        raise fields._error(key, f"should be an object, got {_json_type(value)}")
+    return value
+
+
 class Fields:
     """Reads typed fields from one JSON object; errors name the object and the field."""
 
@@ -92,124 +168,50 @@ class Fields:
         label = f"{self._kind} {ident}" if isinstance(ident, str) and ident else self._kind
         return ApiResponseError(f"{label}: field '{key}' {problem}")
 
-    def _optional(self, key: str, convert: Callable[[str, Any], _T]) -> _T | None:
-        value = self._data.get(key)
-        return None if value is None or value == "" else convert(key, value)
+    opt_string = _optional(_string)
 
-    def _required(self, key: str, convert: Callable[[str, Any], _T]) -> _T:
-        value = self._optional(key, convert)
-        if value is None:
-            raise self._error(key, "is missing")
-        return value
+    id = _required(_id)
 
-    # -- converters: a present value to its type -----------------------------------------
-
-    def _to_string(self, key: str, value: Any) -> str:
-        if not isinstance(value, str):
-            raise self._error(key, f"should be a string, got {_json_type(value)}")
-        return value
-
-    def _to_id(self, key: str, value: Any) -> uuid.UUID:
-        text = self._to_string(key, value)
-        try:
-            return parse_uuid(text)
-        except ValueError:
-            raise self._error(key, f"is not a UUID: {text!r}") from None
-
-    def _to_integer(self, key: str, value: Any) -> int:
-        if isinstance(value, float) and value.is_integer():
-            return int(value)
-        if not isinstance(value, int) or isinstance(value, bool):
-            raise self._error(key, f"should be an integer, got {_json_type(value)}")
-        return value
-
-    def _to_number(self, key: str, value: Any) -> float:
-        if not isinstance(value, int | float) or isinstance(value, bool):
-            raise self._error(key, f"should be a number, got {_json_type(value)}")
-        try:
-            return float(value)
-        except OverflowError:  # an integer of hundreds of digits
-            raise self._error(key, "is a number too large for a double") from None
-
-    def _to_flag(self, key: str, value: Any) -> bool:
-        if not isinstance(value, bool):
-            raise self._error(key, f"should be true or false, got {_json_type(value)}")
-        return value
-
-    def _to_timestamp(self, key: str, value: Any) -> datetime:
-        text = self._to_string(key, value)
-        moment = parse_rfc3339(text)
-        if moment is None:
-            raise self._error(key, f"is not an RFC 3339 timestamp: {text!r}")
-        if moment.tzinfo is None:
-            raise self._error(key, f"has no time zone: {text!r}")
-        return moment
-
-    def _to_list(self, key: str, value: Any) -> list[Any]:
-        if not isinstance(value, list):
-            raise self._error(key, f"should be a list, got {_json_type(value)}")
-        return value
-
-    def _to_mapping(self, key: str, value: Any) -> Mapping[str, Any]:
-        if not isinstance(value, Mapping):
-            raise self._error(key, f"should be an object, got {_json_type(value)}")
-        return value
-
-    # -- accessors -----------------------------------------------------------------------
-
-    def opt_string(self, key: str) -> str | None:
-        return self._optional(key, self._to_string)
-
-    def id(self, key: str) -> uuid.UUID:
-        return self._required(key, self._to_id)
-
-    def opt_id(self, key: str) -> uuid.UUID | None:
-        return self._optional(key, self._to_id)
+    opt_id = _optional(_id)
 
     def opt_choice(self, key: str, kind: type[_E]) -> _E | str | None:
         """A member of the open enumeration `kind`; a value it lacks (one the platform
         added after this client) is kept as its raw string, never an error."""
         text = self.opt_string(key)
-        if text is None:
-            return None
-        try:
-            return kind(text)
-        except ValueError:
-            return text
+        # The enumeration's own map of values to members, which `kind(text)` consults
+        # after a slower call through its metaclass.
+        return None if text is None else kind._value2member_map_.get(text, text)  # type: ignore[return-value]
 
-    def opt_number(self, key: str) -> float | None:
-        return self._optional(key, self._to_number)
+    opt_number = _optional(_number)
 
-    def integer(self, key: str) -> int:
-        return self._required(key, self._to_integer)
+    integer = _required(_integer)
 
-    def opt_integer(self, key: str) -> int | None:
-        return self._optional(key, self._to_integer)
+    opt_integer = _optional(_integer)
 
     def flag(self, key: str) -> bool:
         """A boolean; absent: false."""
-        return self._optional(key, self._to_flag) or False
+        return self._opt_flag(key) or False
 
-    def timestamp(self, key: str) -> datetime:
-        return self._required(key, self._to_timestamp)
+    timestamp = _required(_timestamp)
 
-    def opt_timestamp(self, key: str) -> datetime | None:
-        return self._optional(key, self._to_timestamp)
+    opt_timestamp = _optional(_timestamp)
 
     def ids(self, key: str) -> tuple[uuid.UUID, ...]:
         """A list of IDs; absent: empty."""
-        items = self._optional(key, self._to_list) or ()
-        return tuple([self._to_id(key, item) for item in items])
+        return tuple([_id(self, key, item) for item in self._opt_list(key) or ()])
 
     def strings(self, key: str) -> tuple[str, ...]:
         """A list of strings; absent: empty."""
-        items = self._optional(key, self._to_list) or ()
-        return tuple([self._to_string(key, item) for item in items])
+        return tuple([_string(self, key, item) for item in self._opt_list(key) or ()])
 
     def string_map(self, key: str) -> dict[str, str]:
         """An object of strings (the spec's ``additionalProperties: string``); absent: {}."""
-        value = self._optional(key, self._to_mapping) or {}
-        return {str(k): self._to_string(f"{key}.{k}", v) for k, v in value.items()}
+        value = self._opt_mapping(key) or {}
+        return {str(k): _string(self, f"{key}.{k}", v) for k, v in value.items()}
+
+    _opt_flag = _optional(_flag)
+    _opt_list = _optional(_list)
+    _opt_mapping = _optional(_mapping)
 
 
 def _json_type(value: object) -> str:
