@@ -81,21 +81,13 @@ class ApiClient:
                 for metric in await api.list_job_metrics(project_id, batch_id, job.job_id):
                     payload = await api.storage.fetch_bytes(metric.metric_url)
 
-    ``concurrency`` bounds the requests in flight, API and storage together; with
-    ``storage_concurrency`` storage fetches get a bound of their own instead. Callers may
-    start as many tasks as they like: they queue for a slot, without that queueing
-    counting against the request timeout. With ``adaptive=True`` each origin (API, storage)
-    also gets an :class:`~stook.service.api._limits.AimdLimiter` that finds that server's pace
-    below ``concurrency`` (backing off on 429s and on growing latency); ``self.paces``
-    shows them, ``self.limiter`` the shared bound, and ``self.limiters`` all of them by
-    name, for their ``stats``.
-
-    What is built from these settings can be passed in instead, as httpx takes
-    ``transport=`` and aiohttp ``connector=``: ``limiter`` is the shared bound (a
-    :class:`~stook.service.api._limits.FixedLimit` of ``concurrency`` by default), and
-    ``transport`` sends the API's requests (an HTTP transport carrying the token, under the
-    shared bound and the API's pace); one passed in brings its own headers, limiter, timeout
-    and body cap. ``storage_transport`` does the same for the storage client.
+    ``concurrency`` bounds the requests in flight, API and storage together (or the API's
+    alone, with ``storage_concurrency``); queueing for a slot does not count against the
+    request timeout. ``adaptive=True`` gives each origin an
+    :class:`~stook.service.api._limits.AimdLimiter` below that bound (``self.paces``).
+    ``limiter``, ``transport`` and ``storage_transport`` may be passed in instead of built,
+    as httpx takes ``transport=``; a transport passed in brings its own headers, limiter,
+    timeout and body cap.
     """
 
     def __init__(
@@ -121,8 +113,7 @@ class ApiClient:
             raise ValueError("an API token is required")
         if page_size < 1:
             raise ValueError(f"page_size must be at least 1, got {page_size}")
-        # Registered before any request so a token echoed in an error body or log is masked.
-        register_secret(token)
+        register_secret(token)  # before any request: a token echoed back is masked
         self._base = base.with_query(None).with_fragment(None)
         self._base_path = self._base.path.rstrip("/")  # "/v1", or ""
         self._policy = retry or RetryPolicy()
@@ -132,9 +123,8 @@ class ApiClient:
         if concurrency < 1:
             raise ValueError(f"concurrency must be at least 1, got {concurrency}")
         self.limiter: ConcurrencyLimit = limiter or FixedLimit(concurrency)
-        # Adaptive: each origin finds its own pace, inside the shared bound. A rate limit
-        # on the API says nothing about storage, and one shared pace cut by the API's 429s
-        # would hold storage back too. A transport passed in paces itself.
+        # Adaptive: each origin its own pace inside the shared bound (the API's 429s say
+        # nothing about storage). A transport passed in paces itself.
         self.paces: dict[str, AimdLimiter] = {}
         api_limit: ConcurrencyLimit = self.limiter
         storage_limit: ConcurrencyLimit | None = None if storage_concurrency else self.limiter
@@ -149,8 +139,7 @@ class ApiClient:
                     if storage_concurrency
                     else NestedLimit(self.paces["storage"], self.limiter)
                 )
-        # The bounds on requests in flight by name, for their stats: the shared one (the
-        # API's alone when storage has a concurrency of its own) and each origin's pace.
+        # Every bound on requests in flight, by name, for its stats.
         self.limiters: dict[str, ConcurrencyLimit] = {"shared": self.limiter, **self.paces}
         if transport is None:
             transport = HttpTransport(
@@ -199,8 +188,6 @@ class ApiClient:
         finally:
             await self._transport.close()
 
-    # -- generic -------------------------------------------------------------------------
-
     async def get_json(
         self, path: str, params: Mapping[str, str | int] | None = None
     ) -> dict[str, Any]:
@@ -229,21 +216,14 @@ class ApiClient:
         on_total: Callable[[int], None] | None = None,
         expected: int | None = None,
     ) -> AsyncIterator[dict[str, Any]]:
-        """Every item of a list endpoint, page after page, until ``nextPageToken`` is empty.
-
-        ``on_total`` is called with the listing's ``total`` (how many items it holds, an
-        optional field) from the first page that carries one, before that page's items.
-        A listing that cannot end (see :class:`ListingGuard`; ``expected`` is what the
-        caller knows of its count) is an ApiResponseError.
-        """
+        """Every item of a list endpoint, page after page (see :class:`Listing` for
+        ``on_total``, ``expected`` and what ends a listing that would not end)."""
         async for items in self._pages(path, items_key, params, page_size, on_total, expected):
             for item in items:
                 yield item
 
-    # -- typed endpoints -----------------------------------------------------------------
-    #
-    # A job's listings (a page or two, as a rule) come as lists; the listings of a project
-    # or a batch, which can run to thousands of items, as async iterators.
+    # A job's listings (a page, as a rule) come as lists; a project's or a batch's, which
+    # can run to thousands of items, as async iterators.
 
     def list_jobs(
         self,
@@ -253,10 +233,7 @@ class ApiClient:
         on_total: Callable[[int], None] | None = None,
         expected: int | None = None,
     ) -> AsyncIterator[Job]:
-        """The jobs (tests) of a batch; ``on_total`` hears the listing's job count first.
-
-        ``expected``: the batch's job count when known (``Batch.total_jobs``), which
-        bounds the listing until its pages say their own ``total``."""
+        """The jobs (tests) of a batch; ``expected`` is its ``Batch.total_jobs`` if known."""
         path = f"/projects/{_id(project_id)}/batches/{_id(batch_id)}/jobs"
         return self._list(path, "jobs", Job.from_json, on_total=on_total, expected=expected)
 
@@ -347,8 +324,6 @@ class ApiClient:
         path = self._job_path(project_id, batch_id, job_id) + "/logs"
         async for log in self._list(path, "logs", JobLog.from_json, params):
             yield log
-
-    # -- internals -----------------------------------------------------------------------
 
     async def _pages(
         self,

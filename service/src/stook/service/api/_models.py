@@ -22,29 +22,6 @@ import msgspec
 
 from stook.service.api._fields import Fields
 
-__all__ = [
-    "ApiMetric",
-    "ApiMetricStatus",
-    "ApiMetricType",
-    "ApiMetricsData",
-    "Batch",
-    "BatchStatus",
-    "Build",
-    "ConflatedBatchStatus",
-    "ConflatedJobStatus",
-    "EventTimestampType",
-    "ExecutionStep",
-    "ExperienceTag",
-    "Job",
-    "JobEventListing",
-    "JobLog",
-    "JobStatus",
-    "LogType",
-    "MetricOwner",
-    "MetricsDataStorageType",
-    "Report",
-]
-
 
 class ConflatedJobStatus(enum.StrEnum):
     """The one status the platform shows for a test (job)."""
@@ -95,11 +72,7 @@ class ConflatedBatchStatus(enum.StrEnum):
 
 
 class ApiMetricStatus(enum.StrEnum):
-    """A metric's status as the API spells it.
-
-    Named apart from ``stook.sdk.MetricStatus`` (the proto enum), which has no
-    ``NO_STATUS_REPORTED``.
-    """
+    """A metric's status as the API spells it (``stook.sdk.MetricStatus`` lacks the last)."""
 
     PASSED = "PASSED"
     FAIL_WARN = "FAIL_WARN"
@@ -131,16 +104,10 @@ class MetricsDataStorageType(enum.StrEnum):
     VIDEO = "VIDEO"
 
 
-# ---------------------------------------------------------------------------------------
-
-
 @dataclass(frozen=True, slots=True)
 class Job:
-    """One test of a batch: an experience run against a build.
-
-    ``conflated_status`` is None when the API gave none (batch aggregations count such
-    jobs as ``UNKNOWN``); a status this client does not know is its raw string.
-    """
+    """One test of a batch: an experience run against a build (a missing
+    ``conflated_status``, None, is counted as ``UNKNOWN`` by batch aggregations)."""
 
     job_id: uuid.UUID
     conflated_status: ConflatedJobStatus | str | None
@@ -188,12 +155,9 @@ _DATA_KINDS = {MetricOwner.JOB: "JobMetricsData", MetricOwner.BATCH: "BatchMetri
 class ApiMetric(msgspec.Struct, frozen=True):
     """A metric a job's or a batch's metrics build produced (``owner``).
 
-    ``value`` is the number of a ``SCALAR`` metric (None for ``COMPOSITE``, or when the job
-    reported none, or the API lists it as null: then the value is in the message at
-    ``metric_url``). ``metric_url`` is the presigned URL of the serialized ``Metric``
-    message; it expires, so fetch it soon after listing. ``name`` is "" when the API gave
-    none; ``type`` None when it gave none; an unknown type or status is its raw string.
-    ``job_id`` is read for a job's metric only; ``batch_id`` for both.
+    ``value`` is a ``SCALAR``'s number, or None (then it is in the ``Metric`` message at
+    ``metric_url``, a presigned URL that expires). A missing ``status`` reads as
+    ``NO_STATUS_REPORTED``; ``job_id`` is read for a job's metric only.
     """
 
     metric_id: uuid.UUID
@@ -214,12 +178,7 @@ class ApiMetric(msgspec.Struct, frozen=True):
         return _repr_without(self, "metric_url")
 
     @classmethod
-    def from_json(
-        cls,
-        data: Mapping[str, Any],
-        *,
-        owner: MetricOwner,
-    ) -> Self:
+    def from_json(cls, data: Mapping[str, Any], *, owner: MetricOwner) -> Self:
         f = Fields(_METRIC_KINDS[owner], data, "metricID")
         # The order of evaluation decides which error an item with two bad fields gets.
         return cls(
@@ -241,11 +200,8 @@ class ApiMetric(msgspec.Struct, frozen=True):
 
 class ApiMetricsData(msgspec.Struct, frozen=True):
     """A metrics-data file of a job or of a batch (``owner``); ``metrics_data_url`` is
-    presigned and expires.
-
-    ``name`` is "" when the API gave none: such data cannot be asked for by name. Its
-    owner's ID is read for its owner only: ``job_id`` for a job's, ``batch_id`` for a
-    batch's.
+    presigned and expires. A missing ``metricsDataType`` reads as ``STANDARD``, as ReSim's
+    own fetcher reads it; the owner's ID (``job_id`` or ``batch_id``) is read for its owner.
     """
 
     data_id: uuid.UUID
@@ -267,12 +223,7 @@ class ApiMetricsData(msgspec.Struct, frozen=True):
         return self.metrics_data_type is MetricsDataStorageType.STANDARD
 
     @classmethod
-    def from_json(
-        cls,
-        data: Mapping[str, Any],
-        *,
-        owner: MetricOwner,
-    ) -> Self:
+    def from_json(cls, data: Mapping[str, Any], *, owner: MetricOwner) -> Self:
         f = Fields(_DATA_KINDS[owner], data, "dataID")
         return cls(
             data_id=f.id("dataID"),
@@ -289,8 +240,7 @@ class ApiMetricsData(msgspec.Struct, frozen=True):
 
 
 def _repr_without(item: msgspec.Struct, secret: str) -> str:
-    """A Struct's repr without its field `secret` (a presigned URL, whose signature must not
-    reach a log), as a dataclass field with ``repr=False`` shows."""
+    """A Struct's repr without its field `secret` (a presigned URL: no signature in a log)."""
     shown = ", ".join(
         f"{name}={getattr(item, name)!r}" for name in item.__struct_fields__ if name != secret
     )
@@ -389,13 +339,7 @@ class Build:
 
 @dataclass(frozen=True, slots=True)
 class JobEventListing:
-    """One event of a job, as ``GET .../jobs/{jobID}/events`` lists it (the spec's ``event``).
-
-    The spec requires every field, but as elsewhere only the ID is relied on: a missing
-    name reads as "", a missing status as ``NO_STATUS_REPORTED``, a missing timestamp or
-    timestamp type as None, missing tags or metric IDs as empty. Unknown statuses and
-    timestamp types are kept as their raw strings.
-    """
+    """One event of a job, as ``GET .../jobs/{jobID}/events`` lists it (without its data)."""
 
     event_id: uuid.UUID
     name: str
