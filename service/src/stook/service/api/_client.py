@@ -266,8 +266,9 @@ class ApiClient:
         return self._list(path, "experienceTags", ExperienceTag.from_json)
 
     async def get_batch(self, project_id: IdLike, batch_id: IdLike) -> Batch:
-        document = await self.get_json(f"/projects/{_id(project_id)}/batches/{_id(batch_id)}")
-        return Batch.from_json(document)
+        return Batch.from_json(
+            await self.get_json(f"/projects/{_id(project_id)}/batches/{_id(batch_id)}")
+        )
 
     def list_batches(
         self, project_id: IdLike, *, search: str | None = None
@@ -289,8 +290,9 @@ class ApiClient:
         return self._list(path, "batchMetricsData", _BATCH_DATA)
 
     async def get_report(self, project_id: IdLike, report_id: IdLike) -> Report:
-        document = await self.get_json(f"/projects/{_id(project_id)}/reports/{_id(report_id)}")
-        return Report.from_json(document)
+        return Report.from_json(
+            await self.get_json(f"/projects/{_id(project_id)}/reports/{_id(report_id)}")
+        )
 
     def list_branches(
         self, project_id: IdLike, *, name: str | None = None
@@ -302,10 +304,11 @@ class ApiClient:
         )
 
     async def get_build(self, project_id: IdLike, build_id: IdLike) -> Build:
-        document = await self.get_json(f"/projects/{_id(project_id)}/builds/{_id(build_id)}")
-        return Build.from_json(document)
+        return Build.from_json(
+            await self.get_json(f"/projects/{_id(project_id)}/builds/{_id(build_id)}")
+        )
 
-    async def list_job_logs(
+    def list_job_logs(
         self,
         project_id: IdLike,
         batch_id: IdLike,
@@ -316,14 +319,9 @@ class ApiClient:
     ) -> AsyncIterator[JobLog]:
         """A job's logs (of `log_type`, named `name`, when given): EMISSIONS_LOG for what
         its test emitted, each downloadable at its `log_output_location`."""
-        params: dict[str, str | int] = {}
-        if log_type is not None:
-            params["type"] = str(log_type)
-        if name is not None:
-            params["name"] = name
+        params = {k: str(v) for k, v in (("type", log_type), ("name", name)) if v is not None}
         path = self._job_path(project_id, batch_id, job_id) + "/logs"
-        async for log in self._list(path, "logs", JobLog.from_json, params):
-            yield log
+        return self._list(path, "logs", JobLog.from_json, params)
 
     async def _pages(
         self,
@@ -336,7 +334,7 @@ class ApiClient:
     ) -> AsyncIterator[list[dict[str, Any]]]:
         """Each page's items (see :class:`Listing`), until ``nextPageToken`` is empty."""
         listing = Listing(
-            lambda: f"GET {redact_url(self._url(path))}",
+            lambda: f"GET {redact_url(self._url(path))}",  # made only for an error
             items_key,
             page_size or self._page_size,
             params,
@@ -410,15 +408,10 @@ def _id(value: IdLike) -> str:
 
 
 def _api_error(response: Response, api_origin: URL) -> ApiError:
-    common: dict[str, Any] = {
-        "status": response.status,
-        "method": "GET",
-        "url": response.url,
-        "body": response.body,
-    }
+    common: dict[str, Any] = {"status": response.status, "method": "GET", "url": response.url}
+    common["body"] = response.body
     if response.status in (401, 403) and response.url.origin() != api_origin:
-        # aiohttp drops the token on a redirect to another origin, so this refusal says
-        # nothing about the token; blaming it would send the reader the wrong way.
+        # aiohttp drops the token on a redirect to another origin: not the token's fault.
         return RedirectedRefusalError(**common, api_origin=str(api_origin))
     if response.status in (401, 403):
         return AuthError(**common)

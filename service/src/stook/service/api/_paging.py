@@ -1,4 +1,4 @@
-"""Reading a listing page by page, and telling a listing that will not end from a long one."""
+"""Reading a listing page by page, and ending one whose pages prove it will not end."""
 
 from __future__ import annotations
 
@@ -25,19 +25,15 @@ _MAX_EMPTY_PAGES: Final = 50
 
 
 class Listing:
-    """One listing's pages: the query that asks for the next one, and each page's items.
+    """One listing's pages: `query` asks for the next one, `take` checks each one's items.
 
-    A page's items must be a list of objects and its ``nextPageToken`` a string;
-    ``on_total`` hears the listing's ``total`` from the first page that carries one.
-
-    A listing whose pages prove it will not end is an ApiResponseError, never followed for
-    ever. Only what the answers prove counts: a page token seen before; a page of nothing
-    but items listed already; an empty page with a further token once the listing's total
-    has been listed, or more items than that total by a whole page; a long run of empty
-    pages that each carry a new token. The first ``total`` a page carries bounds every later
-    page, those without one too; until then ``expected`` (what the caller knows: a batch's
-    ``totalJobs``) does. An item listed again (offset paging while the listing changes) is
-    dropped.
+    ``on_total`` hears the listing's ``total`` from the first page that carries one. An item
+    listed again (offset paging while the listing changes) is dropped. A listing whose pages
+    prove it will not end is an ApiResponseError: a page token seen before; a page of items
+    listed already; an empty page with a further token once the listing's total has been
+    listed, or more items than that total by a whole page; a long run of empty pages. The
+    first ``total`` a page carries bounds every later page; until then ``expected`` (what
+    the caller knows: a batch's ``totalJobs``) does.
     """
 
     def __init__(
@@ -55,14 +51,13 @@ class Listing:
         self._id_key = _ITEM_ID_KEYS.get(items_key)
         self._page_size = page_size
         self._on_total = on_total
-        self._bound = expected  # replaced by the first total a page carries
-        self._total_seen = False
+        self._bound = expected
+        self._bound_is_total = False
         self.query: dict[str, str | int] = {**(params or {}), "pageSize": page_size}
         self.more = True  # until a page without a next page token
-        self._pages = 0
+        self._pages = self._empty_run = 0
         self._tokens: set[str] = set()
-        self._seen: set[object] = set()  # IDs, or (without one) contents
-        self._empty_run = 0
+        self._seen: set[object] = set()  # items' IDs, or (without one) their contents
 
     def take(self, page: dict[str, Any]) -> list[dict[str, Any]]:
         """The page's items to hand on; `query` then asks for the next page, if any."""
@@ -96,20 +91,16 @@ class Listing:
     def _check(
         self, items: list[dict[str, Any]], token: str | None, total: int | None
     ) -> list[dict[str, Any]]:
-        """The items not listed before; stops a listing that proves it will not end.
-
-        Checked before the items are handed on: a page that proves the listing endless
-        must not feed its repeats to the caller.
-        """
-        fresh: list[dict[str, Any]] = []
-        new = 0
+        """The items not listed before, once the page is known not to prove the listing
+        endless (its repeats must not reach the caller)."""
+        fresh, new = [], 0
         for item in items:
             item_id = item.get(self._id_key) if self._id_key else None
             has_id = isinstance(item_id, str) and item_id != ""
-            # An item without its ID is told apart by its whole content, and never dropped.
-            identity = item_id if has_id else json.dumps(item, sort_keys=True, default=str)
-            if identity not in self._seen:
-                self._seen.add(identity)
+            if not has_id:  # told apart by its content, and never dropped as a repeat
+                item_id = json.dumps(item, sort_keys=True, default=str)
+            if item_id not in self._seen:
+                self._seen.add(item_id)
                 new += 1
                 fresh.append(item)
             elif not has_id:
@@ -122,10 +113,9 @@ class Listing:
         if items and new == 0:
             self._stop(f"page {self._pages} holds only items listed on earlier pages")
         self._empty_run = 0 if items else self._empty_run + 1
-        if total is not None and not self._total_seen:
-            self._bound, self._total_seen = total, True
-        bound = self._bound
-        if bound is not None:
+        if total is not None and not self._bound_is_total:
+            self._bound, self._bound_is_total = total, True
+        if (bound := self._bound) is not None:
             if not items and len(self._seen) >= bound:
                 self._stop(
                     f"page {self._pages} is empty and all {bound} items of the listing's "
