@@ -361,8 +361,13 @@ class ApiClient:
     async def _list_all(
         self, path: str, items_key: str, parse: Callable[[dict[str, Any]], _Model]
     ) -> list[_Model]:
-        """What `_list` yields, as one list (a job's listings: a page, as a rule)."""
-        return [parse(item) async for items in self._pages(path, items_key) for item in items]
+        """What `_list` yields, as one list. Its own loop over `Listing`, without `_pages`'
+        async generator: a batch run lists two per job (that generator costs 2 µs each)."""
+        listing = Listing(lambda: f"GET {redact_url(self._url(path))}", items_key, self._page_size)
+        items: list[dict[str, Any]] = []
+        while listing.more:
+            items += listing.take(await self.get_json(path, listing.query))
+        return [parse(item) for item in items]
 
     def _job_path(self, project_id: IdLike, batch_id: IdLike, job_id: IdLike) -> str:
         return f"/projects/{_id(project_id)}/batches/{_id(batch_id)}/jobs/{_id(job_id)}"

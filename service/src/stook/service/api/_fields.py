@@ -27,9 +27,13 @@ _Converter = Callable[["Fields", str, Any], _T]
 def parse_rfc3339(text: str) -> datetime | None:
     """An RFC 3339 timestamp (fractions past microseconds truncated), or None if it is not one.
 
-    ``datetime.fromisoformat`` reads it, once upper-cased (RFC 3339 allows "t" and "z"); a
-    leap second (``:60``), which datetime cannot hold, reads as :59.999999, keeping order.
+    ``datetime.fromisoformat`` reads it, upper-cased if need be (RFC 3339 allows "t" and
+    "z"); a leap second (``:60``), which datetime cannot hold, reads as :59.999999.
     """
+    try:
+        return datetime.fromisoformat(text)
+    except ValueError:
+        pass
     text = text.upper()
     leap = text[16:19] == ":60"
     try:
@@ -97,7 +101,9 @@ def _integer(fields: Fields, key: str, value: Any) -> int:
 
 
 def _number(fields: Fields, key: str, value: Any) -> float:
-    if not isinstance(value, int | float) or isinstance(value, bool):
+    if isinstance(value, float):
+        return value
+    if not isinstance(value, int) or isinstance(value, bool):
         raise fields._error(key, f"should be a number, got {_json_type(value)}")
     try:
         return float(value)
@@ -157,11 +163,13 @@ class Fields:
 
     def ids(self, key: str) -> tuple[uuid.UUID, ...]:
         """A list of IDs; absent: empty."""
-        return tuple([_id(self, key, item) for item in self._opt_list(key) or ()])
+        items = self._opt_list(key)
+        return tuple([_id(self, key, item) for item in items]) if items else ()
 
     def strings(self, key: str) -> tuple[str, ...]:
         """A list of strings; absent: empty."""
-        return tuple([_string(self, key, item) for item in self._opt_list(key) or ()])
+        items = self._opt_list(key)
+        return tuple([_string(self, key, item) for item in items]) if items else ()
 
     def string_map(self, key: str) -> dict[str, str]:
         """An object of strings (the spec's ``additionalProperties: string``); absent: {}."""
