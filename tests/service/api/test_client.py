@@ -872,7 +872,7 @@ def test_a_requests_url_is_its_path_under_the_base_url_quoted_as_yarl_quotes_tex
         "HTTPS://API.Example.COM:443/V1",
     ],
 )
-async def test_a_listings_first_page_url_is_built_as_the_text_would_parse(base: str) -> None:
+async def test_a_listings_first_page_is_asked_for_under_the_base_path(base: str) -> None:
     """A listing's first page is asked for at the base URL's path, with the page size."""
     sent: list[URL] = []
 

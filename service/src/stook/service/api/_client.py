@@ -59,7 +59,6 @@ __all__ = ["ApiClient", "IdLike"]
 IdLike = uuid.UUID | str
 _Model = TypeVar("_Model")
 
-# How each owner's metric and metrics-data items are read: their models' own from_json.
 _JOB_METRIC = functools.partial(ApiMetric.from_json, owner=MetricOwner.JOB)
 _BATCH_METRIC = functools.partial(ApiMetric.from_json, owner=MetricOwner.BATCH)
 _JOB_DATA = functools.partial(ApiMetricsData.from_json, owner=MetricOwner.JOB)
@@ -133,12 +132,10 @@ class ApiClient:
                 self.paces["api"] = AimdLimiter(maximum=concurrency)
                 api_limit = NestedLimit(self.paces["api"], self.limiter)
             if storage_transport is None:
-                self.paces["storage"] = AimdLimiter(maximum=storage_concurrency or concurrency)
-                storage_limit = (
-                    self.paces["storage"]
-                    if storage_concurrency
-                    else NestedLimit(self.paces["storage"], self.limiter)
+                pace = self.paces["storage"] = AimdLimiter(
+                    maximum=storage_concurrency or concurrency
                 )
+                storage_limit = pace if storage_concurrency else NestedLimit(pace, self.limiter)
         # Every bound on requests in flight, by name, for its stats.
         self.limiters: dict[str, ConcurrencyLimit] = {"shared": self.limiter, **self.paces}
         if transport is None:
@@ -222,8 +219,8 @@ class ApiClient:
             for item in items:
                 yield item
 
-    # A job's listings (a page, as a rule) come as lists; a project's or a batch's, which
-    # can run to thousands of items, as async iterators.
+    # A job's listings come as lists; a project's or a batch's, which can run to thousands
+    # of items, as async iterators.
 
     def list_jobs(
         self,
