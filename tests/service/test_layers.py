@@ -42,7 +42,6 @@ API_ORDER = [
     "_fields",
     "_limits",
     "_models",
-    "_job_logs",
     "_paging",
     "_transport",
     "_retry",

@@ -18,7 +18,6 @@ from stook.service.api._errors import (
     StorageError,
     TransportError,
 )
-from stook.service.api._job_logs import ExecutionStep, JobLog, LogType
 from stook.service.api._limits import AimdLimiter, ConcurrencyLimit, FixedLimit, LimitStats
 from stook.service.api._models import (
     ApiMetric,
@@ -27,8 +26,11 @@ from stook.service.api._models import (
     Batch,
     BatchStatus,
     Build,
+    ExecutionStep,
     Job,
     JobEventListing,
+    JobLog,
+    LogType,
     MetricOwner,
     Report,
 )

@@ -1,20 +1,20 @@
 """The ReSim API client: JSON over a bearer-token session, paging, typed endpoints.
 
-Two sessions, on purpose. The API session carries ``Authorization: Bearer <token>`` on every
-request; the storage client's (:mod:`stook.service.api._storage`) is built without it, so the
-token cannot follow a presigned URL (or a redirect from one) to another host.
+Two sessions, on purpose: the API's carries ``Authorization: Bearer <token>``; the storage
+client's (:mod:`stook.service.api._storage`) is built without it, so the token cannot follow
+a presigned URL (or a redirect from one) to another host.
 """
 
 from __future__ import annotations
 
 import functools
 import json
-import re
 import uuid
 from collections.abc import AsyncIterator, Awaitable, Callable, Mapping
-from types import ModuleType, TracebackType
+from types import TracebackType
 from typing import Any, Final, Self, TypeVar
 
+import orjson
 from yarl import URL
 
 from stook.service.api._errors import (
@@ -25,7 +25,6 @@ from stook.service.api._errors import (
     NotFoundError,
     RedirectedRefusalError,
 )
-from stook.service.api._job_logs import JobLog, LogType
 from stook.service.api._limits import AimdLimiter, ConcurrencyLimit, FixedLimit, NestedLimit
 from stook.service.api._models import (
     ApiMetric,
@@ -36,10 +35,12 @@ from stook.service.api._models import (
     ExperienceTag,
     Job,
     JobEventListing,
+    JobLog,
+    LogType,
     MetricOwner,
     Report,
 )
-from stook.service.api._paging import ListingGuard
+from stook.service.api._paging import Listing
 from stook.service.api._redact import redact_url, register_secret
 from stook.service.api._retry import Origin, RetryPolicy, send
 from stook.service.api._storage import DEFAULT_CONCURRENCY, StorageClient, answer_retry_after
@@ -58,23 +59,15 @@ __all__ = ["ApiClient", "IdLike"]
 IdLike = uuid.UUID | str
 _Model = TypeVar("_Model")
 
-# How each owner's metric and metrics-data items are read: their models' own from_json.
 _JOB_METRIC = functools.partial(ApiMetric.from_json, owner=MetricOwner.JOB)
 _BATCH_METRIC = functools.partial(ApiMetric.from_json, owner=MetricOwner.BATCH)
 _JOB_DATA = functools.partial(ApiMetricsData.from_json, owner=MetricOwner.JOB)
 _BATCH_DATA = functools.partial(ApiMetricsData.from_json, owner=MetricOwner.BATCH)
 
-# The IDs a client keeps for the items it reads next (see ApiClient._ids): a few thousand
-# jobs' worth, however long the run.
-_MAX_IDS_KEPT: Final = 10_000
 # The API caps pages; 100 is the largest size ReSim's own tools ask for.
 DEFAULT_PAGE_SIZE: Final = 100
 # What one API answer (a JSON page) may hold, decompressed.
 DEFAULT_MAX_API_BODY_MB: Final = 16.0
-# A path, and a query key or value, that yarl would neither quote nor normalise: such a URL
-# is written out as text and parsed as already encoded (see ApiClient._url).
-_PLAIN_PATH: Final = re.compile(r"[A-Za-z0-9_/-]*")
-_PLAIN_QUERY: Final = re.compile(r"[A-Za-z0-9_.~-]*")
 
 
 class ApiClient:
@@ -87,21 +80,13 @@ class ApiClient:
                 for metric in await api.list_job_metrics(project_id, batch_id, job.job_id):
                     payload = await api.storage.fetch_bytes(metric.metric_url)
 
-    ``concurrency`` bounds the requests in flight, API and storage together; with
-    ``storage_concurrency`` storage fetches get a bound of their own instead. Callers may
-    start as many tasks as they like: they queue for a slot, without that queueing
-    counting against the request timeout. With ``adaptive=True`` each origin (API, storage)
-    also gets an :class:`~stook.service.api._limits.AimdLimiter` that finds that server's pace
-    below ``concurrency`` (backing off on 429s and on growing latency); ``self.paces``
-    shows them, ``self.limiter`` the shared bound, and ``self.limiters`` all of them by
-    name, for their ``stats``.
-
-    What is built from these settings can be passed in instead, as httpx takes
-    ``transport=`` and aiohttp ``connector=``: ``limiter`` is the shared bound (a
-    :class:`~stook.service.api._limits.FixedLimit` of ``concurrency`` by default), and
-    ``transport`` sends the API's requests (an HTTP transport carrying the token, under the
-    shared bound and the API's pace); one passed in brings its own headers, limiter, timeout
-    and body cap. ``storage_transport`` does the same for the storage client.
+    ``concurrency`` bounds the requests in flight, API and storage together (or the API's
+    alone, with ``storage_concurrency``); queueing for a slot does not count against the
+    request timeout. ``adaptive=True`` gives each origin an
+    :class:`~stook.service.api._limits.AimdLimiter` below that bound (``self.paces``).
+    ``limiter``, ``transport`` and ``storage_transport`` may be passed in instead of built,
+    as httpx takes ``transport=``; a transport passed in brings its own headers, limiter,
+    timeout and body cap.
     """
 
     def __init__(
@@ -127,34 +112,18 @@ class ApiClient:
             raise ValueError("an API token is required")
         if page_size < 1:
             raise ValueError(f"page_size must be at least 1, got {page_size}")
-        # Registered before any request so a token echoed in an error body or log is masked.
-        register_secret(token)
+        register_secret(token)  # before any request: a token echoed back is masked
         self._base = base.with_query(None).with_fragment(None)
-        self._base_text = str(self._base).rstrip("/")  # joined to every request's path
+        self._base_path = self._base.path.rstrip("/")  # "/v1", or ""
         self._policy = retry or RetryPolicy()
         self._page_size = page_size
-        # What `_url` makes of a listing's first page's query ({"pageSize": page_size}).
-        self._first_page_query = f"?pageSize={page_size}"
-        # The parts of a listing's first page's URL that every such URL shares: its scheme,
-        # authority and query, and the base URL's path before the listing's (see _all_items).
-        shared = URL(self._base_text + "/" + self._first_page_query, encoded=True)
-        self._first_page_parts = (shared.scheme, shared.raw_authority, shared.raw_query_string)
-        self._base_path = shared.raw_path[:-1]  # "/v1", or "" for a base URL without one
-        # The last batch whose jobs' paths were made, by its IDs' identity (see _job_path).
-        self._batch_path: tuple[IdLike, IdLike, str] | None = None
-        # The IDs of other objects that recent answers named, by their text, handed to each
-        # listing item's from_json (see Fields.opt_id): a job's metrics each name the job
-        # and the batch, and each is then parsed once. Emptied when it holds _MAX_IDS_KEPT,
-        # so it does not grow with the run.
-        self._ids: dict[str, uuid.UUID] = {}
         # Shared by every API request: when the API fails, they wait together.
         self.origin = Origin("the API", self._policy, setting="apiURL")
         if concurrency < 1:
             raise ValueError(f"concurrency must be at least 1, got {concurrency}")
         self.limiter: ConcurrencyLimit = limiter or FixedLimit(concurrency)
-        # Adaptive: each origin finds its own pace, inside the shared bound. A rate limit
-        # on the API says nothing about storage, and one shared pace cut by the API's 429s
-        # would hold storage back too. A transport passed in paces itself.
+        # Adaptive: each origin its own pace inside the shared bound (the API's 429s say
+        # nothing about storage). A transport passed in paces itself.
         self.paces: dict[str, AimdLimiter] = {}
         api_limit: ConcurrencyLimit = self.limiter
         storage_limit: ConcurrencyLimit | None = None if storage_concurrency else self.limiter
@@ -163,14 +132,11 @@ class ApiClient:
                 self.paces["api"] = AimdLimiter(maximum=concurrency)
                 api_limit = NestedLimit(self.paces["api"], self.limiter)
             if storage_transport is None:
-                self.paces["storage"] = AimdLimiter(maximum=storage_concurrency or concurrency)
-                storage_limit = (
-                    self.paces["storage"]
-                    if storage_concurrency
-                    else NestedLimit(self.paces["storage"], self.limiter)
+                pace = self.paces["storage"] = AimdLimiter(
+                    maximum=storage_concurrency or concurrency
                 )
-        # The bounds on requests in flight by name, for their stats: the shared one (the
-        # API's alone when storage has a concurrency of its own) and each origin's pace.
+                storage_limit = pace if storage_concurrency else NestedLimit(pace, self.limiter)
+        # Every bound on requests in flight, by name, for its stats.
         self.limiters: dict[str, ConcurrencyLimit] = {"shared": self.limiter, **self.paces}
         if transport is None:
             transport = HttpTransport(
@@ -219,26 +185,11 @@ class ApiClient:
         finally:
             await self._transport.close()
 
-    # -- generic -------------------------------------------------------------------------
-
     async def get_json(
         self, path: str, params: Mapping[str, str | int] | None = None
     ) -> dict[str, Any]:
         """GET ``path`` (relative to the base URL) and return its JSON object."""
-        return await self._get_document(self._url(path, params))
-
-    def _get_document(self, url: URL) -> Awaitable[dict[str, Any]]:
-        """GET `url` and return its JSON object."""
-        return self._get(url)
-
-    async def _get(self, url: URL, listing: tuple[str, str] | None = None) -> Any:
-        """GET `url` and return its JSON object (`_get_document`); with `listing` (its path
-        and items key), that listing's items, from this first page on (`_all_items`).
-
-        One coroutine for both: a job's listing is one page, and a coroutine fewer between
-        the worker and the transport saves a frame's resumption at every step of its
-        request.
-        """
+        url = self._url(path, params)
         response = await send(lambda: self._get_once(url), self.origin, url=url, stats=self.stats)
         try:
             document = _loads(response.body)
@@ -250,19 +201,7 @@ class ApiClient:
             raise ApiResponseError(
                 f"GET {redact_url(url)}: expected a JSON object, got {type(document).__name__}"
             )
-        if listing is None:
-            return document
-        path, items_key = listing
-        items = document.get(items_key)
-        if type(items) is list and not document.get("nextPageToken"):
-            # The only page, of objects (a job's listing, as a rule): what `take` would
-            # hand on, without the paging state it keeps for further pages.
-            for item in items:
-                if type(item) is not dict:
-                    break
-            else:
-                return items
-        return await self._rest_of_listing(path, items_key, document)
+        return document
 
     async def paginate(
         self,
@@ -274,22 +213,14 @@ class ApiClient:
         on_total: Callable[[int], None] | None = None,
         expected: int | None = None,
     ) -> AsyncIterator[dict[str, Any]]:
-        """Every item of a list endpoint, page after page, until ``nextPageToken`` is empty.
-
-        ``on_total`` is called with the listing's ``total`` (how many items it holds, an
-        optional field) from the first page that carries one, before that page's items.
-        A listing that cannot end (see :class:`ListingGuard`; ``expected`` is what the
-        caller knows of its count) is an ApiResponseError.
-        """
-        paging = _Paging(self, path, items_key, params, page_size, on_total, expected)
-        while paging.more:
-            for item in paging.take(await self.get_json(path, paging.query)):
+        """Every item of a list endpoint, page after page (see :class:`Listing` for
+        ``on_total``, ``expected`` and what ends a listing that would not end)."""
+        async for items in self._pages(path, items_key, params, page_size, on_total, expected):
+            for item in items:
                 yield item
 
-    # -- typed endpoints -----------------------------------------------------------------
-    #
-    # A job's listings (a page or two, as a rule) come as lists; the listings of a project
-    # or a batch, which can run to thousands of items, as async iterators.
+    # A job's listings come as lists; a project's or a batch's, which can run to thousands
+    # of items, as async iterators.
 
     def list_jobs(
         self,
@@ -299,10 +230,7 @@ class ApiClient:
         on_total: Callable[[int], None] | None = None,
         expected: int | None = None,
     ) -> AsyncIterator[Job]:
-        """The jobs (tests) of a batch; ``on_total`` hears the listing's job count first.
-
-        ``expected``: the batch's job count when known (``Batch.total_jobs``), which
-        bounds the listing until its pages say their own ``total``."""
+        """The jobs (tests) of a batch; ``expected`` is its ``Batch.total_jobs`` if known."""
         path = f"/projects/{_id(project_id)}/batches/{_id(batch_id)}/jobs"
         return self._list(path, "jobs", Job.from_json, on_total=on_total, expected=expected)
 
@@ -335,8 +263,9 @@ class ApiClient:
         return self._list(path, "experienceTags", ExperienceTag.from_json)
 
     async def get_batch(self, project_id: IdLike, batch_id: IdLike) -> Batch:
-        document = await self.get_json(f"/projects/{_id(project_id)}/batches/{_id(batch_id)}")
-        return Batch.from_json(document)
+        return Batch.from_json(
+            await self.get_json(f"/projects/{_id(project_id)}/batches/{_id(batch_id)}")
+        )
 
     def list_batches(
         self, project_id: IdLike, *, search: str | None = None
@@ -358,8 +287,9 @@ class ApiClient:
         return self._list(path, "batchMetricsData", _BATCH_DATA)
 
     async def get_report(self, project_id: IdLike, report_id: IdLike) -> Report:
-        document = await self.get_json(f"/projects/{_id(project_id)}/reports/{_id(report_id)}")
-        return Report.from_json(document)
+        return Report.from_json(
+            await self.get_json(f"/projects/{_id(project_id)}/reports/{_id(report_id)}")
+        )
 
     def list_branches(
         self, project_id: IdLike, *, name: str | None = None
@@ -371,10 +301,11 @@ class ApiClient:
         )
 
     async def get_build(self, project_id: IdLike, build_id: IdLike) -> Build:
-        document = await self.get_json(f"/projects/{_id(project_id)}/builds/{_id(build_id)}")
-        return Build.from_json(document)
+        return Build.from_json(
+            await self.get_json(f"/projects/{_id(project_id)}/builds/{_id(build_id)}")
+        )
 
-    async def list_job_logs(
+    def list_job_logs(
         self,
         project_id: IdLike,
         batch_id: IdLike,
@@ -385,104 +316,63 @@ class ApiClient:
     ) -> AsyncIterator[JobLog]:
         """A job's logs (of `log_type`, named `name`, when given): EMISSIONS_LOG for what
         its test emitted, each downloadable at its `log_output_location`."""
-        params: dict[str, str | int] = {}
-        if log_type is not None:
-            params["type"] = str(log_type)
-        if name is not None:
-            params["name"] = name
+        params = {k: str(v) for k, v in (("type", log_type), ("name", name)) if v is not None}
         path = self._job_path(project_id, batch_id, job_id) + "/logs"
-        async for item in self.paginate(path, "logs", params):
-            yield JobLog.from_json(item)
+        return self._list(path, "logs", JobLog.from_json, params)
 
-    # -- internals -----------------------------------------------------------------------
+    async def _pages(
+        self,
+        path: str,
+        items_key: str,
+        params: Mapping[str, str | int] | None = None,
+        page_size: int | None = None,
+        on_total: Callable[[int], None] | None = None,
+        expected: int | None = None,
+    ) -> AsyncIterator[list[dict[str, Any]]]:
+        """Each page's items (see :class:`Listing`), until ``nextPageToken`` is empty."""
+        listing = Listing(
+            lambda: f"GET {redact_url(self._url(path))}",  # made only for an error
+            items_key,
+            page_size or self._page_size,
+            params,
+            on_total=on_total,
+            expected=expected,
+        )
+        while listing.more:
+            yield listing.take(await self.get_json(path, listing.query))
 
     async def _list(
         self,
         path: str,
         items_key: str,
-        parse: Callable[..., _Model],
+        parse: Callable[[dict[str, Any]], _Model],
         params: Mapping[str, str | int] | None = None,
         *,
         on_total: Callable[[int], None] | None = None,
         expected: int | None = None,
     ) -> AsyncIterator[_Model]:
-        async for item in self.paginate(
-            path, items_key, params, on_total=on_total, expected=expected
-        ):
-            yield parse(item, ids=self._recent_ids())
+        async for items in self._pages(path, items_key, params, None, on_total, expected):
+            for item in items:
+                yield parse(item)
 
     async def _list_all(
-        self, path: str, items_key: str, parse: Callable[..., _Model]
+        self, path: str, items_key: str, parse: Callable[[dict[str, Any]], _Model]
     ) -> list[_Model]:
-        """What `_list` yields, as one list."""
-        items = await self._all_items(path, items_key)
-        ids = self._recent_ids()
-        return [parse(item, ids=ids) for item in items]
-
-    def _recent_ids(self) -> dict[str, uuid.UUID]:
-        """`self._ids`, emptied first when it has reached its bound."""
-        if len(self._ids) >= _MAX_IDS_KEPT:
-            self._ids.clear()
-        return self._ids
-
-    def _all_items(self, path: str, items_key: str) -> Awaitable[list[dict[str, Any]]]:
-        """What `paginate` yields, as one list: with no async generator step per item, and
-        none per page (a job's listing is two dozen items or fewer, on one page), in
-        `_get`'s coroutine.
-
-        `path` starts with "/" and holds literal segments and `_id`s only."""
-        # The first page's URL built from its parts: `path` is made of literal segments and
-        # `_id`s, so it needs no quoting, and the rest is the same for every listing; `_url`
-        # would check and build both for every job's listings (half of their own CPU), and
-        # parsing the URL written out costs four times building it (24k instructions).
-        # Keywords, not a dict unpacked into the call: that costs a third more.
-        scheme, authority, query = self._first_page_parts
-        url = URL.build(
-            scheme=scheme,
-            authority=authority,
-            path=self._base_path + path,
-            query_string=query,
-            encoded=True,
-        )
-        return self._get(url, (path, items_key))
-
-    async def _rest_of_listing(
-        self, path: str, items_key: str, page: dict[str, Any]
-    ) -> list[dict[str, Any]]:
-        """A listing's items from its first `page` on, every page's (see `_all_items`)."""
-        paging = _Paging(self, path, items_key, None, None, None, None)
-        items = paging.take(page)
-        while paging.more:  # the next page's URL only when there is one (a job's: none)
-            items = items + paging.take(await self._get_document(self._url(path, paging.query)))
-        return items
+        """What `_list` yields, as one list. Its own loop over `Listing`, without `_pages`'
+        async generator: a batch run lists two per job (that generator costs 2 µs each)."""
+        listing = Listing(lambda: f"GET {redact_url(self._url(path))}", items_key, self._page_size)
+        items: list[dict[str, Any]] = []
+        while listing.more:
+            items += listing.take(await self.get_json(path, listing.query))
+        return [parse(item) for item in items]
 
     def _job_path(self, project_id: IdLike, batch_id: IdLike, job_id: IdLike) -> str:
-        """`/projects/{project}/batches/{batch}/jobs/{job}`, the batch's part remembered:
-        a batch run lists two listings of each of its jobs, and formatting the same two
-        IDs for each cost more than the job's."""
-        batch = self._batch_path
-        if batch is None or batch[0] is not project_id or batch[1] is not batch_id:
-            prefix = f"/projects/{_id(project_id)}/batches/{_id(batch_id)}/jobs/"
-            batch = self._batch_path = (project_id, batch_id, prefix)
-        return batch[2] + _id(job_id)
+        return f"/projects/{_id(project_id)}/batches/{_id(batch_id)}/jobs/{_id(job_id)}"
 
     def _url(self, path: str, params: Mapping[str, str | int] | None = None) -> URL:
-        """The URL of `path` under the base URL, with `params` as its query.
-
-        Joined as text: yarl's join() would drop the base path ("/v1") for "/projects/...".
-        A path of UUIDs and names, with a query of numbers and plain page tokens (every
-        request of a run, in practice), is written out and parsed as already encoded: the
-        same URL that quoting it and adding the query would make, for a quarter of the
-        CPU (yarl's extend_query alone costs more than the parse).
-        """
-        path = path.lstrip("/")
-        text = self._base_text + "/" + path
-        if _PLAIN_PATH.fullmatch(path) is not None:
-            query = _plain_query(params) if params else ""
-            if query is not None:
-                return URL(text + query, encoded=True)
-        url = URL(text)
-        return url.extend_query(params) if params else url
+        """`path` under the base URL's path (which yarl's join() would drop), `params` its query."""
+        url = self._base.with_path(self._base_path + "/" + path.lstrip("/"))
+        return url.with_query(params) if params else url
 
     async def _get_once(self, url: URL) -> Response:
         response = await self._transport.get(url)
@@ -491,139 +381,22 @@ class ApiClient:
         raise _api_error(response, self._base.origin())
 
 
-class _Paging:
-    """One listing's pages as `ApiClient.paginate` reads them: the next page's query, and
-    each page's items once checked (a listing that cannot end is an ApiResponseError; see
-    :class:`ListingGuard`)."""
-
-    __slots__ = (
-        "_client",
-        "_expected",
-        "_guard",
-        "_items_key",
-        "_on_total",
-        "_path",
-        "more",
-        "query",
-    )
-
-    def __init__(
-        self,
-        client: ApiClient,
-        path: str,
-        items_key: str,
-        params: Mapping[str, str | int] | None,
-        page_size: int | None,
-        on_total: Callable[[int], None] | None,
-        expected: int | None,
-    ) -> None:
-        self._client = client
-        self._expected = expected
-        self._path = path
-        self._items_key = items_key
-        self._on_total = on_total
-        self.query: dict[str, str | int] = dict(params or {})
-        self.query["pageSize"] = page_size or client._page_size
-        # Made with the first page that has a next page: a listing of one page (a job's)
-        # has nothing to compare its page with.
-        self._guard: ListingGuard | None = None
-        self.more = True  # until a page without a next page token
-
-    def _listing(self) -> str:
-        # Made only for an error: a batch run starts two listings per job.
-        return f"GET {redact_url(self._client._url(self._path))}"
-
-    def take(self, page: dict[str, Any]) -> list[dict[str, Any]]:
-        """The page's items to hand on; the query then asks for the next page, if any.
-
-        ``on_total`` is called with the listing's ``total`` from the first page that
-        carries one, before that page's items are handed on.
-        """
-        items_key = self._items_key
-        items = page.get(items_key)
-        if items is None:
-            items = []  # the API omits empty lists
-        if not isinstance(items, list):
-            raise ApiResponseError(
-                f"{self._listing()}: '{items_key}' should be a list, got {type(items).__name__}"
-            )
-        for item in items:
-            if not isinstance(item, dict):
-                raise ApiResponseError(
-                    f"{self._listing()}: an item of '{items_key}' is {type(item).__name__}, "
-                    "not an object"
-                )
-        token = page.get("nextPageToken")
-        if token and not isinstance(token, str):
-            raise ApiResponseError(f"{self._listing()}: 'nextPageToken' should be a string")
-        # Checked before the items are handed on: a page that proves the listing
-        # endless must not feed its repeats to the caller.
-        total = page.get("total")
-        guard = self._guard
-        if guard is None and token:
-            guard = self._guard = ListingGuard(
-                self._listing, items_key, int(self.query["pageSize"]), expected=self._expected
-            )
-        if guard is not None:
-            items = guard.check(items, token or None, total)
-        on_total = self._on_total
-        if on_total is not None and isinstance(total, int) and not isinstance(total, bool):
-            on_total(total)
-            self._on_total = None  # once: later pages repeat it
-        if token:
-            self.query["pageToken"] = token
-        else:
-            self.more = False
-        return items
-
-
-def _plain_query(params: Mapping[str, str | int]) -> str | None:
-    """``?key=value&...`` when no key or value needs quoting, else None."""
-    parts = []
-    for key, value in params.items():
-        if type(value) is int:
-            text = str(value)
-        elif type(value) is str and _PLAIN_QUERY.fullmatch(value) is not None:
-            text = value
-        else:
-            return None
-        if _PLAIN_QUERY.fullmatch(key) is None:
-            return None
-        parts.append(f"{key}={text}")
-    return "?" + "&".join(parts)
-
-
 def _loads(body: bytes) -> Any:
-    """``json.loads``, through orjson (3x faster on a listing page) when it reads the body.
-
-    What orjson refuses and the standard parser takes (NaN, numbers past a double's range,
-    lone surrogates) is read by the standard parser, which also words every error. One
-    difference remains: an integer past 64 bits comes as the nearest double, as from most
-    JSON parsers (RFC 8259 calls such numbers not interoperable); no API field holds one.
-    """
-    orjson = _orjson()
+    """``json.loads`` through orjson (3x faster on a listing page); what orjson refuses and
+    the standard parser takes (NaN, numbers past a double's range, lone surrogates) goes to
+    the standard parser, which also words every error."""
     try:
         return orjson.loads(body)
     except orjson.JSONDecodeError:
         pass
     try:
         return json.loads(body)
-    except RecursionError:
-        # Nested deeper than the interpreter's stack allows (orjson stops at 1,024 levels).
+    except RecursionError:  # deeper than the interpreter's stack (orjson stops at 1,024)
         raise json.JSONDecodeError("nested too deeply", "", 0) from None
     except json.JSONDecodeError:
         raise
     except ValueError:  # an integer past int's limit of digits (4,300)
         raise json.JSONDecodeError("a number with too many digits", "", 0) from None
-
-
-@functools.cache
-def _orjson() -> ModuleType:
-    """orjson, imported with the first answer, not with this module (start-up), and then
-    remembered: an import statement runs importlib's checks on every answer."""
-    import orjson
-
-    return orjson
 
 
 def _id(value: IdLike) -> str:
@@ -637,15 +410,10 @@ def _id(value: IdLike) -> str:
 
 
 def _api_error(response: Response, api_origin: URL) -> ApiError:
-    common: dict[str, Any] = {
-        "status": response.status,
-        "method": "GET",
-        "url": response.url,
-        "body": response.body,
-    }
+    common: dict[str, Any] = {"status": response.status, "method": "GET", "url": response.url}
+    common["body"] = response.body
     if response.status in (401, 403) and response.url.origin() != api_origin:
-        # aiohttp drops the token on a redirect to another origin, so this refusal says
-        # nothing about the token; blaming it would send the reader the wrong way.
+        # aiohttp drops the token on a redirect to another origin: not the token's fault.
         return RedirectedRefusalError(**common, api_origin=str(api_origin))
     if response.status in (401, 403):
         return AuthError(**common)

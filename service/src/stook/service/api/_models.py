@@ -1,26 +1,12 @@
-"""Typed, immutable views of the API objects that batch and report modes read.
+"""Typed, immutable views of the API objects stook reads, each read by its own ``from_json``.
 
-Each ``from_json`` checks only what stook relies on and ignores every other key, so a newer
-API that adds fields keeps working. The spec's ``job``, ``batch``, ``metric`` and
-``metricsData`` schemas list no required field (ReSim's Go client omits empty ones), so
-required here are only the IDs stook cannot do without (an object's own ID, to fetch it or
-match it) and a report's search window. Everything else may be absent, with a documented
-meaning: a missing string reads as ``None`` (names as ``""``: unnamed), a metric's missing
-``status`` as ``NO_STATUS_REPORTED``, a missing ``metricsDataType`` as ``STANDARD`` (ReSim's
-own fetcher reads every metrics-data URL as a ``MetricsData`` message), a missing metric
-``type`` or job ``conflatedStatus`` as ``None``.
-
-Enumerations are open: a value this client does not know (one the platform adds later) is
-kept as its raw string, so that it is counted under its own name instead of failing a job.
-Known values are the ``StrEnum`` members, which are strings too.
-
-Field names and which keys exist follow ReSim's published client (``resim.sdk.client.models``).
-
-The two models a batch run reads by the dozen for every job (``ApiMetric``,
-``ApiMetricsData``) are frozen ``msgspec.Struct``s, the others frozen dataclasses: a Struct
-is as immutable and hashable, and is built in a fifth of the time a frozen dataclass's
-``__init__`` takes (its ``object.__setattr__`` per field), a fifth of such an item's whole
-decoding.
+Only what stook relies on is checked and every other key ignored, so a newer API keeps
+working. The spec requires no field of these objects (ReSim's Go client omits empty ones):
+required here are only an object's own ID and a report's search window; anything else may
+be absent, with the meaning each model documents. Enumerations are open: a value this
+client does not know is kept as its raw string. Field names follow ReSim's published client.
+``ApiMetric`` and ``ApiMetricsData``, read by the dozen per job, are frozen msgspec Structs
+(built in a fifth of a frozen dataclass's time); the others frozen dataclasses.
 """
 
 from __future__ import annotations
@@ -35,26 +21,6 @@ from typing import Any, Self
 import msgspec
 
 from stook.service.api._fields import Fields
-
-__all__ = [
-    "ApiMetric",
-    "ApiMetricStatus",
-    "ApiMetricType",
-    "ApiMetricsData",
-    "Batch",
-    "BatchStatus",
-    "Build",
-    "ConflatedBatchStatus",
-    "ConflatedJobStatus",
-    "EventTimestampType",
-    "ExperienceTag",
-    "Job",
-    "JobEventListing",
-    "JobStatus",
-    "MetricOwner",
-    "MetricsDataStorageType",
-    "Report",
-]
 
 
 class ConflatedJobStatus(enum.StrEnum):
@@ -106,11 +72,7 @@ class ConflatedBatchStatus(enum.StrEnum):
 
 
 class ApiMetricStatus(enum.StrEnum):
-    """A metric's status as the API spells it.
-
-    Named apart from ``stook.sdk.MetricStatus`` (the proto enum), which has no
-    ``NO_STATUS_REPORTED``.
-    """
+    """A metric's status as the API spells it (``stook.sdk.MetricStatus`` lacks the last)."""
 
     PASSED = "PASSED"
     FAIL_WARN = "FAIL_WARN"
@@ -142,16 +104,10 @@ class MetricsDataStorageType(enum.StrEnum):
     VIDEO = "VIDEO"
 
 
-# ---------------------------------------------------------------------------------------
-
-
 @dataclass(frozen=True, slots=True)
 class Job:
-    """One test of a batch: an experience run against a build.
-
-    ``conflated_status`` is None when the API gave none (batch aggregations count such
-    jobs as ``UNKNOWN``); a status this client does not know is its raw string.
-    """
+    """One test of a batch: an experience run against a build (a missing
+    ``conflated_status``, None, is counted as ``UNKNOWN`` by batch aggregations)."""
 
     job_id: uuid.UUID
     conflated_status: ConflatedJobStatus | str | None
@@ -167,9 +123,8 @@ class Job:
     parameters: Mapping[str, str] = field(default_factory=dict, hash=False)
 
     @classmethod
-    def from_json(cls, data: Mapping[str, Any], *, ids: dict[str, uuid.UUID] | None = None) -> Self:
-        """``ids``: IDs read before, by their text, to parse each once (see ``Fields``)."""
-        f = Fields("Job", data, "jobID", ids)
+    def from_json(cls, data: Mapping[str, Any]) -> Self:
+        f = Fields("Job", data, "jobID")
         return cls(
             job_id=f.id("jobID"),
             conflated_status=f.opt_choice("conflatedStatus", ConflatedJobStatus),
@@ -200,12 +155,9 @@ _DATA_KINDS = {MetricOwner.JOB: "JobMetricsData", MetricOwner.BATCH: "BatchMetri
 class ApiMetric(msgspec.Struct, frozen=True):
     """A metric a job's or a batch's metrics build produced (``owner``).
 
-    ``value`` is the number of a ``SCALAR`` metric (None for ``COMPOSITE``, or when the job
-    reported none, or the API lists it as null: then the value is in the message at
-    ``metric_url``). ``metric_url`` is the presigned URL of the serialized ``Metric``
-    message; it expires, so fetch it soon after listing. ``name`` is "" when the API gave
-    none; ``type`` None when it gave none; an unknown type or status is its raw string.
-    ``job_id`` is read for a job's metric only; ``batch_id`` for both.
+    ``value`` is a ``SCALAR``'s number, or None (then it is in the ``Metric`` message at
+    ``metric_url``, a presigned URL that expires). A missing ``status`` reads as
+    ``NO_STATUS_REPORTED``; ``job_id`` is read for a job's metric only.
     """
 
     metric_id: uuid.UUID
@@ -226,26 +178,19 @@ class ApiMetric(msgspec.Struct, frozen=True):
         return _repr_without(self, "metric_url")
 
     @classmethod
-    def from_json(
-        cls,
-        data: Mapping[str, Any],
-        *,
-        owner: MetricOwner,
-        ids: dict[str, uuid.UUID] | None = None,
-    ) -> Self:
-        """``ids``: IDs read before, by their text, to parse each once (see ``Fields``)."""
-        f = Fields(_METRIC_KINDS[owner], data, "metricID", ids)
+    def from_json(cls, data: Mapping[str, Any], *, owner: MetricOwner) -> Self:
+        f = Fields(_METRIC_KINDS[owner], data, "metricID")
         # The order of evaluation decides which error an item with two bad fields gets.
         return cls(
             metric_id=f.id("metricID"),
             name=f.opt_string("name") or "",
             type=f.opt_choice("type", ApiMetricType),
-            status=f.choice("status", ApiMetricStatus, default=ApiMetricStatus.NO_STATUS_REPORTED),
+            status=f.opt_choice("status", ApiMetricStatus) or ApiMetricStatus.NO_STATUS_REPORTED,
             value=f.opt_number("value"),
             unit=f.opt_string("unit"),
             metric_url=f.opt_string("metricURL"),
             data_ids=f.ids("dataIDs"),
-            event_metric=f.flag("eventMetric", default=False),
+            event_metric=f.flag("eventMetric"),
             creation_timestamp=f.opt_timestamp("creationTimestamp"),
             owner=owner,
             job_id=f.opt_id("jobID") if owner is MetricOwner.JOB else None,
@@ -255,11 +200,8 @@ class ApiMetric(msgspec.Struct, frozen=True):
 
 class ApiMetricsData(msgspec.Struct, frozen=True):
     """A metrics-data file of a job or of a batch (``owner``); ``metrics_data_url`` is
-    presigned and expires.
-
-    ``name`` is "" when the API gave none: such data cannot be asked for by name. Its
-    owner's ID is read for its owner only: ``job_id`` for a job's, ``batch_id`` for a
-    batch's.
+    presigned and expires. A missing ``metricsDataType`` reads as ``STANDARD``, as ReSim's
+    own fetcher reads it; the owner's ID (``job_id`` or ``batch_id``) is read for its owner.
     """
 
     data_id: uuid.UUID
@@ -281,43 +223,24 @@ class ApiMetricsData(msgspec.Struct, frozen=True):
         return self.metrics_data_type is MetricsDataStorageType.STANDARD
 
     @classmethod
-    def from_json(
-        cls,
-        data: Mapping[str, Any],
-        *,
-        owner: MetricOwner,
-        ids: dict[str, uuid.UUID] | None = None,
-    ) -> Self:
-        """``ids``: IDs read before, by their text, to parse each once (see ``Fields``)."""
-        f = Fields(_DATA_KINDS[owner], data, "dataID", ids)
-        data_id = f.id("dataID")
-        name = f.opt_string("name") or ""
-        metrics_data_type = f.choice(
-            "metricsDataType", MetricsDataStorageType, default=MetricsDataStorageType.STANDARD
-        )
-        metrics_data_url = f.opt_string("metricsDataURL")
-        filename = f.opt_string("filename")
-        creation_timestamp = f.opt_timestamp("creationTimestamp")
-        if owner is MetricOwner.JOB:
-            job_id, batch_id = f.opt_id("jobID"), None
-        else:
-            job_id, batch_id = None, f.opt_id("batchID")
+    def from_json(cls, data: Mapping[str, Any], *, owner: MetricOwner) -> Self:
+        f = Fields(_DATA_KINDS[owner], data, "dataID")
         return cls(
-            data_id=data_id,
-            name=name,
-            metrics_data_type=metrics_data_type,
-            metrics_data_url=metrics_data_url,
-            filename=filename,
+            data_id=f.id("dataID"),
+            name=f.opt_string("name") or "",
+            metrics_data_type=f.opt_choice("metricsDataType", MetricsDataStorageType)
+            or MetricsDataStorageType.STANDARD,
+            metrics_data_url=f.opt_string("metricsDataURL"),
+            filename=f.opt_string("filename"),
+            creation_timestamp=f.opt_timestamp("creationTimestamp"),
             owner=owner,
-            job_id=job_id,
-            batch_id=batch_id,
-            creation_timestamp=creation_timestamp,
+            job_id=f.opt_id("jobID") if owner is MetricOwner.JOB else None,
+            batch_id=f.opt_id("batchID") if owner is MetricOwner.BATCH else None,
         )
 
 
 def _repr_without(item: msgspec.Struct, secret: str) -> str:
-    """A Struct's repr without its field `secret` (a presigned URL, whose signature must not
-    reach a log), as a dataclass field with ``repr=False`` shows."""
+    """A Struct's repr without its field `secret` (a presigned URL: no signature in a log)."""
     shown = ", ".join(
         f"{name}={getattr(item, name)!r}" for name in item.__struct_fields__ if name != secret
     )
@@ -343,9 +266,8 @@ class Batch:
     creation_timestamp: datetime | None = None
 
     @classmethod
-    def from_json(cls, data: Mapping[str, Any], *, ids: dict[str, uuid.UUID] | None = None) -> Self:
-        """``ids``: IDs read before, by their text, to parse each once (see ``Fields``)."""
-        f = Fields("Batch", data, "batchID", ids)
+    def from_json(cls, data: Mapping[str, Any]) -> Self:
+        f = Fields("Batch", data, "batchID")
         return cls(
             batch_id=f.id("batchID"),
             status=f.opt_choice("status", BatchStatus),
@@ -389,7 +311,7 @@ class Report:
             branch_id=f.id("branchID"),
             start_timestamp=f.timestamp("startTimestamp"),
             end_timestamp=f.timestamp("endTimestamp"),
-            respect_revision_boundary=f.flag("respectRevisionBoundary", default=False),
+            respect_revision_boundary=f.flag("respectRevisionBoundary"),
             name=f.opt_string("name") or "",
             creation_timestamp=f.opt_timestamp("creationTimestamp"),
         )
@@ -417,13 +339,7 @@ class Build:
 
 @dataclass(frozen=True, slots=True)
 class JobEventListing:
-    """One event of a job, as ``GET .../jobs/{jobID}/events`` lists it (the spec's ``event``).
-
-    The spec requires every field, but as elsewhere only the ID is relied on: a missing
-    name reads as "", a missing status as ``NO_STATUS_REPORTED``, a missing timestamp or
-    timestamp type as None, missing tags or metric IDs as empty. Unknown statuses and
-    timestamp types are kept as their raw strings.
-    """
+    """One event of a job, as ``GET .../jobs/{jobID}/events`` lists it (without its data)."""
 
     event_id: uuid.UUID
     name: str
@@ -436,13 +352,12 @@ class JobEventListing:
     creation_timestamp: datetime | None = None
 
     @classmethod
-    def from_json(cls, data: Mapping[str, Any], *, ids: dict[str, uuid.UUID] | None = None) -> Self:
-        """``ids``: IDs read before, by their text, to parse each once (see ``Fields``)."""
-        f = Fields("Event", data, "eventID", ids)
+    def from_json(cls, data: Mapping[str, Any]) -> Self:
+        f = Fields("Event", data, "eventID")
         return cls(
             event_id=f.id("eventID"),
             name=f.opt_string("name") or "",
-            status=f.choice("status", ApiMetricStatus, default=ApiMetricStatus.NO_STATUS_REPORTED),
+            status=f.opt_choice("status", ApiMetricStatus) or ApiMetricStatus.NO_STATUS_REPORTED,
             timestamp=f.opt_timestamp("timestamp"),
             timestamp_type=f.opt_choice("timestampType", EventTimestampType),
             description=f.opt_string("description") or "",
@@ -461,9 +376,8 @@ class ExperienceTag:
     description: str = ""
 
     @classmethod
-    def from_json(cls, data: Mapping[str, Any], *, ids: dict[str, uuid.UUID] | None = None) -> Self:
-        """``ids``: IDs read before, by their text, to parse each once (see ``Fields``)."""
-        f = Fields("ExperienceTag", data, "experienceTagID", ids)
+    def from_json(cls, data: Mapping[str, Any]) -> Self:
+        f = Fields("ExperienceTag", data, "experienceTagID")
         return cls(
             experience_tag_id=f.id("experienceTagID"),
             name=f.opt_string("name") or "",
@@ -480,11 +394,70 @@ class Branch:
     branch_type: str | None = None
 
     @classmethod
-    def from_json(cls, data: Mapping[str, Any], *, ids: dict[str, uuid.UUID] | None = None) -> Self:
-        """``ids``: IDs read before, by their text, to parse each once (see ``Fields``)."""
-        f = Fields("Branch", data, "branchID", ids)
+    def from_json(cls, data: Mapping[str, Any]) -> Self:
+        f = Fields("Branch", data, "branchID")
         return cls(
             branch_id=f.id("branchID"),
             name=f.opt_string("name") or "",
             branch_type=f.opt_string("branchType"),
+        )
+
+
+class LogType(enum.StrEnum):
+    """The spec's `logType`."""
+
+    OTHER_LOG = "OTHER_LOG"
+    METRICS_OUTPUT_LOG = "METRICS_OUTPUT_LOG"
+    CONTAINER_LOG = "CONTAINER_LOG"
+    EXECUTION_LOG = "EXECUTION_LOG"
+    MCAP_LOG = "MCAP_LOG"
+    MP4_LOG = "MP4_LOG"
+    ARCHIVE_LOG = "ARCHIVE_LOG"
+    FOXGLOVE_MCAP_LOG = "FOXGLOVE_MCAP_LOG"
+    RERUN_IO_LOG = "RERUN_IO_LOG"
+    ERROR_LOG = "ERROR_LOG"
+    SERVICE_LOG = "SERVICE_LOG"
+    EMISSIONS_LOG = "EMISSIONS_LOG"
+    SYSTEM_LOG = "SYSTEM_LOG"
+
+
+class ExecutionStep(enum.StrEnum):
+    """The spec's `executionStep`: which step of the job wrote the log."""
+
+    EXPERIENCE = "EXPERIENCE"
+    METRICS = "METRICS"
+    BATCH_METRICS = "BATCH_METRICS"
+    REPORT = "REPORT"
+
+
+@dataclass(frozen=True, slots=True)
+class JobLog:
+    """One log of a job, as ``GET .../jobs/{jobID}/logs`` lists it (the spec's ``jobLog``):
+    a test's emissions are its EMISSIONS_LOG, downloaded from ``log_output_location``."""
+
+    log_id: uuid.UUID
+    file_name: str = ""
+    log_type: LogType | str | None = None
+    log_output_location: str | None = None
+    file_size: int | None = None
+    checksum: str | None = None
+    creation_timestamp: datetime | None = None
+    execution_step: ExecutionStep | str | None = None
+    file_path: str = ""
+    job_id: uuid.UUID | None = None
+
+    @classmethod
+    def from_json(cls, data: Mapping[str, Any]) -> Self:
+        f = Fields("JobLog", data, "logID")
+        return cls(
+            log_id=f.id("logID"),
+            file_name=f.opt_string("fileName") or "",
+            log_type=f.opt_choice("logType", LogType),
+            log_output_location=f.opt_string("logOutputLocation"),
+            file_size=f.opt_integer("fileSize"),
+            checksum=f.opt_string("checksum"),
+            creation_timestamp=f.opt_timestamp("creationTimestamp"),
+            execution_step=f.opt_choice("executionStep", ExecutionStep),
+            file_path=f.opt_string("filePath") or "",
+            job_id=f.opt_id("jobID"),
         )
