@@ -486,7 +486,7 @@ class _ListingApi:
 async def _fetch_listed_job(api: _ListingApi) -> list[str]:
     from stook.service.api import Job
 
-    job = Job.from_json({"jobID": str(uuid.uuid4())})
+    job = Job(uuid.uuid4())
     needs = Needs(data=frozenset({"speeds"}))
     fetcher = BatchFetcher(cast(ApiClient, api), PROJECT, BATCH, needs, workers=1, jobs=[job])
     outcome = await fetcher.run(lambda record: None)

@@ -3,6 +3,7 @@ and null scalars' messages)."""
 
 from __future__ import annotations
 
+import json
 import uuid
 from typing import Any
 
@@ -10,7 +11,7 @@ import pytest
 
 from stook.sdk.aggregations import Needs
 from stook.service.api._errors import ApiResponseError
-from stook.service.api._models import ApiMetric, Batch, Job, MetricOwner
+from stook.service.api._models import ApiMetric, Batch, Job, decoder
 from stook.service.fetch._report_fetch import JobScalars, ReportFetcher
 
 IDS = [str(uuid.UUID(int=i + 1)) for i in range(6)]
@@ -41,7 +42,7 @@ class _Listings:
         self.items = items
 
     async def list_job_metrics(self, *ids: uuid.UUID) -> list[ApiMetric]:
-        return [ApiMetric.from_json(item, owner=MetricOwner.JOB) for item in self.items]
+        return [decoder(ApiMetric).decode(json.dumps(item)) for item in self.items]
 
 
 async def _read(items: list[Any]) -> JobScalars:

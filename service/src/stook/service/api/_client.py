@@ -7,14 +7,13 @@ token cannot follow a presigned URL (or a redirect from one) to another host.
 
 from __future__ import annotations
 
-import functools
-import json
 import re
 import uuid
 from collections.abc import AsyncIterator, Awaitable, Callable, Mapping
-from types import ModuleType, TracebackType
-from typing import Any, Final, Self, TypeVar
+from types import TracebackType
+from typing import Any, Final, Generic, Self, TypeVar
 
+import msgspec
 from yarl import URL
 
 from stook.service.api._errors import (
@@ -25,19 +24,31 @@ from stook.service.api._errors import (
     NotFoundError,
     RedirectedRefusalError,
 )
-from stook.service.api._job_logs import JobLog, LogType
 from stook.service.api._limits import AimdLimiter, ConcurrencyLimit, FixedLimit, NestedLimit
 from stook.service.api._models import (
     ApiMetric,
     ApiMetricsData,
     Batch,
+    BatchesPage,
+    BatchMetricsDataPage,
+    BatchMetricsPage,
     Branch,
+    BranchesPage,
     Build,
     ExperienceTag,
+    ExperienceTagsPage,
     Job,
     JobEventListing,
-    MetricOwner,
+    JobEventsPage,
+    JobLog,
+    JobLogsPage,
+    JobMetricsDataPage,
+    JobMetricsPage,
+    JobsPage,
+    LogType,
+    Page,
     Report,
+    decoder,
 )
 from stook.service.api._paging import ListingGuard
 from stook.service.api._redact import redact_url, register_secret
@@ -57,16 +68,25 @@ __all__ = ["ApiClient", "IdLike"]
 
 IdLike = uuid.UUID | str
 _Model = TypeVar("_Model")
+_Answer = TypeVar("_Answer")
 
-# How each owner's metric and metrics-data items are read: their models' own from_json.
-_JOB_METRIC = functools.partial(ApiMetric.from_json, owner=MetricOwner.JOB)
-_BATCH_METRIC = functools.partial(ApiMetric.from_json, owner=MetricOwner.BATCH)
-_JOB_DATA = functools.partial(ApiMetricsData.from_json, owner=MetricOwner.JOB)
-_BATCH_DATA = functools.partial(ApiMetricsData.from_json, owner=MetricOwner.BATCH)
-
-# The IDs a client keeps for the items it reads next (see ApiClient._ids): a few thousand
-# jobs' worth, however long the run.
-_MAX_IDS_KEPT: Final = 10_000
+# Every answer the client decodes: a listing's page, an object, or any JSON object.
+_ANSWERS: Final = (
+    dict,
+    JobsPage,
+    BatchesPage,
+    JobMetricsPage,
+    BatchMetricsPage,
+    JobMetricsDataPage,
+    BatchMetricsDataPage,
+    JobEventsPage,
+    ExperienceTagsPage,
+    BranchesPage,
+    JobLogsPage,
+    Batch,
+    Report,
+    Build,
+)
 # The API caps pages; 100 is the largest size ReSim's own tools ask for.
 DEFAULT_PAGE_SIZE: Final = 100
 # What one API answer (a JSON page) may hold, decompressed.
@@ -142,11 +162,10 @@ class ApiClient:
         self._base_path = shared.raw_path[:-1]  # "/v1", or "" for a base URL without one
         # The last batch whose jobs' paths were made, by its IDs' identity (see _job_path).
         self._batch_path: tuple[IdLike, IdLike, str] | None = None
-        # The IDs of other objects that recent answers named, by their text, handed to each
-        # listing item's from_json (see Fields.opt_id): a job's metrics each name the job
-        # and the batch, and each is then parsed once. Emptied when it holds _MAX_IDS_KEPT,
-        # so it does not grow with the run.
-        self._ids: dict[str, uuid.UUID] = {}
+        # One decoder per answer, each made once: it reads a body straight into its type.
+        self._decoders: dict[type, msgspec.json.Decoder[Any]] = {
+            answer: decoder(answer) for answer in _ANSWERS
+        }
         # Shared by every API request: when the API fails, they wait together.
         self.origin = Origin("the API", self._policy, setting="apiURL")
         if concurrency < 1:
@@ -225,15 +244,17 @@ class ApiClient:
         self, path: str, params: Mapping[str, str | int] | None = None
     ) -> dict[str, Any]:
         """GET ``path`` (relative to the base URL) and return its JSON object."""
-        return await self._get_document(self._url(path, params))
+        document: dict[str, Any] = await self._get_document(self._url(path, params), dict)
+        return document
 
-    def _get_document(self, url: URL) -> Awaitable[dict[str, Any]]:
-        """GET `url` and return its JSON object."""
-        return self._get(url)
+    def _get_document(self, url: URL, answer: type[_Answer]) -> Awaitable[_Answer]:
+        """GET `url` and decode its body as `answer` (a page, or an object)."""
+        return self._get(url, answer)
 
-    async def _get(self, url: URL, listing: tuple[str, str] | None = None) -> Any:
-        """GET `url` and return its JSON object (`_get_document`); with `listing` (its path
-        and items key), that listing's items, from this first page on (`_all_items`).
+    async def _get(self, url: URL, answer: type[Any], listing: str | None = None) -> Any:
+        """GET `url` and decode its body as `answer` (`_get_document`); with `listing` (its
+        path; `answer` is its page), that listing's items, from this first page on
+        (`_all_items`).
 
         One coroutine for both: a job's listing is one page, and a coroutine fewer between
         the worker and the transport saves a frame's resumption at every step of its
@@ -241,49 +262,47 @@ class ApiClient:
         """
         response = await send(lambda: self._get_once(url), self.origin, url=url, stats=self.stats)
         try:
-            document = _loads(response.body)
-        except (UnicodeDecodeError, json.JSONDecodeError) as exc:
+            document = self._decoders[answer].decode(response.body)
+        except msgspec.ValidationError as exc:  # valid JSON, not of the answer's shape
+            raise ApiResponseError(f"GET {redact_url(url)}: unusable answer: {exc}") from None
+        except msgspec.DecodeError as exc:
             raise ApiResponseError(
                 f"GET {redact_url(url)}: answer is not valid JSON ({exc})"
             ) from None
-        if not isinstance(document, dict):
+        except RecursionError:  # msgspec's parser recurses, even over skipped fields
             raise ApiResponseError(
-                f"GET {redact_url(url)}: expected a JSON object, got {type(document).__name__}"
-            )
+                f"GET {redact_url(url)}: answer is nested too deeply to read"
+            ) from None
         if listing is None:
             return document
-        path, items_key = listing
-        items = document.get(items_key)
-        if type(items) is list and not document.get("nextPageToken"):
-            # The only page, of objects (a job's listing, as a rule): what `take` would
-            # hand on, without the paging state it keeps for further pages.
-            for item in items:
-                if type(item) is not dict:
-                    break
-            else:
-                return items
-        return await self._rest_of_listing(path, items_key, document)
+        if not document.next_page_token:
+            # The only page (a job's listing, as a rule): its items, without the paging
+            # state `take` keeps for further pages.
+            return document.items or []
+        return await self._rest_of_listing(listing, answer, document)
 
     async def paginate(
         self,
         path: str,
-        items_key: str,
+        page: type[Page[_Model]],
         params: Mapping[str, str | int] | None = None,
         page_size: int | None = None,
         *,
         on_total: Callable[[int], None] | None = None,
         expected: int | None = None,
-    ) -> AsyncIterator[dict[str, Any]]:
-        """Every item of a list endpoint, page after page, until ``nextPageToken`` is empty.
+    ) -> AsyncIterator[_Model]:
+        """Every item of a list endpoint, whose answers are `page`s, page after page, until
+        ``nextPageToken`` is empty.
 
         ``on_total`` is called with the listing's ``total`` (how many items it holds, an
         optional field) from the first page that carries one, before that page's items.
         A listing that cannot end (see :class:`ListingGuard`; ``expected`` is what the
         caller knows of its count) is an ApiResponseError.
         """
-        paging = _Paging(self, path, items_key, params, page_size, on_total, expected)
+        paging = _Paging(self, path, page, params, page_size, on_total, expected)
         while paging.more:
-            for item in paging.take(await self.get_json(path, paging.query)):
+            answer = await self._get_document(self._url(path, paging.query), page)
+            for item in paging.take(answer):
                 yield item
 
     # -- typed endpoints -----------------------------------------------------------------
@@ -304,77 +323,73 @@ class ApiClient:
         ``expected``: the batch's job count when known (``Batch.total_jobs``), which
         bounds the listing until its pages say their own ``total``."""
         path = f"/projects/{_id(project_id)}/batches/{_id(batch_id)}/jobs"
-        return self._list(path, "jobs", Job.from_json, on_total=on_total, expected=expected)
+        return self.paginate(path, JobsPage, on_total=on_total, expected=expected)
 
     def list_job_metrics(
         self, project_id: IdLike, batch_id: IdLike, job_id: IdLike
     ) -> Awaitable[list[ApiMetric]]:
         """The metrics a job's metrics build produced."""
         path = self._job_path(project_id, batch_id, job_id) + "/metrics"
-        return self._list_all(path, "metrics", _JOB_METRIC)
+        return self._all_items(path, JobMetricsPage)
 
     def list_job_metrics_data(
         self, project_id: IdLike, batch_id: IdLike, job_id: IdLike
     ) -> Awaitable[list[ApiMetricsData]]:
         """The metrics-data files of a job (all storage types; filter on ``is_standard``)."""
         path = self._job_path(project_id, batch_id, job_id) + "/metricsData"
-        return self._list_all(path, "metricsData", _JOB_DATA)
+        return self._all_items(path, JobMetricsDataPage)
 
     def list_job_events(
         self, project_id: IdLike, batch_id: IdLike, job_id: IdLike
     ) -> Awaitable[list[JobEventListing]]:
         """The events a job's metrics build recorded (without their data)."""
         path = self._job_path(project_id, batch_id, job_id) + "/events"
-        return self._list_all(path, "events", JobEventListing.from_json)
+        return self._all_items(path, JobEventsPage)
 
     def list_experience_tags(
         self, project_id: IdLike, experience_id: IdLike
     ) -> AsyncIterator[ExperienceTag]:
         """The tags of one experience."""
         path = f"/projects/{_id(project_id)}/experiences/{_id(experience_id)}/experienceTags"
-        return self._list(path, "experienceTags", ExperienceTag.from_json)
+        return self.paginate(path, ExperienceTagsPage)
 
     async def get_batch(self, project_id: IdLike, batch_id: IdLike) -> Batch:
-        document = await self.get_json(f"/projects/{_id(project_id)}/batches/{_id(batch_id)}")
-        return Batch.from_json(document)
+        url = self._url(f"/projects/{_id(project_id)}/batches/{_id(batch_id)}")
+        return await self._get_document(url, Batch)
 
     def list_batches(
         self, project_id: IdLike, *, search: str | None = None
     ) -> AsyncIterator[Batch]:
         """The batches of a project matching ``search`` (clauses joined with `` AND ``)."""
         params = {"search": search} if search else None
-        return self._list(
-            f"/projects/{_id(project_id)}/batches", "batches", Batch.from_json, params
-        )
+        return self.paginate(f"/projects/{_id(project_id)}/batches", BatchesPage, params)
 
     def list_batch_metrics(self, project_id: IdLike, batch_id: IdLike) -> AsyncIterator[ApiMetric]:
         path = f"/projects/{_id(project_id)}/batches/{_id(batch_id)}/metrics"
-        return self._list(path, "batchMetrics", _BATCH_METRIC)
+        return self.paginate(path, BatchMetricsPage)
 
     def list_batch_metrics_data(
         self, project_id: IdLike, batch_id: IdLike
     ) -> AsyncIterator[ApiMetricsData]:
         path = f"/projects/{_id(project_id)}/batches/{_id(batch_id)}/metricsData"
-        return self._list(path, "batchMetricsData", _BATCH_DATA)
+        return self.paginate(path, BatchMetricsDataPage)
 
     async def get_report(self, project_id: IdLike, report_id: IdLike) -> Report:
-        document = await self.get_json(f"/projects/{_id(project_id)}/reports/{_id(report_id)}")
-        return Report.from_json(document)
+        url = self._url(f"/projects/{_id(project_id)}/reports/{_id(report_id)}")
+        return await self._get_document(url, Report)
 
     def list_branches(
         self, project_id: IdLike, *, name: str | None = None
     ) -> AsyncIterator[Branch]:
         """The branches of a project, those named `name` only when given."""
         params = {"name": name} if name else None
-        return self._list(
-            f"/projects/{_id(project_id)}/branches", "branches", Branch.from_json, params
-        )
+        return self.paginate(f"/projects/{_id(project_id)}/branches", BranchesPage, params)
 
     async def get_build(self, project_id: IdLike, build_id: IdLike) -> Build:
-        document = await self.get_json(f"/projects/{_id(project_id)}/builds/{_id(build_id)}")
-        return Build.from_json(document)
+        url = self._url(f"/projects/{_id(project_id)}/builds/{_id(build_id)}")
+        return await self._get_document(url, Build)
 
-    async def list_job_logs(
+    def list_job_logs(
         self,
         project_id: IdLike,
         batch_id: IdLike,
@@ -391,41 +406,11 @@ class ApiClient:
         if name is not None:
             params["name"] = name
         path = self._job_path(project_id, batch_id, job_id) + "/logs"
-        async for item in self.paginate(path, "logs", params):
-            yield JobLog.from_json(item)
+        return self.paginate(path, JobLogsPage, params)
 
     # -- internals -----------------------------------------------------------------------
 
-    async def _list(
-        self,
-        path: str,
-        items_key: str,
-        parse: Callable[..., _Model],
-        params: Mapping[str, str | int] | None = None,
-        *,
-        on_total: Callable[[int], None] | None = None,
-        expected: int | None = None,
-    ) -> AsyncIterator[_Model]:
-        async for item in self.paginate(
-            path, items_key, params, on_total=on_total, expected=expected
-        ):
-            yield parse(item, ids=self._recent_ids())
-
-    async def _list_all(
-        self, path: str, items_key: str, parse: Callable[..., _Model]
-    ) -> list[_Model]:
-        """What `_list` yields, as one list."""
-        items = await self._all_items(path, items_key)
-        ids = self._recent_ids()
-        return [parse(item, ids=ids) for item in items]
-
-    def _recent_ids(self) -> dict[str, uuid.UUID]:
-        """`self._ids`, emptied first when it has reached its bound."""
-        if len(self._ids) >= _MAX_IDS_KEPT:
-            self._ids.clear()
-        return self._ids
-
-    def _all_items(self, path: str, items_key: str) -> Awaitable[list[dict[str, Any]]]:
+    def _all_items(self, path: str, page: type[Page[_Model]]) -> Awaitable[list[_Model]]:
         """What `paginate` yields, as one list: with no async generator step per item, and
         none per page (a job's listing is two dozen items or fewer, on one page), in
         `_get`'s coroutine.
@@ -444,16 +429,17 @@ class ApiClient:
             query_string=query,
             encoded=True,
         )
-        return self._get(url, (path, items_key))
+        return self._get(url, page, path)
 
     async def _rest_of_listing(
-        self, path: str, items_key: str, page: dict[str, Any]
-    ) -> list[dict[str, Any]]:
+        self, path: str, page_type: type[Page[_Model]], page: Page[_Model]
+    ) -> list[_Model]:
         """A listing's items from its first `page` on, every page's (see `_all_items`)."""
-        paging = _Paging(self, path, items_key, None, None, None, None)
+        paging = _Paging(self, path, page_type, None, None, None, None)
         items = paging.take(page)
         while paging.more:  # the next page's URL only when there is one (a job's: none)
-            items = items + paging.take(await self._get_document(self._url(path, paging.query)))
+            answer = await self._get_document(self._url(path, paging.query), page_type)
+            items = items + paging.take(answer)
         return items
 
     def _job_path(self, project_id: IdLike, batch_id: IdLike, job_id: IdLike) -> str:
@@ -491,7 +477,7 @@ class ApiClient:
         raise _api_error(response, self._base.origin())
 
 
-class _Paging:
+class _Paging(Generic[_Model]):
     """One listing's pages as `ApiClient.paginate` reads them: the next page's query, and
     each page's items once checked (a listing that cannot end is an ApiResponseError; see
     :class:`ListingGuard`)."""
@@ -500,8 +486,8 @@ class _Paging:
         "_client",
         "_expected",
         "_guard",
-        "_items_key",
         "_on_total",
+        "_page",
         "_path",
         "more",
         "query",
@@ -511,7 +497,7 @@ class _Paging:
         self,
         client: ApiClient,
         path: str,
-        items_key: str,
+        page: type[Page[_Model]],
         params: Mapping[str, str | int] | None,
         page_size: int | None,
         on_total: Callable[[int], None] | None,
@@ -520,7 +506,7 @@ class _Paging:
         self._client = client
         self._expected = expected
         self._path = path
-        self._items_key = items_key
+        self._page = page
         self._on_total = on_total
         self.query: dict[str, str | int] = dict(params or {})
         self.query["pageSize"] = page_size or client._page_size
@@ -533,41 +519,29 @@ class _Paging:
         # Made only for an error: a batch run starts two listings per job.
         return f"GET {redact_url(self._client._url(self._path))}"
 
-    def take(self, page: dict[str, Any]) -> list[dict[str, Any]]:
+    def take(self, page: Page[_Model]) -> list[_Model]:
         """The page's items to hand on; the query then asks for the next page, if any.
 
         ``on_total`` is called with the listing's ``total`` from the first page that
         carries one, before that page's items are handed on.
         """
-        items_key = self._items_key
-        items = page.get(items_key)
-        if items is None:
-            items = []  # the API omits empty lists
-        if not isinstance(items, list):
-            raise ApiResponseError(
-                f"{self._listing()}: '{items_key}' should be a list, got {type(items).__name__}"
-            )
-        for item in items:
-            if not isinstance(item, dict):
-                raise ApiResponseError(
-                    f"{self._listing()}: an item of '{items_key}' is {type(item).__name__}, "
-                    "not an object"
-                )
-        token = page.get("nextPageToken")
-        if token and not isinstance(token, str):
-            raise ApiResponseError(f"{self._listing()}: 'nextPageToken' should be a string")
+        items = page.items or []  # the API omits empty lists
+        token = page.next_page_token
         # Checked before the items are handed on: a page that proves the listing
         # endless must not feed its repeats to the caller.
-        total = page.get("total")
+        total = page.total
         guard = self._guard
         if guard is None and token:
             guard = self._guard = ListingGuard(
-                self._listing, items_key, int(self.query["pageSize"]), expected=self._expected
+                self._listing,
+                self._page.item_id,
+                int(self.query["pageSize"]),
+                expected=self._expected,
             )
         if guard is not None:
             items = guard.check(items, token or None, total)
         on_total = self._on_total
-        if on_total is not None and isinstance(total, int) and not isinstance(total, bool):
+        if on_total is not None and total is not None:
             on_total(total)
             self._on_total = None  # once: later pages repeat it
         if token:
@@ -591,39 +565,6 @@ def _plain_query(params: Mapping[str, str | int]) -> str | None:
             return None
         parts.append(f"{key}={text}")
     return "?" + "&".join(parts)
-
-
-def _loads(body: bytes) -> Any:
-    """``json.loads``, through orjson (3x faster on a listing page) when it reads the body.
-
-    What orjson refuses and the standard parser takes (NaN, numbers past a double's range,
-    lone surrogates) is read by the standard parser, which also words every error. One
-    difference remains: an integer past 64 bits comes as the nearest double, as from most
-    JSON parsers (RFC 8259 calls such numbers not interoperable); no API field holds one.
-    """
-    orjson = _orjson()
-    try:
-        return orjson.loads(body)
-    except orjson.JSONDecodeError:
-        pass
-    try:
-        return json.loads(body)
-    except RecursionError:
-        # Nested deeper than the interpreter's stack allows (orjson stops at 1,024 levels).
-        raise json.JSONDecodeError("nested too deeply", "", 0) from None
-    except json.JSONDecodeError:
-        raise
-    except ValueError:  # an integer past int's limit of digits (4,300)
-        raise json.JSONDecodeError("a number with too many digits", "", 0) from None
-
-
-@functools.cache
-def _orjson() -> ModuleType:
-    """orjson, imported with the first answer, not with this module (start-up), and then
-    remembered: an import statement runs importlib's checks on every answer."""
-    import orjson
-
-    return orjson
 
 
 def _id(value: IdLike) -> str:
