@@ -65,6 +65,8 @@ PUBLIC_API: dict[str, list[str]] = {
         "ApiStatusError",
         "AuthError",
         "Batch",
+        "BatchMetric",
+        "BatchMetricsData",
         "BatchStatus",
         "BodyCap",
         "BodyTooLargeError",
