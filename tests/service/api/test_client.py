@@ -284,6 +284,45 @@ async def test_invalid_field_is_reported_with_the_request_and_its_path(
     )
 
 
+@pytest.mark.parametrize(
+    "echoed",
+    [TOKEN, f"https://storage.example.com/m?X-Amz-Signature={SIGNATURE}"],
+)
+async def test_an_invalid_value_echoed_in_the_error_is_redacted(
+    server: ScriptedServer, fast_policy: RetryPolicy, echoed: str
+) -> None:
+    """msgspec's message may quote the value (a timestamp that is none): never a secret."""
+    bad = job_json(7) | {"creationTimestamp": echoed}
+    server.script(JOBS_PATH, answer_json({"jobs": [bad]}))
+    async with client(server, fast_policy) as api:
+        with pytest.raises(ApiResponseError) as caught:
+            _ = [job async for job in api.list_jobs(PROJECT, BATCH)]
+    assert "Not an RFC 3339 timestamp" in str(caught.value)
+    assert "at `$.jobs[0].creationTimestamp`" in str(caught.value)
+    assert TOKEN not in str(caught.value)
+    assert SIGNATURE not in str(caught.value)
+
+
+async def test_a_value_too_large_for_a_double_is_an_invalid_answer(
+    server: ScriptedServer, fast_policy: RetryPolicy
+) -> None:
+    """Found by answers generated from the spec: a 400-digit integer as a scalar's value."""
+    job = uuid.UUID(int=7)
+    path = f"/v1/projects/{PROJECT}/batches/{BATCH}/jobs/{job}/metrics"
+    body = b'{"metrics": [{"metricID": "%s", "value": %s}]}' % (
+        str(uuid.UUID(int=8)).encode(),
+        b"9" * 400,
+    )
+    server.script(path, answer(200, body))
+    async with client(server, fast_policy) as api:
+        with pytest.raises(ApiResponseError) as caught:
+            await api.list_job_metrics(PROJECT, BATCH, job)
+    assert str(caught.value) == (
+        f"GET {server.url(path)}?pageSize=100: unusable answer: "
+        "Number out of range - at `$.metrics[0].value`"
+    )
+
+
 async def test_ids_must_be_uuids(server: ScriptedServer, fast_policy: RetryPolicy) -> None:
     async with client(server, fast_policy) as api:
         with pytest.raises(ValueError, match="not a UUID"):
