@@ -21,8 +21,10 @@ own name instead of failing a job. The ``StrEnum`` classes are the known vocabul
 their members equal their strings (compare with ``==``, never ``is``).
 
 Decoding is msgspec's lax mode (``strict=False``), for what a JSON encoder may write for a
-number: an integral float (``3.0``) reads as an integer. Lax mode also reads a number or
-a boolean written as a string (``"1.5"``, ``"true"``). Anything else of the wrong type,
+number: an integral float (``3.0``) reads as an integer. Lax mode also reads, where the
+field is not a string, a number written as a string (``"12"``, ``"1.5"``, and so
+``"nan"`` and ``"inf"``), a boolean as ``"true"``/``"false"`` or ``1``/``0``, and
+``"null"`` as null. Anything else of the wrong type,
 an ID that is not a UUID (hyphenated or 32 hex digits), a number past a double's range, or
 a timestamp that is not RFC 3339 with a time zone is an error naming the field's JSON path
 (`msgspec.ValidationError`, which the client words as an ``ApiResponseError``).
