@@ -39,7 +39,6 @@ LAYERS = ["api", "fetch", "preview", "metrics_config", "modes", "cli"]
 API_ORDER = [
     "_redact",
     "_errors",
-    "_fields",
     "_limits",
     "_models",
     "_paging",

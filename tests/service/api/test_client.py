@@ -31,11 +31,10 @@ from stook.service.api._errors import (
 )
 from stook.service.api._limits import FixedLimit
 from stook.service.api._models import (
-    ApiMetric,
     ApiMetricsData,
     ConflatedJobStatus,
     Job,
-    MetricOwner,
+    JobMetricsPage,
 )
 from stook.service.api._retry import RetryPolicy
 from stook.service.api._storage import StorageClient
@@ -99,7 +98,7 @@ async def test_paginates_through_every_page_with_bearer_token(
 
     assert [job.job_id for job in jobs] == [uuid.UUID(int=i) for i in range(1, 6)]
     assert all(isinstance(job, Job) for job in jobs)
-    assert jobs[0].conflated_status is ConflatedJobStatus.PASSED
+    assert jobs[0].conflated_status == ConflatedJobStatus.PASSED
     assert jobs[0].creation_timestamp is not None
     assert jobs[0].creation_timestamp.tzinfo is not None
     hits = server.hits(JOBS_PATH)
@@ -129,15 +128,15 @@ async def test_a_jobs_listings_as_lists_read_every_page(
     async with client(server, fast_policy, page_size=2) as api:
         as_list = await api.list_job_metrics(PROJECT, BATCH, job)
         as_items = [
-            ApiMetric.from_json(m, owner=MetricOwner.JOB)
+            m
             async for m in api.paginate(
-                f"/projects/{PROJECT}/batches/{BATCH}/jobs/{job}/metrics", "metrics"
+                f"/projects/{PROJECT}/batches/{BATCH}/jobs/{job}/metrics", JobMetricsPage
             )
         ]
         data_list = await api.list_job_metrics_data(PROJECT, BATCH, job)
     assert as_list == as_items
     assert [m.name for m in as_list] == ["m1", "m2", "m3"]
-    assert data_list == [ApiMetricsData.from_json(data(1), owner=MetricOwner.JOB)]
+    assert data_list == [ApiMetricsData(uuid.UUID(int=201), name="d1")]
     hits = server.hits(f"{base}/metrics")
     assert [hit.query.get("pageToken") for hit in hits] == [None, "p2"] * 2
     # Each listing's first page asked for as paginate asks for it.
@@ -173,11 +172,11 @@ async def test_a_one_page_listing_as_a_list_reads_as_paginate_reads_it(
     server.script(f"/v1{path}", answer_json(page), answer_json(page))
     async with client(server, fast_policy) as api:
         try:
-            expected: object = [item async for item in api.paginate(path, "metrics")]
+            expected: object = [item async for item in api.paginate(path, JobMetricsPage)]
         except ApiResponseError as exc:
             expected = str(exc)
         try:
-            got: object = await api._list_all(path, "metrics", lambda item: item)
+            got: object = await api._list_all(path, JobMetricsPage)
         except ApiResponseError as exc:
             got = str(exc)
     assert got == expected
@@ -250,32 +249,76 @@ async def test_malformed_json_names_the_url_without_secrets(
     assert len(server.hits(BATCH_PATH)) == 1
 
 
-async def test_json_the_fast_parser_refuses_is_read_as_the_standard_parser_reads_it(
-    server: ScriptedServer, fast_policy: RetryPolicy
+@pytest.mark.parametrize(
+    "body",
+    [
+        b'{"value": NaN}',  # not JSON, though Python's parser takes it
+        b"[]",
+        b'"a string"',
+        b"[" * 5_000 + b"]" * 5_000,
+        b'{"deep": ' + b"[" * 5_000 + b"]" * 5_000 + b"}",  # in a field nobody reads
+    ],
+)
+async def test_an_answer_that_is_no_json_object_is_an_invalid_answer(
+    server: ScriptedServer, fast_policy: RetryPolicy, body: bytes
 ) -> None:
-    # orjson refuses NaN, numbers past a double's range and lone surrogates; json takes them.
-    body = b'{"value": NaN, "big": 1e400, "name": "\\ud800", "f": 0.1, "n": 7}'
     server.script(BATCH_PATH, answer(200, body))
     async with client(server, fast_policy) as api:
-        document = await api.get_json(f"/projects/{PROJECT}/batches/{BATCH}")
-    assert document["value"] != document["value"]  # NaN
-    assert document["big"] == float("inf")
-    assert document["name"] == "\ud800"
-    assert document["f"] == 0.1
-    assert document["n"] == 7
-    assert isinstance(document["n"], int)
+        with pytest.raises(ApiResponseError) as caught:
+            await api.get_json(f"/projects/{PROJECT}/batches/{BATCH}")
+    assert str(caught.value).startswith(f"GET {server.url(BATCH_PATH)}: ")
 
 
-async def test_invalid_field_is_reported_with_object_and_field(
+async def test_invalid_field_is_reported_with_the_request_and_its_path(
     server: ScriptedServer, fast_policy: RetryPolicy
 ) -> None:
     bad = job_json(7) | {"conflatedStatus": 3}
-    server.script(JOBS_PATH, answer_json({"jobs": [bad]}))
+    server.script(JOBS_PATH, answer_json({"jobs": [job_json(6), bad]}))
     async with client(server, fast_policy) as api:
         with pytest.raises(ApiResponseError) as caught:
             _ = [job async for job in api.list_jobs(PROJECT, BATCH)]
     assert str(caught.value) == (
-        f"Job {uuid.UUID(int=7)}: field 'conflatedStatus' should be a string, got a number"
+        f"GET {server.url(JOBS_PATH)}?pageSize=100: unusable answer: "
+        "Expected `str | null`, got `int` - at `$.jobs[1].conflatedStatus`"
+    )
+
+
+@pytest.mark.parametrize(
+    "echoed",
+    [TOKEN, f"https://storage.example.com/m?X-Amz-Signature={SIGNATURE}"],
+)
+async def test_an_invalid_value_echoed_in_the_error_is_redacted(
+    server: ScriptedServer, fast_policy: RetryPolicy, echoed: str
+) -> None:
+    """msgspec's message may quote the value (a timestamp that is none): never a secret."""
+    bad = job_json(7) | {"creationTimestamp": echoed}
+    server.script(JOBS_PATH, answer_json({"jobs": [bad]}))
+    async with client(server, fast_policy) as api:
+        with pytest.raises(ApiResponseError) as caught:
+            _ = [job async for job in api.list_jobs(PROJECT, BATCH)]
+    assert "Not an RFC 3339 timestamp" in str(caught.value)
+    assert "at `$.jobs[0].creationTimestamp`" in str(caught.value)
+    assert TOKEN not in str(caught.value)
+    assert SIGNATURE not in str(caught.value)
+
+
+async def test_a_value_too_large_for_a_double_is_an_invalid_answer(
+    server: ScriptedServer, fast_policy: RetryPolicy
+) -> None:
+    """Found by answers generated from the spec: a 400-digit integer as a scalar's value."""
+    job = uuid.UUID(int=7)
+    path = f"/v1/projects/{PROJECT}/batches/{BATCH}/jobs/{job}/metrics"
+    body = b'{"metrics": [{"metricID": "%s", "value": %s}]}' % (
+        str(uuid.UUID(int=8)).encode(),
+        b"9" * 400,
+    )
+    server.script(path, answer(200, body))
+    async with client(server, fast_policy) as api:
+        with pytest.raises(ApiResponseError) as caught:
+            await api.list_job_metrics(PROJECT, BATCH, job)
+    assert str(caught.value) == (
+        f"GET {server.url(path)}?pageSize=100: unusable answer: "
+        "Number out of range - at `$.metrics[0].value`"
     )
 
 

@@ -203,7 +203,7 @@ async def test_a_malformed_data_listing_fails_its_job_as_the_model_words_it(
     assert len(records) == 1
     (missing,) = outcome.missing
     assert missing.job_id == bad
-    assert "field 'jobID' is not a UUID: 'not an ID'" in missing.reason
+    assert "unusable answer: Invalid UUID - at `$.metricsData[0].jobID`" in missing.reason
 
 
 def _ids(output: pb.JobMetrics, *names: str) -> set[str]:
@@ -486,7 +486,7 @@ class _ListingApi:
 async def _fetch_listed_job(api: _ListingApi) -> list[str]:
     from stook.service.api import Job
 
-    job = Job.from_json({"jobID": str(uuid.uuid4())})
+    job = Job(uuid.uuid4())
     needs = Needs(data=frozenset({"speeds"}))
     fetcher = BatchFetcher(cast(ApiClient, api), PROJECT, BATCH, needs, workers=1, jobs=[job])
     outcome = await fetcher.run(lambda record: None)

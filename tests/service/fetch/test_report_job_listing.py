@@ -3,14 +3,15 @@ and null scalars' messages)."""
 
 from __future__ import annotations
 
+import json
 import uuid
 from typing import Any
 
+import msgspec
 import pytest
 
 from stook.sdk.aggregations import Needs
-from stook.service.api._errors import ApiResponseError
-from stook.service.api._models import ApiMetric, Batch, Job, MetricOwner
+from stook.service.api._models import ApiMetric, Batch, Job, JobMetricsPage, decoder
 from stook.service.fetch._report_fetch import JobScalars, ReportFetcher
 
 IDS = [str(uuid.UUID(int=i + 1)) for i in range(6)]
@@ -41,7 +42,8 @@ class _Listings:
         self.items = items
 
     async def list_job_metrics(self, *ids: uuid.UUID) -> list[ApiMetric]:
-        return [ApiMetric.from_json(item, owner=MetricOwner.JOB) for item in self.items]
+        page = decoder(JobMetricsPage).decode(json.dumps({"metrics": self.items}))
+        return page.items or []
 
 
 async def _read(items: list[Any]) -> JobScalars:
@@ -61,18 +63,17 @@ async def test_a_well_formed_listing_gives_its_scalars() -> None:
 @pytest.mark.parametrize(
     ("change", "message"),
     [
-        ({"metricID": "1234"}, "JobMetric 1234: field 'metricID' is not a UUID: '1234'"),
+        ({"metricID": "1234"}, "Invalid UUID - at `$.metrics[1].metricID`"),
         (
             {"creationTimestamp": "yesterday"},
-            f"JobMetric {IDS[0]}: field 'creationTimestamp' is not an RFC 3339 timestamp: "
-            "'yesterday'",
+            "Not an RFC 3339 timestamp: 'yesterday' - at `$.metrics[1].creationTimestamp`",
         ),
     ],
 )
 async def test_a_malformed_item_fails_naming_the_metric_and_field(
     change: dict[str, Any], message: str
 ) -> None:
-    with pytest.raises(ApiResponseError) as caught:
+    with pytest.raises(msgspec.ValidationError) as caught:
         await _read([METRIC, METRIC | change])
     assert str(caught.value) == message
 

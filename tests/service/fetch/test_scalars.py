@@ -3,6 +3,7 @@ when an aggregation reads them, against a real HTTP server standing in for stora
 
 from __future__ import annotations
 
+import json
 import uuid
 from collections.abc import Sequence
 from typing import Any
@@ -13,7 +14,7 @@ from structlog.testing import capture_logs
 from stook.proto import metrics_pb2 as pb
 from stook.sdk._errors import ReadError
 from stook.sdk.aggregations import Needs, Scalar
-from stook.service.api._models import ApiMetric, MetricOwner
+from stook.service.api._models import ApiMetric, decoder
 from stook.service.api._retry import RetryPolicy
 from stook.service.api._storage import StorageClient
 from stook.service.fetch._scalars import read_scalar_values, read_scalars
@@ -37,7 +38,7 @@ def _listed(name: str, server: ScriptedServer | None, **fields: Any) -> ApiMetri
     body: dict[str, Any] = {"metricID": str(metric_id), "name": name, "type": "SCALAR"}
     if server is not None:
         body["metricURL"] = server.url(f"/bucket/{metric_id}")
-    return ApiMetric.from_json(body | fields, owner=MetricOwner.JOB)
+    return decoder(ApiMetric).decode(json.dumps(body | fields))
 
 
 async def _read(

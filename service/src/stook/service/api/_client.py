@@ -7,14 +7,12 @@ a presigned URL (or a redirect from one) to another host.
 
 from __future__ import annotations
 
-import functools
-import json
 import uuid
-from collections.abc import AsyncIterator, Awaitable, Callable, Mapping
+from collections.abc import AsyncIterator, Callable, Mapping
 from types import TracebackType
 from typing import Any, Final, Self, TypeVar
 
-import orjson
+import msgspec
 from yarl import URL
 
 from stook.service.api._errors import (
@@ -30,15 +28,26 @@ from stook.service.api._models import (
     ApiMetric,
     ApiMetricsData,
     Batch,
+    BatchesPage,
+    BatchMetricsDataPage,
+    BatchMetricsPage,
     Branch,
+    BranchesPage,
     Build,
     ExperienceTag,
+    ExperienceTagsPage,
     Job,
     JobEventListing,
+    JobEventsPage,
     JobLog,
+    JobLogsPage,
+    JobMetricsDataPage,
+    JobMetricsPage,
+    JobsPage,
     LogType,
-    MetricOwner,
+    Page,
     Report,
+    decoder,
 )
 from stook.service.api._paging import Listing
 from stook.service.api._redact import redact_url, register_secret
@@ -58,11 +67,25 @@ __all__ = ["ApiClient", "IdLike"]
 
 IdLike = uuid.UUID | str
 _Model = TypeVar("_Model")
+_Answer = TypeVar("_Answer")
 
-_JOB_METRIC = functools.partial(ApiMetric.from_json, owner=MetricOwner.JOB)
-_BATCH_METRIC = functools.partial(ApiMetric.from_json, owner=MetricOwner.BATCH)
-_JOB_DATA = functools.partial(ApiMetricsData.from_json, owner=MetricOwner.JOB)
-_BATCH_DATA = functools.partial(ApiMetricsData.from_json, owner=MetricOwner.BATCH)
+# Every answer the client decodes: a listing's page, an object, or any JSON object.
+_ANSWERS: Final = (
+    dict,
+    JobsPage,
+    BatchesPage,
+    JobMetricsPage,
+    BatchMetricsPage,
+    JobMetricsDataPage,
+    BatchMetricsDataPage,
+    JobEventsPage,
+    ExperienceTagsPage,
+    BranchesPage,
+    JobLogsPage,
+    Batch,
+    Report,
+    Build,
+)
 
 # The API caps pages; 100 is the largest size ReSim's own tools ask for.
 DEFAULT_PAGE_SIZE: Final = 100
@@ -117,6 +140,10 @@ class ApiClient:
         self._base_path = self._base.path.rstrip("/")  # "/v1", or ""
         self._policy = retry or RetryPolicy()
         self._page_size = page_size
+        # One decoder per answer, made once: it reads a body straight into its type.
+        self._decoders: dict[type, msgspec.json.Decoder[Any]] = {
+            answer: decoder(answer) for answer in _ANSWERS
+        }
         # Shared by every API request: when the API fails, they wait together.
         self.origin = Origin("the API", self._policy, setting="apiURL")
         if concurrency < 1:
@@ -189,33 +216,23 @@ class ApiClient:
         self, path: str, params: Mapping[str, str | int] | None = None
     ) -> dict[str, Any]:
         """GET ``path`` (relative to the base URL) and return its JSON object."""
-        url = self._url(path, params)
-        response = await send(lambda: self._get_once(url), self.origin, url=url, stats=self.stats)
-        try:
-            document = _loads(response.body)
-        except (UnicodeDecodeError, json.JSONDecodeError) as exc:
-            raise ApiResponseError(
-                f"GET {redact_url(url)}: answer is not valid JSON ({exc})"
-            ) from None
-        if not isinstance(document, dict):
-            raise ApiResponseError(
-                f"GET {redact_url(url)}: expected a JSON object, got {type(document).__name__}"
-            )
+        document: dict[str, Any] = await self._get(self._url(path, params), dict)
         return document
 
     async def paginate(
         self,
         path: str,
-        items_key: str,
+        page: type[Page[_Model]],
         params: Mapping[str, str | int] | None = None,
         page_size: int | None = None,
         *,
         on_total: Callable[[int], None] | None = None,
         expected: int | None = None,
-    ) -> AsyncIterator[dict[str, Any]]:
-        """Every item of a list endpoint, page after page (see :class:`Listing` for
-        ``on_total``, ``expected`` and what ends a listing that would not end)."""
-        async for items in self._pages(path, items_key, params, page_size, on_total, expected):
+    ) -> AsyncIterator[_Model]:
+        """Every item of a list endpoint whose answers are `page`s, page after page (see
+        :class:`Listing` for ``on_total``, ``expected`` and what ends a listing that would
+        not end)."""
+        async for items in self._pages(path, page, params, page_size, on_total, expected):
             for item in items:
                 yield item
 
@@ -232,39 +249,39 @@ class ApiClient:
     ) -> AsyncIterator[Job]:
         """The jobs (tests) of a batch; ``expected`` is its ``Batch.total_jobs`` if known."""
         path = f"/projects/{_id(project_id)}/batches/{_id(batch_id)}/jobs"
-        return self._list(path, "jobs", Job.from_json, on_total=on_total, expected=expected)
+        return self.paginate(path, JobsPage, on_total=on_total, expected=expected)
 
-    def list_job_metrics(
+    async def list_job_metrics(
         self, project_id: IdLike, batch_id: IdLike, job_id: IdLike
-    ) -> Awaitable[list[ApiMetric]]:
+    ) -> list[ApiMetric]:
         """The metrics a job's metrics build produced."""
         path = self._job_path(project_id, batch_id, job_id) + "/metrics"
-        return self._list_all(path, "metrics", _JOB_METRIC)
+        return await self._list_all(path, JobMetricsPage)
 
-    def list_job_metrics_data(
+    async def list_job_metrics_data(
         self, project_id: IdLike, batch_id: IdLike, job_id: IdLike
-    ) -> Awaitable[list[ApiMetricsData]]:
+    ) -> list[ApiMetricsData]:
         """The metrics-data files of a job (all storage types; filter on ``is_standard``)."""
         path = self._job_path(project_id, batch_id, job_id) + "/metricsData"
-        return self._list_all(path, "metricsData", _JOB_DATA)
+        return await self._list_all(path, JobMetricsDataPage)
 
-    def list_job_events(
+    async def list_job_events(
         self, project_id: IdLike, batch_id: IdLike, job_id: IdLike
-    ) -> Awaitable[list[JobEventListing]]:
+    ) -> list[JobEventListing]:
         """The events a job's metrics build recorded (without their data)."""
         path = self._job_path(project_id, batch_id, job_id) + "/events"
-        return self._list_all(path, "events", JobEventListing.from_json)
+        return await self._list_all(path, JobEventsPage)
 
     def list_experience_tags(
         self, project_id: IdLike, experience_id: IdLike
     ) -> AsyncIterator[ExperienceTag]:
         """The tags of one experience."""
         path = f"/projects/{_id(project_id)}/experiences/{_id(experience_id)}/experienceTags"
-        return self._list(path, "experienceTags", ExperienceTag.from_json)
+        return self.paginate(path, ExperienceTagsPage)
 
     async def get_batch(self, project_id: IdLike, batch_id: IdLike) -> Batch:
-        return Batch.from_json(
-            await self.get_json(f"/projects/{_id(project_id)}/batches/{_id(batch_id)}")
+        return await self._get(
+            self._url(f"/projects/{_id(project_id)}/batches/{_id(batch_id)}"), Batch
         )
 
     def list_batches(
@@ -272,23 +289,21 @@ class ApiClient:
     ) -> AsyncIterator[Batch]:
         """The batches of a project matching ``search`` (clauses joined with `` AND ``)."""
         params = {"search": search} if search else None
-        return self._list(
-            f"/projects/{_id(project_id)}/batches", "batches", Batch.from_json, params
-        )
+        return self.paginate(f"/projects/{_id(project_id)}/batches", BatchesPage, params)
 
     def list_batch_metrics(self, project_id: IdLike, batch_id: IdLike) -> AsyncIterator[ApiMetric]:
         path = f"/projects/{_id(project_id)}/batches/{_id(batch_id)}/metrics"
-        return self._list(path, "batchMetrics", _BATCH_METRIC)
+        return self.paginate(path, BatchMetricsPage)
 
     def list_batch_metrics_data(
         self, project_id: IdLike, batch_id: IdLike
     ) -> AsyncIterator[ApiMetricsData]:
         path = f"/projects/{_id(project_id)}/batches/{_id(batch_id)}/metricsData"
-        return self._list(path, "batchMetricsData", _BATCH_DATA)
+        return self.paginate(path, BatchMetricsDataPage)
 
     async def get_report(self, project_id: IdLike, report_id: IdLike) -> Report:
-        return Report.from_json(
-            await self.get_json(f"/projects/{_id(project_id)}/reports/{_id(report_id)}")
+        return await self._get(
+            self._url(f"/projects/{_id(project_id)}/reports/{_id(report_id)}"), Report
         )
 
     def list_branches(
@@ -296,13 +311,11 @@ class ApiClient:
     ) -> AsyncIterator[Branch]:
         """The branches of a project, those named `name` only when given."""
         params = {"name": name} if name else None
-        return self._list(
-            f"/projects/{_id(project_id)}/branches", "branches", Branch.from_json, params
-        )
+        return self.paginate(f"/projects/{_id(project_id)}/branches", BranchesPage, params)
 
     async def get_build(self, project_id: IdLike, build_id: IdLike) -> Build:
-        return Build.from_json(
-            await self.get_json(f"/projects/{_id(project_id)}/builds/{_id(build_id)}")
+        return await self._get(
+            self._url(f"/projects/{_id(project_id)}/builds/{_id(build_id)}"), Build
         )
 
     def list_job_logs(
@@ -318,53 +331,55 @@ class ApiClient:
         its test emitted, each downloadable at its `log_output_location`."""
         params = {k: str(v) for k, v in (("type", log_type), ("name", name)) if v is not None}
         path = self._job_path(project_id, batch_id, job_id) + "/logs"
-        return self._list(path, "logs", JobLog.from_json, params)
+        return self.paginate(path, JobLogsPage, params)
 
     async def _pages(
         self,
         path: str,
-        items_key: str,
+        page: type[Page[_Model]],
         params: Mapping[str, str | int] | None = None,
         page_size: int | None = None,
         on_total: Callable[[int], None] | None = None,
         expected: int | None = None,
-    ) -> AsyncIterator[list[dict[str, Any]]]:
+    ) -> AsyncIterator[list[_Model]]:
         """Each page's items (see :class:`Listing`), until ``nextPageToken`` is empty."""
-        listing = Listing(
+        listing: Listing[_Model] = Listing(
             lambda: f"GET {redact_url(self._url(path))}",  # made only for an error
-            items_key,
+            page.item_id,
             page_size or self._page_size,
             params,
             on_total=on_total,
             expected=expected,
         )
         while listing.more:
-            yield listing.take(await self.get_json(path, listing.query))
+            yield listing.take(await self._get(self._url(path, listing.query), page))
 
-    async def _list(
-        self,
-        path: str,
-        items_key: str,
-        parse: Callable[[dict[str, Any]], _Model],
-        params: Mapping[str, str | int] | None = None,
-        *,
-        on_total: Callable[[int], None] | None = None,
-        expected: int | None = None,
-    ) -> AsyncIterator[_Model]:
-        async for items in self._pages(path, items_key, params, None, on_total, expected):
-            for item in items:
-                yield parse(item)
-
-    async def _list_all(
-        self, path: str, items_key: str, parse: Callable[[dict[str, Any]], _Model]
-    ) -> list[_Model]:
-        """What `_list` yields, as one list. Its own loop over `Listing`, without `_pages`'
+    async def _list_all(self, path: str, page: type[Page[_Model]]) -> list[_Model]:
+        """What `paginate` yields, as one list. Its own loop over `Listing`, without `_pages`'
         async generator: a batch run lists two per job (that generator costs 2 µs each)."""
-        listing = Listing(lambda: f"GET {redact_url(self._url(path))}", items_key, self._page_size)
-        items: list[dict[str, Any]] = []
+        name = lambda: f"GET {redact_url(self._url(path))}"  # noqa: E731
+        listing: Listing[_Model] = Listing(name, page.item_id, self._page_size)
+        items: list[_Model] = []
         while listing.more:
-            items += listing.take(await self.get_json(path, listing.query))
-        return [parse(item) for item in items]
+            items += listing.take(await self._get(self._url(path, listing.query), page))
+        return items
+
+    async def _get(self, url: URL, answer: type[_Answer]) -> _Answer:
+        """GET `url` and decode its body as `answer` (a page, an object, or `dict`)."""
+        response = await send(lambda: self._get_once(url), self.origin, url=url, stats=self.stats)
+        try:
+            document: _Answer = self._decoders[answer].decode(response.body)
+        except msgspec.ValidationError as exc:  # valid JSON, not of the answer's shape
+            raise ApiResponseError(f"GET {redact_url(url)}: unusable answer: {exc}") from None
+        except msgspec.DecodeError as exc:
+            raise ApiResponseError(
+                f"GET {redact_url(url)}: answer is not valid JSON ({exc})"
+            ) from None
+        except RecursionError:  # msgspec's parser recurses, even over skipped fields
+            raise ApiResponseError(
+                f"GET {redact_url(url)}: answer is nested too deeply to read"
+            ) from None
+        return document
 
     def _job_path(self, project_id: IdLike, batch_id: IdLike, job_id: IdLike) -> str:
         return f"/projects/{_id(project_id)}/batches/{_id(batch_id)}/jobs/{_id(job_id)}"
@@ -379,24 +394,6 @@ class ApiClient:
         if response.ok:
             return response
         raise _api_error(response, self._base.origin())
-
-
-def _loads(body: bytes) -> Any:
-    """``json.loads`` through orjson (3x faster on a listing page); what orjson refuses and
-    the standard parser takes (NaN, numbers past a double's range, lone surrogates) goes to
-    the standard parser, which also words every error."""
-    try:
-        return orjson.loads(body)
-    except orjson.JSONDecodeError:
-        pass
-    try:
-        return json.loads(body)
-    except RecursionError:  # deeper than the interpreter's stack (orjson stops at 1,024)
-        raise json.JSONDecodeError("nested too deeply", "", 0) from None
-    except json.JSONDecodeError:
-        raise
-    except ValueError:  # an integer past int's limit of digits (4,300)
-        raise json.JSONDecodeError("a number with too many digits", "", 0) from None
 
 
 def _id(value: IdLike) -> str:

@@ -1,26 +1,92 @@
-"""Typed, immutable views of the API objects stook reads, each read by its own ``from_json``.
+"""Typed, immutable API objects, decoded straight from an answer's body by msgspec.
 
-Only what stook relies on is checked and every other key ignored, so a newer API keeps
-working. The spec requires no field of these objects (ReSim's Go client omits empty ones):
-required here are only an object's own ID and a report's search window; anything else may
-be absent, with the meaning each model documents. Enumerations are open: a value this
-client does not know is kept as its raw string. Field names follow ReSim's published client.
-``ApiMetric`` and ``ApiMetricsData``, read by the dozen per job, are frozen msgspec Structs
-(built in a fifth of a frozen dataclass's time); the others frozen dataclasses.
+Each model is a frozen ``msgspec.Struct`` whose fields carry the API's own (camelCase)
+names; each answer has one ``msgspec.json.Decoder`` (`decoder`), made once per type, that
+reads the body into its page or object in one pass, in C. Keys a model does not name are
+ignored, so a newer API that adds fields keeps working.
+
+The spec's ``job``, ``batch``, ``metric`` and ``metricsData`` schemas list no required
+field (ReSim's Go client omits empty ones), so required here are only the IDs stook cannot
+do without (an object's own ID, to fetch it or match it) and a report's search window.
+Everything else may be absent, with a documented meaning: a missing string reads as
+``None`` (names as ``""``: unnamed), a metric's missing ``status`` as
+``NO_STATUS_REPORTED``, a missing ``metricsDataType`` as ``STANDARD`` (ReSim's own fetcher
+reads every metrics-data URL as a ``MetricsData`` message), a missing metric ``type`` or
+job ``conflatedStatus`` as None. The platform's Go encoder writes ``""`` for an unset
+string as often as it leaves it out: such a field reads as if absent (`_Model`).
+
+Enumerations are open: their fields are typed ``str``, so that a value this client does
+not know (one the platform adds later) is kept as its raw string and counted under its
+own name instead of failing a job. The ``StrEnum`` classes are the known vocabulary;
+their members equal their strings (compare with ``==``, never ``is``).
+
+Decoding is msgspec's lax mode (``strict=False``), for what a JSON encoder may write for a
+number: an integral float (``3.0``) reads as an integer. Lax mode also reads, where the
+field is not a string, a number written as a string (``"12"``, ``"1.5"``, and so
+``"nan"`` and ``"inf"``), a boolean as ``"true"``/``"false"`` or ``1``/``0``, and
+``"null"`` as null. Anything else of the wrong type,
+an ID that is not a UUID (hyphenated or 32 hex digits), a number past a double's range, or
+a timestamp that is not RFC 3339 with a time zone is an error naming the field's JSON path
+(`msgspec.ValidationError`, which the client words as an ``ApiResponseError``).
+
+Field names and which keys exist follow ReSim's published client (``resim.sdk.client.models``).
 """
 
 from __future__ import annotations
 
 import enum
+import re
 import uuid
-from collections.abc import Mapping
-from dataclasses import dataclass, field
-from datetime import datetime
-from typing import Any, Self
+from datetime import UTC, datetime, timedelta, timezone
+from typing import Any, ClassVar, Final, Generic, TypeVar
 
 import msgspec
 
-from stook.service.api._fields import Fields
+__all__ = [
+    "EMISSIONS_FILE",
+    "ApiMetric",
+    "ApiMetricStatus",
+    "ApiMetricType",
+    "ApiMetricsData",
+    "Batch",
+    "BatchMetric",
+    "BatchMetricsData",
+    "BatchMetricsDataPage",
+    "BatchMetricsPage",
+    "BatchStatus",
+    "BatchesPage",
+    "Branch",
+    "BranchesPage",
+    "Build",
+    "ConflatedBatchStatus",
+    "ConflatedJobStatus",
+    "EventTimestampType",
+    "ExecutionStep",
+    "ExperienceTag",
+    "ExperienceTagsPage",
+    "Job",
+    "JobEventListing",
+    "JobEventsPage",
+    "JobLog",
+    "JobLogsPage",
+    "JobMetricsDataPage",
+    "JobMetricsPage",
+    "JobStatus",
+    "JobsPage",
+    "LogType",
+    "MetricOwner",
+    "MetricsDataStorageType",
+    "Page",
+    "Report",
+    "Timestamp",
+    "decoder",
+    "parse_rfc3339",
+]
+
+_T = TypeVar("_T")
+
+#: The name the platform gives a test's emissions file, and its log.
+EMISSIONS_FILE: Final = "emissions.resim.jsonl"
 
 
 class ConflatedJobStatus(enum.StrEnum):
@@ -72,7 +138,11 @@ class ConflatedBatchStatus(enum.StrEnum):
 
 
 class ApiMetricStatus(enum.StrEnum):
-    """A metric's status as the API spells it (``stook.sdk.MetricStatus`` lacks the last)."""
+    """A metric's status as the API spells it.
+
+    Named apart from ``stook.sdk.MetricStatus`` (the proto enum), which has no
+    ``NO_STATUS_REPORTED``.
+    """
 
     PASSED = "PASSED"
     FAIL_WARN = "FAIL_WARN"
@@ -104,305 +174,6 @@ class MetricsDataStorageType(enum.StrEnum):
     VIDEO = "VIDEO"
 
 
-@dataclass(frozen=True, slots=True)
-class Job:
-    """One test of a batch: an experience run against a build (a missing
-    ``conflated_status``, None, is counted as ``UNKNOWN`` by batch aggregations)."""
-
-    job_id: uuid.UUID
-    conflated_status: ConflatedJobStatus | str | None
-    job_status: JobStatus | str | None = None
-    job_metrics_status: ApiMetricStatus | str | None = None
-    batch_id: uuid.UUID | None = None
-    project_id: uuid.UUID | None = None
-    experience_id: uuid.UUID | None = None
-    experience_name: str | None = None
-    build_id: uuid.UUID | None = None
-    creation_timestamp: datetime | None = None
-    #: what a sweep or the batch gave the job (the spec's ``batchParameters``); absent: {}
-    parameters: Mapping[str, str] = field(default_factory=dict, hash=False)
-
-    @classmethod
-    def from_json(cls, data: Mapping[str, Any]) -> Self:
-        f = Fields("Job", data, "jobID")
-        return cls(
-            job_id=f.id("jobID"),
-            conflated_status=f.opt_choice("conflatedStatus", ConflatedJobStatus),
-            job_status=f.opt_choice("jobStatus", JobStatus),
-            job_metrics_status=f.opt_choice("jobMetricsStatus", ApiMetricStatus),
-            batch_id=f.opt_id("batchID"),
-            project_id=f.opt_id("projectID"),
-            experience_id=f.opt_id("experienceID"),
-            experience_name=f.opt_string("experienceName"),
-            build_id=f.opt_id("buildID"),
-            creation_timestamp=f.opt_timestamp("creationTimestamp"),
-            parameters=f.string_map("parameters"),
-        )
-
-
-class MetricOwner(enum.StrEnum):
-    """Whose metrics build produced a metric or metrics data: a job's, or the batch's own."""
-
-    JOB = "job"
-    BATCH = "batch"
-
-
-# The API's own schema names, which errors name: "JobMetric 1234…: field 'value' ...".
-_METRIC_KINDS = {MetricOwner.JOB: "JobMetric", MetricOwner.BATCH: "BatchMetric"}
-_DATA_KINDS = {MetricOwner.JOB: "JobMetricsData", MetricOwner.BATCH: "BatchMetricsData"}
-
-
-class ApiMetric(msgspec.Struct, frozen=True):
-    """A metric a job's or a batch's metrics build produced (``owner``).
-
-    ``value`` is a ``SCALAR``'s number, or None (then it is in the ``Metric`` message at
-    ``metric_url``, a presigned URL that expires). A missing ``status`` reads as
-    ``NO_STATUS_REPORTED``; ``job_id`` is read for a job's metric only.
-    """
-
-    metric_id: uuid.UUID
-    name: str
-    type: ApiMetricType | str | None
-    status: ApiMetricStatus | str
-    value: float | None = None
-    unit: str | None = None
-    metric_url: str | None = None  # presigned: left out of repr
-    data_ids: tuple[uuid.UUID, ...] = ()
-    event_metric: bool = False
-    owner: MetricOwner = MetricOwner.JOB
-    job_id: uuid.UUID | None = None
-    batch_id: uuid.UUID | None = None
-    creation_timestamp: datetime | None = None
-
-    def __repr__(self) -> str:
-        return _repr_without(self, "metric_url")
-
-    @classmethod
-    def from_json(cls, data: Mapping[str, Any], *, owner: MetricOwner) -> Self:
-        f = Fields(_METRIC_KINDS[owner], data, "metricID")
-        # The order of evaluation decides which error an item with two bad fields gets.
-        return cls(
-            metric_id=f.id("metricID"),
-            name=f.opt_string("name") or "",
-            type=f.opt_choice("type", ApiMetricType),
-            status=f.opt_choice("status", ApiMetricStatus) or ApiMetricStatus.NO_STATUS_REPORTED,
-            value=f.opt_number("value"),
-            unit=f.opt_string("unit"),
-            metric_url=f.opt_string("metricURL"),
-            data_ids=f.ids("dataIDs"),
-            event_metric=f.flag("eventMetric"),
-            creation_timestamp=f.opt_timestamp("creationTimestamp"),
-            owner=owner,
-            job_id=f.opt_id("jobID") if owner is MetricOwner.JOB else None,
-            batch_id=f.opt_id("batchID"),
-        )
-
-
-class ApiMetricsData(msgspec.Struct, frozen=True):
-    """A metrics-data file of a job or of a batch (``owner``); ``metrics_data_url`` is
-    presigned and expires. A missing ``metricsDataType`` reads as ``STANDARD``, as ReSim's
-    own fetcher reads it; the owner's ID (``job_id`` or ``batch_id``) is read for its owner.
-    """
-
-    data_id: uuid.UUID
-    name: str
-    metrics_data_type: MetricsDataStorageType | str
-    metrics_data_url: str | None = None  # presigned: left out of repr
-    filename: str | None = None
-    owner: MetricOwner = MetricOwner.JOB
-    job_id: uuid.UUID | None = None
-    batch_id: uuid.UUID | None = None
-    creation_timestamp: datetime | None = None
-
-    def __repr__(self) -> str:
-        return _repr_without(self, "metrics_data_url")
-
-    @property
-    def is_standard(self) -> bool:
-        """Whether the URL holds a ``MetricsData`` message (not a video or external file)."""
-        return self.metrics_data_type is MetricsDataStorageType.STANDARD
-
-    @classmethod
-    def from_json(cls, data: Mapping[str, Any], *, owner: MetricOwner) -> Self:
-        f = Fields(_DATA_KINDS[owner], data, "dataID")
-        return cls(
-            data_id=f.id("dataID"),
-            name=f.opt_string("name") or "",
-            metrics_data_type=f.opt_choice("metricsDataType", MetricsDataStorageType)
-            or MetricsDataStorageType.STANDARD,
-            metrics_data_url=f.opt_string("metricsDataURL"),
-            filename=f.opt_string("filename"),
-            creation_timestamp=f.opt_timestamp("creationTimestamp"),
-            owner=owner,
-            job_id=f.opt_id("jobID") if owner is MetricOwner.JOB else None,
-            batch_id=f.opt_id("batchID") if owner is MetricOwner.BATCH else None,
-        )
-
-
-def _repr_without(item: msgspec.Struct, secret: str) -> str:
-    """A Struct's repr without its field `secret` (a presigned URL: no signature in a log)."""
-    shown = ", ".join(
-        f"{name}={getattr(item, name)!r}" for name in item.__struct_fields__ if name != secret
-    )
-    return f"{type(item).__name__}({shown})"
-
-
-@dataclass(frozen=True, slots=True)
-class Batch:
-    """A run of a test suite (or ad-hoc set of experiences) against one build."""
-
-    batch_id: uuid.UUID
-    status: BatchStatus | str | None = None
-    conflated_status: ConflatedBatchStatus | str | None = None
-    batch_metrics_status: ApiMetricStatus | str | None = None
-    jobs_metrics_status: ApiMetricStatus | str | None = None
-    project_id: uuid.UUID | None = None
-    build_id: uuid.UUID | None = None
-    branch_id: uuid.UUID | None = None
-    test_suite_id: uuid.UUID | None = None
-    test_suite_revision: int | None = None
-    total_jobs: int | None = None
-    friendly_name: str | None = None
-    creation_timestamp: datetime | None = None
-
-    @classmethod
-    def from_json(cls, data: Mapping[str, Any]) -> Self:
-        f = Fields("Batch", data, "batchID")
-        return cls(
-            batch_id=f.id("batchID"),
-            status=f.opt_choice("status", BatchStatus),
-            conflated_status=f.opt_choice("conflatedStatus", ConflatedBatchStatus),
-            batch_metrics_status=f.opt_choice("batchMetricsStatus", ApiMetricStatus),
-            jobs_metrics_status=f.opt_choice("jobsMetricsStatus", ApiMetricStatus),
-            project_id=f.opt_id("projectID"),
-            build_id=f.opt_id("buildID"),
-            branch_id=f.opt_id("branchID"),
-            test_suite_id=f.opt_id("testSuiteID"),
-            test_suite_revision=f.opt_integer("testSuiteRevision"),
-            total_jobs=f.opt_integer("totalJobs"),
-            friendly_name=f.opt_string("friendlyName"),
-            creation_timestamp=f.opt_timestamp("creationTimestamp"),
-        )
-
-
-@dataclass(frozen=True, slots=True)
-class Report:
-    """A report: the batches of one test suite on one branch within a time window."""
-
-    report_id: uuid.UUID
-    project_id: uuid.UUID
-    test_suite_id: uuid.UUID
-    test_suite_revision: int
-    branch_id: uuid.UUID
-    start_timestamp: datetime
-    end_timestamp: datetime
-    respect_revision_boundary: bool
-    name: str
-    creation_timestamp: datetime | None = None
-
-    @classmethod
-    def from_json(cls, data: Mapping[str, Any]) -> Self:
-        f = Fields("Report", data, "reportID")
-        return cls(
-            report_id=f.id("reportID"),
-            project_id=f.id("projectID"),
-            test_suite_id=f.id("testSuiteID"),
-            test_suite_revision=f.integer("testSuiteRevision"),
-            branch_id=f.id("branchID"),
-            start_timestamp=f.timestamp("startTimestamp"),
-            end_timestamp=f.timestamp("endTimestamp"),
-            respect_revision_boundary=f.flag("respectRevisionBoundary"),
-            name=f.opt_string("name") or "",
-            creation_timestamp=f.opt_timestamp("creationTimestamp"),
-        )
-
-
-@dataclass(frozen=True, slots=True)
-class Build:
-    """A build (system-under-test image); stook only needs it for labels."""
-
-    build_id: uuid.UUID
-    name: str | None = None
-    version: str | None = None
-    creation_timestamp: datetime | None = None
-
-    @classmethod
-    def from_json(cls, data: Mapping[str, Any]) -> Self:
-        f = Fields("Build", data, "buildID")
-        return cls(
-            build_id=f.id("buildID"),
-            name=f.opt_string("name"),
-            version=f.opt_string("version"),
-            creation_timestamp=f.opt_timestamp("creationTimestamp"),
-        )
-
-
-@dataclass(frozen=True, slots=True)
-class JobEventListing:
-    """One event of a job, as ``GET .../jobs/{jobID}/events`` lists it (without its data)."""
-
-    event_id: uuid.UUID
-    name: str
-    status: ApiMetricStatus | str
-    timestamp: datetime | None = None
-    timestamp_type: EventTimestampType | str | None = None
-    description: str = ""
-    tags: tuple[str, ...] = ()
-    metric_ids: tuple[uuid.UUID, ...] = ()
-    creation_timestamp: datetime | None = None
-
-    @classmethod
-    def from_json(cls, data: Mapping[str, Any]) -> Self:
-        f = Fields("Event", data, "eventID")
-        return cls(
-            event_id=f.id("eventID"),
-            name=f.opt_string("name") or "",
-            status=f.opt_choice("status", ApiMetricStatus) or ApiMetricStatus.NO_STATUS_REPORTED,
-            timestamp=f.opt_timestamp("timestamp"),
-            timestamp_type=f.opt_choice("timestampType", EventTimestampType),
-            description=f.opt_string("description") or "",
-            tags=f.strings("tags"),
-            metric_ids=f.ids("metricsIDs"),
-            creation_timestamp=f.opt_timestamp("creationTimestamp"),
-        )
-
-
-@dataclass(frozen=True, slots=True)
-class ExperienceTag:
-    """A tag of an experience (the spec's ``experienceTag``); only its ID is required."""
-
-    experience_tag_id: uuid.UUID
-    name: str
-    description: str = ""
-
-    @classmethod
-    def from_json(cls, data: Mapping[str, Any]) -> Self:
-        f = Fields("ExperienceTag", data, "experienceTagID")
-        return cls(
-            experience_tag_id=f.id("experienceTagID"),
-            name=f.opt_string("name") or "",
-            description=f.opt_string("description") or "",
-        )
-
-
-@dataclass(frozen=True, slots=True)
-class Branch:
-    """A branch of a project; stook finds a baseline's branch by its name."""
-
-    branch_id: uuid.UUID
-    name: str = ""
-    branch_type: str | None = None
-
-    @classmethod
-    def from_json(cls, data: Mapping[str, Any]) -> Self:
-        f = Fields("Branch", data, "branchID")
-        return cls(
-            branch_id=f.id("branchID"),
-            name=f.opt_string("name") or "",
-            branch_type=f.opt_string("branchType"),
-        )
-
-
 class LogType(enum.StrEnum):
     """The spec's `logType`."""
 
@@ -430,34 +201,416 @@ class ExecutionStep(enum.StrEnum):
     REPORT = "REPORT"
 
 
-@dataclass(frozen=True, slots=True)
-class JobLog:
-    """One log of a job, as ``GET .../jobs/{jobID}/logs`` lists it (the spec's ``jobLog``):
-    a test's emissions are its EMISSIONS_LOG, downloaded from ``log_output_location``."""
+class MetricOwner(enum.StrEnum):
+    """Whose metrics build produced a metric or metrics data: a job's, or the batch's own."""
 
-    log_id: uuid.UUID
-    file_name: str = ""
-    log_type: LogType | str | None = None
-    log_output_location: str | None = None
-    file_size: int | None = None
-    checksum: str | None = None
-    creation_timestamp: datetime | None = None
-    execution_step: ExecutionStep | str | None = None
-    file_path: str = ""
-    job_id: uuid.UUID | None = None
+    JOB = "job"
+    BATCH = "batch"
 
-    @classmethod
-    def from_json(cls, data: Mapping[str, Any]) -> Self:
-        f = Fields("JobLog", data, "logID")
-        return cls(
-            log_id=f.id("logID"),
-            file_name=f.opt_string("fileName") or "",
-            log_type=f.opt_choice("logType", LogType),
-            log_output_location=f.opt_string("logOutputLocation"),
-            file_size=f.opt_integer("fileSize"),
-            checksum=f.opt_string("checksum"),
-            creation_timestamp=f.opt_timestamp("creationTimestamp"),
-            execution_step=f.opt_choice("executionStep", ExecutionStep),
-            file_path=f.opt_string("filePath") or "",
-            job_id=f.opt_id("jobID"),
+
+# -- timestamps ---------------------------------------------------------------------------
+
+
+class Timestamp(datetime):
+    """An RFC 3339 time as an answer gives it: a ``datetime`` (always with a time zone).
+
+    A type of its own only so that the decoder hands its text to `parse_rfc3339` (msgspec's
+    own datetime parser refuses a leap second and rounds past microseconds)."""
+
+    __slots__ = ()
+
+
+# RFC 3339 as the platform's Go encoder writes it (RFC3339Nano: up to nine fractional
+# digits) and as the RFC allows it (lower-case t and z, any number of fractional digits).
+_RFC3339 = re.compile(
+    r"(\d{4})-(\d{2})-(\d{2})[Tt ](\d{2}):(\d{2}):(\d{2})(?:\.(\d+))?"
+    r"(?:([Zz])|([+-])(\d{2}):(\d{2}))"
+)
+
+
+def parse_rfc3339(text: str) -> Timestamp | None:
+    """An RFC 3339 timestamp (fractions past microseconds truncated; a leap second as
+    :59.999999), or None if it is not one.
+
+    ``datetime.fromisoformat`` reads most of them and is fast, so it goes first; the
+    rest (a lower-case "t" or "z"; more fractional digits than a given Python reads) are
+    read here, so the result does not depend on the Python release.
+    """
+    try:
+        return Timestamp.fromisoformat(text)
+    except ValueError:
+        pass
+    match = _RFC3339.fullmatch(text)
+    if match is None:
+        return None
+    year, month, day, hour, minute, second, fraction, zulu, sign, off_h, off_m = match.groups()
+    if zulu:
+        zone: timezone = UTC
+    else:
+        offset = timedelta(hours=int(off_h), minutes=int(off_m))
+        zone = timezone(-offset if sign == "-" else offset)
+    micros = int((fraction or "0")[:6].ljust(6, "0"))
+    if second == "60":
+        # A leap second (RFC 3339 allows :60), which datetime cannot hold: read as the
+        # last instant of the minute before it, so the order of times is kept.
+        second, micros = "59", 999_999
+    try:
+        return Timestamp(
+            int(year),
+            int(month),
+            int(day),
+            int(hour),
+            int(minute),
+            int(second),
+            micros,
+            tzinfo=zone,
         )
+    except ValueError:  # e.g. month 13, or an offset of a day or more
+        return None
+
+
+def _decode_hook(kind: type, value: Any) -> Any:
+    """What msgspec cannot read by itself: a `Timestamp`, from its text."""
+    if kind is Timestamp:
+        if not isinstance(value, str):
+            raise TypeError(f"Expected an RFC 3339 timestamp, got {type(value).__name__}")
+        moment = parse_rfc3339(value)
+        if moment is None:
+            raise ValueError(f"Not an RFC 3339 timestamp: {value!r}")
+        if moment.tzinfo is None:
+            raise ValueError(f"An RFC 3339 timestamp without a time zone: {value!r}")
+        return moment
+    raise NotImplementedError(kind)
+
+
+def decoder(answer: type[_T]) -> msgspec.json.Decoder[_T]:
+    """The decoder of one answer's body (a page, or an object), in lax mode (see above)."""
+    return msgspec.json.Decoder(answer, strict=False, dec_hook=_decode_hook)
+
+
+# -- models -------------------------------------------------------------------------------
+
+
+class _Model(msgspec.Struct, frozen=True):
+    """A frozen Struct whose string fields named in ``_blank`` read an empty string ("",
+    which Go writes for an unset string) as that field's value when absent."""
+
+    _blank: ClassVar[dict[str, object]] = {}
+
+    def __post_init__(self) -> None:
+        for name, absent in self._blank.items():
+            if getattr(self, name) == "":
+                msgspec.structs.force_setattr(self, name, absent)
+
+
+class Job(_Model, frozen=True):
+    """One test of a batch: an experience run against a build.
+
+    ``conflated_status`` is None when the API gave none (batch aggregations count such
+    jobs as ``UNKNOWN``); a status this client does not know is its raw string.
+    ``parameters`` is what a sweep or the batch gave the job (the spec's
+    ``batchParameters``); absent: {}.
+    """
+
+    job_id: uuid.UUID = msgspec.field(name="jobID")
+    conflated_status: str | None = msgspec.field(default=None, name="conflatedStatus")
+    job_status: str | None = msgspec.field(default=None, name="jobStatus")
+    job_metrics_status: str | None = msgspec.field(default=None, name="jobMetricsStatus")
+    batch_id: uuid.UUID | None = msgspec.field(default=None, name="batchID")
+    project_id: uuid.UUID | None = msgspec.field(default=None, name="projectID")
+    experience_id: uuid.UUID | None = msgspec.field(default=None, name="experienceID")
+    experience_name: str | None = msgspec.field(default=None, name="experienceName")
+    build_id: uuid.UUID | None = msgspec.field(default=None, name="buildID")
+    creation_timestamp: Timestamp | None = msgspec.field(default=None, name="creationTimestamp")
+    parameters: dict[str, str] = {}
+
+    _blank: ClassVar[dict[str, object]] = {
+        "conflated_status": None,
+        "job_status": None,
+        "job_metrics_status": None,
+        "experience_name": None,
+    }
+
+    def __hash__(self) -> int:
+        return hash(self.job_id)  # `parameters`, a dict, cannot be hashed
+
+
+class ApiMetric(_Model, frozen=True):
+    """A metric of a job's metrics build (`BatchMetric`: of the batch's own).
+
+    ``value`` is the number of a ``SCALAR`` metric (None for ``COMPOSITE``, or when the job
+    reported none, or the API lists it as null: then the value is in the message at
+    ``metric_url``). ``metric_url`` is the presigned URL of the serialized ``Metric``
+    message; it expires, so fetch it soon after listing. ``name`` is "" when the API gave
+    none; ``type`` None when it gave none; an unknown type or status is its raw string.
+    """
+
+    owner: ClassVar[MetricOwner] = MetricOwner.JOB
+
+    metric_id: uuid.UUID = msgspec.field(name="metricID")
+    name: str = ""
+    type: str | None = None
+    status: str = ApiMetricStatus.NO_STATUS_REPORTED
+    value: float | None = None
+    unit: str | None = None
+    metric_url: str | None = msgspec.field(default=None, name="metricURL")  # presigned
+    data_ids: tuple[uuid.UUID, ...] = msgspec.field(default=(), name="dataIDs")
+    event_metric: bool = msgspec.field(default=False, name="eventMetric")
+    job_id: uuid.UUID | None = msgspec.field(default=None, name="jobID")
+    batch_id: uuid.UUID | None = msgspec.field(default=None, name="batchID")
+    creation_timestamp: Timestamp | None = msgspec.field(default=None, name="creationTimestamp")
+
+    _blank: ClassVar[dict[str, object]] = {
+        "type": None,
+        "status": ApiMetricStatus.NO_STATUS_REPORTED,
+        "unit": None,
+        "metric_url": None,
+    }
+
+    def __repr__(self) -> str:
+        return _repr_without(self, "metric_url")
+
+
+class BatchMetric(ApiMetric, frozen=True):
+    """A metric of the batch's own metrics build (a batch listing's item)."""
+
+    owner: ClassVar[MetricOwner] = MetricOwner.BATCH
+
+
+class ApiMetricsData(_Model, frozen=True):
+    """A metrics-data file of a job (`BatchMetricsData`: of the batch);
+    ``metrics_data_url`` is presigned and expires.
+
+    ``name`` is "" when the API gave none: such data cannot be asked for by name.
+    """
+
+    owner: ClassVar[MetricOwner] = MetricOwner.JOB
+
+    data_id: uuid.UUID = msgspec.field(name="dataID")
+    name: str = ""
+    metrics_data_type: str = msgspec.field(
+        default=MetricsDataStorageType.STANDARD, name="metricsDataType"
+    )
+    metrics_data_url: str | None = msgspec.field(default=None, name="metricsDataURL")
+    filename: str | None = None
+    job_id: uuid.UUID | None = msgspec.field(default=None, name="jobID")
+    batch_id: uuid.UUID | None = msgspec.field(default=None, name="batchID")
+    creation_timestamp: Timestamp | None = msgspec.field(default=None, name="creationTimestamp")
+
+    _blank: ClassVar[dict[str, object]] = {
+        "metrics_data_type": MetricsDataStorageType.STANDARD,
+        "metrics_data_url": None,
+        "filename": None,
+    }
+
+    def __repr__(self) -> str:
+        return _repr_without(self, "metrics_data_url")
+
+    @property
+    def is_standard(self) -> bool:
+        """Whether the URL holds a ``MetricsData`` message (not a video or external file)."""
+        return self.metrics_data_type == MetricsDataStorageType.STANDARD
+
+
+class BatchMetricsData(ApiMetricsData, frozen=True):
+    """A metrics-data file of the batch's own metrics build (a batch listing's item)."""
+
+    owner: ClassVar[MetricOwner] = MetricOwner.BATCH
+
+
+def _repr_without(item: msgspec.Struct, secret: str) -> str:
+    """A Struct's repr without its field `secret` (a presigned URL, whose signature must not
+    reach a log), as a dataclass field with ``repr=False`` shows."""
+    shown = ", ".join(
+        f"{name}={getattr(item, name)!r}" for name in item.__struct_fields__ if name != secret
+    )
+    return f"{type(item).__name__}({shown})"
+
+
+class Batch(_Model, frozen=True):
+    """A run of a test suite (or ad-hoc set of experiences) against one build."""
+
+    batch_id: uuid.UUID = msgspec.field(name="batchID")
+    status: str | None = None
+    conflated_status: str | None = msgspec.field(default=None, name="conflatedStatus")
+    batch_metrics_status: str | None = msgspec.field(default=None, name="batchMetricsStatus")
+    jobs_metrics_status: str | None = msgspec.field(default=None, name="jobsMetricsStatus")
+    project_id: uuid.UUID | None = msgspec.field(default=None, name="projectID")
+    build_id: uuid.UUID | None = msgspec.field(default=None, name="buildID")
+    branch_id: uuid.UUID | None = msgspec.field(default=None, name="branchID")
+    test_suite_id: uuid.UUID | None = msgspec.field(default=None, name="testSuiteID")
+    test_suite_revision: int | None = msgspec.field(default=None, name="testSuiteRevision")
+    total_jobs: int | None = msgspec.field(default=None, name="totalJobs")
+    friendly_name: str | None = msgspec.field(default=None, name="friendlyName")
+    creation_timestamp: Timestamp | None = msgspec.field(default=None, name="creationTimestamp")
+
+    _blank: ClassVar[dict[str, object]] = {
+        "status": None,
+        "conflated_status": None,
+        "batch_metrics_status": None,
+        "jobs_metrics_status": None,
+        "friendly_name": None,
+    }
+
+
+class Report(_Model, frozen=True):
+    """A report: the batches of one test suite on one branch within a time window."""
+
+    report_id: uuid.UUID = msgspec.field(name="reportID")
+    project_id: uuid.UUID = msgspec.field(name="projectID")
+    test_suite_id: uuid.UUID = msgspec.field(name="testSuiteID")
+    test_suite_revision: int = msgspec.field(name="testSuiteRevision")
+    branch_id: uuid.UUID = msgspec.field(name="branchID")
+    start_timestamp: Timestamp = msgspec.field(name="startTimestamp")
+    end_timestamp: Timestamp = msgspec.field(name="endTimestamp")
+    respect_revision_boundary: bool = msgspec.field(default=False, name="respectRevisionBoundary")
+    name: str = ""
+    creation_timestamp: Timestamp | None = msgspec.field(default=None, name="creationTimestamp")
+
+
+class Build(_Model, frozen=True):
+    """A build (system-under-test image); stook only needs it for labels."""
+
+    build_id: uuid.UUID = msgspec.field(name="buildID")
+    name: str | None = None
+    version: str | None = None
+    creation_timestamp: Timestamp | None = msgspec.field(default=None, name="creationTimestamp")
+
+    _blank: ClassVar[dict[str, object]] = {"name": None, "version": None}
+
+
+class JobEventListing(_Model, frozen=True):
+    """One event of a job, as ``GET .../jobs/{jobID}/events`` lists it (the spec's ``event``).
+
+    The spec requires every field, but as elsewhere only the ID is relied on: a missing
+    name reads as "", a missing status as ``NO_STATUS_REPORTED``, a missing timestamp or
+    timestamp type as None, missing tags or metric IDs as empty. Unknown statuses and
+    timestamp types are kept as their raw strings.
+    """
+
+    event_id: uuid.UUID = msgspec.field(name="eventID")
+    name: str = ""
+    status: str = ApiMetricStatus.NO_STATUS_REPORTED
+    timestamp: Timestamp | None = None
+    timestamp_type: str | None = msgspec.field(default=None, name="timestampType")
+    description: str = ""
+    tags: tuple[str, ...] = ()
+    metric_ids: tuple[uuid.UUID, ...] = msgspec.field(default=(), name="metricsIDs")
+    creation_timestamp: Timestamp | None = msgspec.field(default=None, name="creationTimestamp")
+
+    _blank: ClassVar[dict[str, object]] = {
+        "status": ApiMetricStatus.NO_STATUS_REPORTED,
+        "timestamp_type": None,
+    }
+
+
+class ExperienceTag(_Model, frozen=True):
+    """A tag of an experience (the spec's ``experienceTag``); only its ID is required."""
+
+    experience_tag_id: uuid.UUID = msgspec.field(name="experienceTagID")
+    name: str = ""
+    description: str = ""
+
+
+class Branch(_Model, frozen=True):
+    """A branch of a project; stook finds a baseline's branch by its name."""
+
+    branch_id: uuid.UUID = msgspec.field(name="branchID")
+    name: str = ""
+    branch_type: str | None = msgspec.field(default=None, name="branchType")
+
+    _blank: ClassVar[dict[str, object]] = {"branch_type": None}
+
+
+class JobLog(_Model, frozen=True):
+    """One log of a job (the spec's `jobLog`). Only its ID is required, as with the other
+    objects; a log without `logOutputLocation` cannot be downloaded. Unknown log types and
+    steps are kept as their raw strings."""
+
+    log_id: uuid.UUID = msgspec.field(name="logID")
+    file_name: str = msgspec.field(default="", name="fileName")
+    log_type: str | None = msgspec.field(default=None, name="logType")
+    log_output_location: str | None = msgspec.field(
+        default=None, name="logOutputLocation"
+    )  # presigned
+    file_size: int | None = msgspec.field(default=None, name="fileSize")
+    checksum: str | None = None
+    creation_timestamp: Timestamp | None = msgspec.field(default=None, name="creationTimestamp")
+    execution_step: str | None = msgspec.field(default=None, name="executionStep")
+    file_path: str = msgspec.field(default="", name="filePath")
+    job_id: uuid.UUID | None = msgspec.field(default=None, name="jobID")
+
+    _blank: ClassVar[dict[str, object]] = {
+        "log_type": None,
+        "log_output_location": None,
+        "checksum": None,
+        "execution_step": None,
+    }
+
+    def __repr__(self) -> str:
+        return _repr_without(self, "log_output_location")
+
+
+# -- listing pages ------------------------------------------------------------------------
+
+
+class Page(msgspec.Struct, Generic[_T], frozen=True):
+    """One page of a listing: its items (each listing names them its own way), the token
+    of the next page ("" or absent on the last), and ``total``, the listing's size, when
+    the API says it. ``item_id`` names the items' own ID, by which repeats are told."""
+
+    items: list[_T] | None = None
+    next_page_token: str | None = msgspec.field(default=None, name="nextPageToken")
+    total: int | None = None
+
+    item_id: ClassVar[str]
+
+
+class JobsPage(Page[Job], frozen=True):
+    items: list[Job] | None = msgspec.field(default=None, name="jobs")
+    item_id: ClassVar[str] = "job_id"
+
+
+class BatchesPage(Page[Batch], frozen=True):
+    items: list[Batch] | None = msgspec.field(default=None, name="batches")
+    item_id: ClassVar[str] = "batch_id"
+
+
+class JobMetricsPage(Page[ApiMetric], frozen=True):
+    items: list[ApiMetric] | None = msgspec.field(default=None, name="metrics")
+    item_id: ClassVar[str] = "metric_id"
+
+
+class BatchMetricsPage(Page[BatchMetric], frozen=True):
+    items: list[BatchMetric] | None = msgspec.field(default=None, name="batchMetrics")
+    item_id: ClassVar[str] = "metric_id"
+
+
+class JobMetricsDataPage(Page[ApiMetricsData], frozen=True):
+    items: list[ApiMetricsData] | None = msgspec.field(default=None, name="metricsData")
+    item_id: ClassVar[str] = "data_id"
+
+
+class BatchMetricsDataPage(Page[BatchMetricsData], frozen=True):
+    items: list[BatchMetricsData] | None = msgspec.field(default=None, name="batchMetricsData")
+    item_id: ClassVar[str] = "data_id"
+
+
+class JobEventsPage(Page[JobEventListing], frozen=True):
+    items: list[JobEventListing] | None = msgspec.field(default=None, name="events")
+    item_id: ClassVar[str] = "event_id"
+
+
+class ExperienceTagsPage(Page[ExperienceTag], frozen=True):
+    items: list[ExperienceTag] | None = msgspec.field(default=None, name="experienceTags")
+    item_id: ClassVar[str] = "experience_tag_id"
+
+
+class BranchesPage(Page[Branch], frozen=True):
+    items: list[Branch] | None = msgspec.field(default=None, name="branches")
+    item_id: ClassVar[str] = "branch_id"
+
+
+class JobLogsPage(Page[JobLog], frozen=True):
+    items: list[JobLog] | None = msgspec.field(default=None, name="logs")
+    item_id: ClassVar[str] = "log_id"

@@ -2,29 +2,22 @@
 
 from __future__ import annotations
 
-import json
 from collections.abc import Callable, Mapping
-from typing import Any, Final, NoReturn
+from typing import Final, Generic, NoReturn, TypeVar
 
 from stook.service.api._errors import ApiResponseError
+from stook.service.api._models import Page
 
 __all__ = ["Listing"]
 
-# The field that identifies an item of each listing, for telling repeats from new items.
-_ITEM_ID_KEYS: Final = {
-    "jobs": "jobID",
-    "batches": "batchID",
-    "metrics": "metricID",
-    "batchMetrics": "metricID",
-    "metricsData": "dataID",
-    "batchMetricsData": "dataID",
-}
+_T = TypeVar("_T")
+
 # Empty pages that each hand out a new token: a server may skip ahead over a few, never
 # over this many (156,000 a minute were seen from a server that never stopped).
 _MAX_EMPTY_PAGES: Final = 50
 
 
-class Listing:
+class Listing(Generic[_T]):
     """One listing's pages: `query` asks for the next one, `take` checks each one's items.
 
     ``on_total`` hears the listing's ``total`` from the first page that carries one. An item
@@ -39,7 +32,7 @@ class Listing:
     def __init__(
         self,
         name: Callable[[], str],
-        items_key: str,
+        item_id: str,
         page_size: int,
         params: Mapping[str, str | int] | None = None,
         *,
@@ -47,8 +40,7 @@ class Listing:
         expected: int | None = None,
     ) -> None:
         self._name = name  # the listing's name, made only for an error
-        self._items_key = items_key
-        self._id_key = _ITEM_ID_KEYS.get(items_key)
+        self._item_id = item_id  # the attribute that tells the items apart
         self._page_size = page_size
         self._on_total = on_total
         self._bound = expected
@@ -57,25 +49,13 @@ class Listing:
         self.more = True  # until a page without a next page token
         self._pages = self._empty_run = 0
         self._tokens: set[str] = set()
-        self._seen: set[object] = set()  # items' IDs, or (without one) their contents
+        self._seen: set[object] = set()  # the IDs of the items listed
 
-    def take(self, page: dict[str, Any]) -> list[dict[str, Any]]:
+    def take(self, page: Page[_T]) -> list[_T]:
         """The page's items to hand on; `query` then asks for the next page, if any."""
-        items = page.get(self._items_key)
-        if items is None:
-            items = []  # the API omits empty lists
-        if not isinstance(items, list):
-            self._fail(f"'{self._items_key}' should be a list, got {type(items).__name__}")
-        for item in items:
-            if not isinstance(item, dict):
-                kind = type(item).__name__
-                self._fail(f"an item of '{self._items_key}' is {kind}, not an object")
-        token = page.get("nextPageToken") or None
-        if token is not None and not isinstance(token, str):
-            self._fail("'nextPageToken' should be a string")
-        total = page.get("total")
-        if not isinstance(total, int) or isinstance(total, bool):
-            total = None
+        items = page.items or []  # the API omits empty lists
+        token = page.next_page_token or None
+        total = page.total
         self._pages += 1
         if token is not None or self._pages > 1:  # a listing of one page has nothing to check
             items = self._check(items, token, total)
@@ -88,29 +68,21 @@ class Listing:
             self.query["pageToken"] = token
         return items
 
-    def _check(
-        self, items: list[dict[str, Any]], token: str | None, total: int | None
-    ) -> list[dict[str, Any]]:
+    def _check(self, items: list[_T], token: str | None, total: int | None) -> list[_T]:
         """The items not listed before, once the page is known not to prove the listing
         endless (its repeats must not reach the caller)."""
-        fresh, new = [], 0
+        fresh = []
         for item in items:
-            item_id = item.get(self._id_key) if self._id_key else None
-            has_id = isinstance(item_id, str) and item_id != ""
-            if not has_id:  # told apart by its content, and never dropped as a repeat
-                item_id = json.dumps(item, sort_keys=True, default=str)
+            item_id = getattr(item, self._item_id)
             if item_id not in self._seen:
                 self._seen.add(item_id)
-                new += 1
-                fresh.append(item)
-            elif not has_id:
                 fresh.append(item)
         if token is None:
             return fresh  # the last page: nothing more will be asked for
         if token in self._tokens:
             self._stop("the API repeated a page token")
         self._tokens.add(token)
-        if items and new == 0:
+        if items and not fresh:
             self._stop(f"page {self._pages} holds only items listed on earlier pages")
         self._empty_run = 0 if items else self._empty_run + 1
         if total is not None and not self._bound_is_total:

@@ -28,7 +28,7 @@ Relist = Callable[[], Awaitable[Sequence[ApiMetric]]]
 
 def is_scalar(metric: ApiMetric) -> bool:
     """A named SCALAR metric that is not an event's: what aggregations get by name."""
-    return metric.type is ApiMetricType.SCALAR and not metric.event_metric and bool(metric.name)
+    return metric.type == ApiMetricType.SCALAR and not metric.event_metric and bool(metric.name)
 
 
 async def read_scalars(
@@ -88,7 +88,7 @@ async def read_scalar_values(
     listed: list[str] = []
     values: dict[str, tuple[float, str]] = {}
     for metric in metrics:
-        if metric.type is not ApiMetricType.SCALAR or metric.event_metric or not metric.name:
+        if metric.type != ApiMetricType.SCALAR or metric.event_metric or not metric.name:
             continue
         if metric.value is None:
             break

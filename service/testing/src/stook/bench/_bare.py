@@ -19,7 +19,6 @@ from yarl import URL
 
 from stook.bench._measure import BARE_LOOP, Measurement, cpu_seconds, peak_rss_mb
 from stook.emulator import EmulatorInfo
-from stook.service import ApiMetricsData, MetricOwner
 
 
 @dataclass(frozen=True, slots=True)
@@ -74,9 +73,12 @@ async def collect_targets(
                 )
             found = [Target(u, api=True) for u in metric_pages + data_pages]
             for item in items:
-                data = ApiMetricsData.from_json(item, owner=MetricOwner.JOB)
-                if data.name in wanted and data.is_standard and data.metrics_data_url:
-                    found.append(Target(data.metrics_data_url, api=False))
+                # The three keys that say which data stook downloads, read off the JSON
+                # (a missing or empty type is STANDARD, as ApiMetricsData reads it).
+                url = item.get("metricsDataURL")
+                standard = item.get("metricsDataType") in (None, "", "STANDARD")
+                if item.get("name") in wanted and standard and isinstance(url, str) and url:
+                    found.append(Target(url, api=False))
             return found
 
         for found in await asyncio.gather(*(per_job(job["jobID"]) for job in jobs)):
