@@ -26,7 +26,7 @@ import sqlglot
 
 from stook.bench._metrics_config_load import write_jobs
 from stook.service.metrics_config import EmissionsSet, JobMeta, load_config
-from stook.service.metrics_config._engine import QueryEngine
+from stook.service.metrics_config._query_engine import QueryEngine
 from stook.testing.metrics_config_fixture import write_fixture
 
 QUERIES = {

@@ -100,7 +100,7 @@ PUBLIC_API: dict[str, list[str]] = {
         "RetryPolicy",
         "StorageClient",
         "StorageError",
-        "TransferStats",
+        "TrafficCounts",
         "Transport",
         "TransportError",
         "body_cap_mb",

@@ -38,7 +38,7 @@ from stook.service.api._models import (
 )
 from stook.service.api._retry import RetryPolicy
 from stook.service.api._storage import StorageClient
-from stook.service.api._transport import HttpTransport, Response, TransferStats
+from stook.service.api._transport import HttpTransport, Response, TrafficCounts
 from tests.service.conftest import RecordingSleep
 from tests.service.scripted_server import (
     ScriptedServer,
@@ -594,7 +594,7 @@ class PagesTransport:
     """A transport without a network: each GET is answered from `pages`, in order."""
 
     def __init__(self, pages: list[dict[str, object]]) -> None:
-        self.stats = TransferStats()
+        self.stats = TrafficCounts()
         self.pages = pages
         self.sent: list[tuple[URL, dict[str, str | int]]] = []
         self.opened = self.closed = False
@@ -919,7 +919,7 @@ async def test_a_listings_first_page_is_asked_for_under_the_base_path(base: str)
     sent: list[URL] = []
 
     class Recording:
-        stats = TransferStats()
+        stats = TrafficCounts()
 
         async def open(self) -> None: ...
 

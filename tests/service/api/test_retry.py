@@ -28,7 +28,7 @@ from stook.service.api import (
     RetryAfterTooLongError,
     RetryPolicy,
     StorageError,
-    TransferStats,
+    TrafficCounts,
     TransportError,
 )
 from stook.service.api._retry import Origin, is_retryable, parse_retry_after, send
@@ -54,14 +54,14 @@ async def retried(
     attempt: Callable[[], Awaitable[str]],
     policy: RetryPolicy,
     *,
-    stats: TransferStats | None = None,
+    stats: TrafficCounts | None = None,
     origin: Origin | None = None,
 ) -> str:
     """`send` for an origin that has answered before (unless one is passed)."""
     if origin is None:
         origin = Origin("the API", policy, setting="apiURL")
         origin.answered = True
-    return await send(attempt, origin, url=yarl.URL(URL), stats=stats or TransferStats())
+    return await send(attempt, origin, url=yarl.URL(URL), stats=stats or TrafficCounts())
 
 
 @pytest.mark.parametrize(
@@ -131,7 +131,7 @@ def test_policy_defaults_and_validation() -> None:
 
 
 async def test_send_counts_and_gives_up(sleep: RecordingSleep) -> None:
-    stats = TransferStats()
+    stats = TrafficCounts()
     calls = 0
 
     async def always_503() -> str:

@@ -64,10 +64,7 @@ async def test_a_well_formed_listing_gives_its_scalars() -> None:
     ("change", "message"),
     [
         ({"metricID": "1234"}, "Invalid UUID - at `$.metrics[1].metricID`"),
-        (
-            {"creationTimestamp": "yesterday"},
-            "Not an RFC 3339 timestamp: 'yesterday' - at `$.metrics[1].creationTimestamp`",
-        ),
+        ({"value": "many"}, "Expected `float | null`, got `str` - at `$.metrics[1].value`"),
     ],
 )
 async def test_a_malformed_item_fails_naming_the_metric_and_field(

@@ -47,7 +47,7 @@ from stook.service.api._models import (
 from stook.service.api._redact import redact_text, redact_url
 from stook.service.api._retry import Origin, RetryPolicy
 from stook.service.api._storage import StorageClient
-from stook.service.api._transport import BodyCap, Response, TransferStats, Transport, body_cap_mb
+from stook.service.api._transport import BodyCap, Response, TrafficCounts, Transport, body_cap_mb
 
 __all__ = [
     "AimdLimiter",
@@ -96,7 +96,7 @@ __all__ = [
     "RetryPolicy",
     "StorageClient",
     "StorageError",
-    "TransferStats",
+    "TrafficCounts",
     "Transport",
     "TransportError",
     "body_cap_mb",

@@ -58,7 +58,7 @@ from stook.service.api._transport import (
     BodyCap,
     HttpTransport,
     Response,
-    TransferStats,
+    TrafficCounts,
     Transport,
     body_cap_mb,
 )
@@ -180,7 +180,7 @@ class ApiClient:
                 },
             )
         self._transport = transport
-        self.stats: TransferStats = transport.stats
+        self.stats: TrafficCounts = transport.stats
         self.storage = StorageClient(
             concurrency=storage_concurrency or concurrency,
             retry=self._policy,

@@ -1,35 +1,18 @@
-"""Typed, immutable API objects, decoded straight from an answer's body by msgspec.
+"""The API's objects and listing pages as frozen msgspec Structs, each decoded straight
+from an answer's body by one typed decoder (`decoder`). Field names follow ReSim's
+published client; keys a model does not name are ignored, so a newer API keeps working.
 
-Each model is a frozen ``msgspec.Struct`` whose fields carry the API's own (camelCase)
-names; each answer has one ``msgspec.json.Decoder`` (`decoder`), made once per type, that
-reads the body into its page or object in one pass, in C. Keys a model does not name are
-ignored, so a newer API that adds fields keeps working.
-
-The spec's ``job``, ``batch``, ``metric`` and ``metricsData`` schemas list no required
-field (ReSim's Go client omits empty ones), so required here are only the IDs stook cannot
-do without (an object's own ID, to fetch it or match it) and a report's search window.
-Everything else may be absent, with a documented meaning: a missing string reads as
-``None`` (names as ``""``: unnamed), a metric's missing ``status`` as
-``NO_STATUS_REPORTED``, a missing ``metricsDataType`` as ``STANDARD`` (ReSim's own fetcher
-reads every metrics-data URL as a ``MetricsData`` message), a missing metric ``type`` or
-job ``conflatedStatus`` as None. The platform's Go encoder writes ``""`` for an unset
-string as often as it leaves it out: such a field reads as if absent (`_Model`).
-
-Enumerations are open: their fields are typed ``str``, so that a value this client does
-not know (one the platform adds later) is kept as its raw string and counted under its
-own name instead of failing a job. The ``StrEnum`` classes are the known vocabulary;
-their members equal their strings (compare with ``==``, never ``is``).
-
-Decoding is msgspec's lax mode (``strict=False``), for what a JSON encoder may write for a
-number: an integral float (``3.0``) reads as an integer. Lax mode also reads, where the
-field is not a string, a number written as a string (``"12"``, ``"1.5"``, and so
-``"nan"`` and ``"inf"``), a boolean as ``"true"``/``"false"`` or ``1``/``0``, and
-``"null"`` as null. Anything else of the wrong type,
-an ID that is not a UUID (hyphenated or 32 hex digits), a number past a double's range, or
-a timestamp that is not RFC 3339 with a time zone is an error naming the field's JSON path
-(`msgspec.ValidationError`, which the client words as an ``ApiResponseError``).
-
-Field names and which keys exist follow ReSim's published client (``resim.sdk.client.models``).
+The spec requires no field of a job, batch, metric or metrics data (ReSim's Go client
+omits empty ones): required here are only the IDs stook cannot do without and a report's
+window. A missing string reads as None (names as ""), a metric's missing ``status`` as
+``NO_STATUS_REPORTED``, a missing ``metricsDataType`` as ``STANDARD``; "" (what Go writes
+for an unset string) reads as absent (`_Model`). Enumerations are open: their fields are
+``str``, a value the platform adds later is kept, and the ``StrEnum`` classes are the
+known vocabulary (compare with ``==``). Lax mode (``strict=False``) reads an integral float
+as an integer; where a field is not a string it also reads a number or boolean written as
+a string, and ``1``/``0`` as booleans. Anything else of the wrong type, an ID that is not a
+UUID, a number past a double's range or a timestamp that is not RFC 3339 is an error naming
+the field's JSON path (`msgspec.ValidationError`, which the client words).
 """
 
 from __future__ import annotations
@@ -37,13 +20,12 @@ from __future__ import annotations
 import enum
 import re
 import uuid
-from datetime import UTC, datetime, timedelta, timezone
-from typing import Any, ClassVar, Final, Generic, TypeVar
+from datetime import datetime
+from typing import Any, ClassVar, Generic, TypeVar
 
 import msgspec
 
 __all__ = [
-    "EMISSIONS_FILE",
     "ApiMetric",
     "ApiMetricStatus",
     "ApiMetricType",
@@ -84,9 +66,6 @@ __all__ = [
 ]
 
 _T = TypeVar("_T")
-
-#: The name the platform gives a test's emissions file, and its log.
-EMISSIONS_FILE: Final = "emissions.resim.jsonl"
 
 
 class ConflatedJobStatus(enum.StrEnum):
@@ -220,51 +199,31 @@ class Timestamp(datetime):
     __slots__ = ()
 
 
-# RFC 3339 as the platform's Go encoder writes it (RFC3339Nano: up to nine fractional
-# digits) and as the RFC allows it (lower-case t and z, any number of fractional digits).
+# RFC 3339 as the RFC allows it, with what `datetime.fromisoformat` does not read: lower-case
+# t and z, more than six fractional digits (Go's RFC3339Nano writes nine), a leap second.
 _RFC3339 = re.compile(
-    r"(\d{4})-(\d{2})-(\d{2})[Tt ](\d{2}):(\d{2}):(\d{2})(?:\.(\d+))?"
-    r"(?:([Zz])|([+-])(\d{2}):(\d{2}))"
+    r"(\d{4}-\d{2}-\d{2})[Tt ](\d{2}:\d{2}):(\d{2})(?:\.(\d+))?([Zz]|[+-]\d{2}:\d{2})"
 )
 
 
 def parse_rfc3339(text: str) -> Timestamp | None:
-    """An RFC 3339 timestamp (fractions past microseconds truncated; a leap second as
-    :59.999999), or None if it is not one.
-
-    ``datetime.fromisoformat`` reads most of them and is fast, so it goes first; the
-    rest (a lower-case "t" or "z"; more fractional digits than a given Python reads) are
-    read here, so the result does not depend on the Python release.
-    """
+    """An RFC 3339 timestamp, or None if it is not one. Fractions past microseconds are
+    truncated; a leap second (:60, which a datetime cannot hold) reads as :59.999999, so
+    the order of times is kept."""
     try:
-        return Timestamp.fromisoformat(text)
+        return Timestamp.fromisoformat(text)  # most timestamps, at once
     except ValueError:
         pass
     match = _RFC3339.fullmatch(text)
     if match is None:
         return None
-    year, month, day, hour, minute, second, fraction, zulu, sign, off_h, off_m = match.groups()
-    if zulu:
-        zone: timezone = UTC
-    else:
-        offset = timedelta(hours=int(off_h), minutes=int(off_m))
-        zone = timezone(-offset if sign == "-" else offset)
-    micros = int((fraction or "0")[:6].ljust(6, "0"))
+    day, minutes, second, fraction, zone = match.groups()
+    micros = (fraction or "0")[:6].ljust(6, "0")
     if second == "60":
-        # A leap second (RFC 3339 allows :60), which datetime cannot hold: read as the
-        # last instant of the minute before it, so the order of times is kept.
-        second, micros = "59", 999_999
+        second, micros = "59", "999999"
+    offset = "+00:00" if zone in ("Z", "z") else zone
     try:
-        return Timestamp(
-            int(year),
-            int(month),
-            int(day),
-            int(hour),
-            int(minute),
-            int(second),
-            micros,
-            tzinfo=zone,
-        )
+        return Timestamp.fromisoformat(f"{day}T{minutes}:{second}.{micros}{offset}")
     except ValueError:  # e.g. month 13, or an offset of a day or more
         return None
 
@@ -358,7 +317,6 @@ class ApiMetric(_Model, frozen=True):
     event_metric: bool = msgspec.field(default=False, name="eventMetric")
     job_id: uuid.UUID | None = msgspec.field(default=None, name="jobID")
     batch_id: uuid.UUID | None = msgspec.field(default=None, name="batchID")
-    creation_timestamp: Timestamp | None = msgspec.field(default=None, name="creationTimestamp")
 
     _blank: ClassVar[dict[str, object]] = {
         "type": None,
@@ -395,7 +353,6 @@ class ApiMetricsData(_Model, frozen=True):
     filename: str | None = None
     job_id: uuid.UUID | None = msgspec.field(default=None, name="jobID")
     batch_id: uuid.UUID | None = msgspec.field(default=None, name="batchID")
-    creation_timestamp: Timestamp | None = msgspec.field(default=None, name="creationTimestamp")
 
     _blank: ClassVar[dict[str, object]] = {
         "metrics_data_type": MetricsDataStorageType.STANDARD,

@@ -34,7 +34,7 @@ from stook.service.api._errors import (
     TransportError,
 )
 from stook.service.api._redact import redact_text, redact_url
-from stook.service.api._transport import TransferStats
+from stook.service.api._transport import TrafficCounts
 
 _log = structlog.get_logger("stook.service.retry")
 _T = TypeVar("_T")
@@ -227,7 +227,7 @@ class Origin:
 class _Request:
     """One request's retries once it failed: tenacity's state, its budget, what ends it."""
 
-    def __init__(self, origin: Origin, url: URL, stats: TransferStats, started: float) -> None:
+    def __init__(self, origin: Origin, url: URL, stats: TrafficCounts, started: float) -> None:
         self.origin, self.policy, self.url, self.stats = origin, origin.policy, url, stats
         self.started = started
         self.tenacity = tenacity.Retrying(
@@ -335,7 +335,7 @@ class _Request:
 
 
 async def send(
-    attempt: Callable[[], Awaitable[_T]], origin: Origin, *, url: URL, stats: TransferStats
+    attempt: Callable[[], Awaitable[_T]], origin: Origin, *, url: URL, stats: TrafficCounts
 ) -> _T:
     """Await ``attempt()`` until it succeeds, fails for good (raised unchanged), or its budget
     is spent (:class:`OriginUnavailableError` while the gate is closed, else

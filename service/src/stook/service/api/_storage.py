@@ -23,7 +23,7 @@ from stook.service.api._transport import (
     BodyCap,
     HttpTransport,
     Response,
-    TransferStats,
+    TrafficCounts,
     Transport,
     body_cap_mb,
 )
@@ -67,7 +67,7 @@ class StorageClient:
             credentials_allowed=False,
             limiter=limiter,
         )
-        self.stats: TransferStats = self._transport.stats
+        self.stats: TrafficCounts = self._transport.stats
 
     async def __aenter__(self) -> Self:
         await self._transport.open()

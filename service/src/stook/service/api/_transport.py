@@ -61,7 +61,7 @@ class Response:
 
 
 @dataclass(slots=True)
-class TransferStats:
+class TrafficCounts:
     """Counters of one client's traffic (one event loop updates them: no lock)."""
 
     requests: int = 0
@@ -73,7 +73,7 @@ class TransferStats:
 class Transport(Protocol):
     """What a client needs from its transport: :class:`HttpTransport` or a stand-in."""
 
-    stats: TransferStats
+    stats: TrafficCounts
 
     async def open(self) -> None: ...
 
@@ -103,7 +103,7 @@ class HttpTransport:
         names = {name.lower() for name in self.headers}
         if not self.credentials_allowed and names & {"authorization", "proxy-authorization"}:
             raise ValueError(f"{self.name} transport must not carry credential headers")
-        self.stats = TransferStats()
+        self.stats = TrafficCounts()
         self._limit = self.limiter or FixedLimit(self.concurrency)
         self._session: aiohttp.ClientSession | None = None
         self._debug = False

@@ -13,10 +13,10 @@ from typing import Any
 
 from stook.sdk import MetricStatus, MetricsWriter
 from stook.service.metrics_config._emissions import Tables
-from stook.service.metrics_config._engine import QueryEngine, Result
 from stook.service.metrics_config._events import write_events
 from stook.service.metrics_config._liquid import render_figure
 from stook.service.metrics_config._model import Level, Metric, MetricsConfig
+from stook.service.metrics_config._query_engine import QueryEngine, Result
 from stook.service.metrics_config._render import options_for, render, render_no_data
 
 

@@ -9,9 +9,9 @@ from __future__ import annotations
 import json
 from typing import Any
 
-from stook.service.metrics_config._engine import Result
 from stook.service.metrics_config._errors import TemplateError
 from stook.service.metrics_config._model import Metric
+from stook.service.metrics_config._query_engine import Result
 from stook.service.metrics_config._values import plain
 
 

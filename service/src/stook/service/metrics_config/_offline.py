@@ -10,11 +10,11 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from stook.service.metrics_config._emissions import EmissionsSet
-from stook.service.metrics_config._engine import QueryEngine
 from stook.service.metrics_config._errors import EmissionsError
 from stook.service.metrics_config._jobs import JobMeta
 from stook.service.metrics_config._liquid import template_problem
 from stook.service.metrics_config._model import MetricsConfig
+from stook.service.metrics_config._query_engine import QueryEngine
 
 EMISSIONS_NAME = "emissions.resim.jsonl"
 JOB_META_NAME = "job.json"

@@ -11,9 +11,9 @@ from collections.abc import Callable
 from typing import Any
 
 from stook.sdk import MetricOptions, MetricStatus, MetricsWriter, data
-from stook.service.metrics_config._engine import Result
 from stook.service.metrics_config._errors import QueryError
 from stook.service.metrics_config._model import Metric
+from stook.service.metrics_config._query_engine import Result
 from stook.service.metrics_config._values import label, number, plain, timestamp_ns
 
 DEFAULT_BINS = 20

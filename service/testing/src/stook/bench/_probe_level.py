@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 from typing import Any, TypeVar
 
 from stook.bench._probe_plan import Origin, ProbePlan, Timer
-from stook.service.api import ApiClient, ApiError, AuthError, RetryPolicy, TransferStats
+from stook.service.api import ApiClient, ApiError, AuthError, RetryPolicy, TrafficCounts
 from stook.service.modes import open_api
 
 __all__ = ["LevelResult", "OriginResult", "percentile", "run_level"]
@@ -50,7 +50,7 @@ class OriginResult:
     failed: int  # calls that failed in the end (after the retries they were allowed)
 
     @classmethod
-    def of(cls, seconds: list[float], stats: TransferStats, failed: int) -> OriginResult:
+    def of(cls, seconds: list[float], stats: TrafficCounts, failed: int) -> OriginResult:
         ms = sorted(s * 1000 for s in seconds)
         return cls(
             requests=stats.requests,
@@ -175,8 +175,8 @@ def _result(
     concurrency: int,
     elapsed: float,
     recorder: _Recorder,
-    api_stats: TransferStats,
-    storage_stats: TransferStats,
+    api_stats: TrafficCounts,
+    storage_stats: TrafficCounts,
 ) -> LevelResult:
     api = OriginResult.of(recorder.seconds["api"], api_stats, recorder.failed["api"])
     storage = OriginResult.of(
