@@ -85,6 +85,9 @@ async def run_report(
     """Fetch the report's batches, fold them into the aggregations, write the output.
 
     `engine` is where the fetch and fold runs (default: the config's `[engine]`)."""
+    # The report aggregations come with the report run (see report_aggregations).
+    from stook.sdk.aggregations.report import ScalarLines
+
     started = asyncio.get_running_loop().time()
     aggregations = report_aggregations(config, str(inputs.access.project_id))
     # [metrics_config]: its config loaded and checked now, before the first request.
@@ -132,8 +135,6 @@ async def run_report(
     write_summary(writer, outcome)
     await write_config_metrics(config_metrics, writer, config.fetch, retry, started=started)
     output = write_output(writer, aggregations, outputs_dir)
-    from stook.sdk.aggregations.report import ScalarLines  # imported by report_aggregations
-
     lines = [a for a in aggregations if isinstance(a, ScalarLines)]
     return ReportResult(
         kind="report",
