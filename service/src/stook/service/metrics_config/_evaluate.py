@@ -141,7 +141,8 @@ def _one(
             )
         handle, files = render(writer, metric, result, status, attached)
     except WriterError as exc:  # a value the writer refuses (the metric is not written)
-        raise _MarkedError("RENDER_ERROR", RenderError(metric, str(exc))) from None
+        why = _without_name(str(exc), metric.name)
+        raise _MarkedError("RENDER_ERROR", RenderError(metric, why)) from None
     except StookError as exc:
         raise _MarkedError("RENDER_ERROR", exc) from None
     done.files.extend(f for f in files if f not in done.files)
