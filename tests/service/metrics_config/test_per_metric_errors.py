@@ -249,3 +249,15 @@ def test_event_statuses_count_and_their_metrics_are_rendered(
     assert view.metric("trace", PlotlyMetric).json["data"][0]["y"] == [1, 2]
     assert view.metric("impact speed", ScalarMetric).value == 3.5
     assert "{" not in texts["contacts"]  # no Python repr
+
+
+def test_strict_in_stook_toml_is_a_boolean() -> None:
+    from stook.service.modes import ConfigError, parse
+
+    table = {"paths": ["a.yml"]}
+    for given, strict in (({}, False), ({"strict": True}, True)):
+        settings = parse({"metrics_config": {**table, **given}}).metrics_config
+        assert settings is not None
+        assert settings.strict is strict
+    with pytest.raises(ConfigError, match=r"\[metrics_config\] 'strict' must be true or false"):
+        parse({"metrics_config": {**table, "strict": "yes"}})
