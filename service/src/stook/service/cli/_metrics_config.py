@@ -75,22 +75,28 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     run.add_argument(
         "--emissions",
         type=Path,
-        nargs="+",
+        action="append",
         required=True,
         metavar="PATH",
-        help="an emissions.resim.jsonl (one job) or a folder of per-job folders",
+        help="an emissions.resim.jsonl (one job) or a folder of per-job folders; "
+        "repeat the flag for more",
     )
     run.add_argument(
         "--level",
-        choices=("test", "batch", "dashboard"),
+        type=_level,
         required=True,
-        help="which metrics run: the test's, the batch's or the dashboard's (report)",
+        metavar="{test,batch,dashboard}",
+        help="which metrics run: the test's, the batch's or the dashboard's (report "
+        "mode's; 'report' is taken for 'dashboard')",
     )
     run.add_argument(
         "--metrics-set", metavar="NAME", help="only this metrics set's metrics (default: all)"
     )
     run.add_argument(
+        "-o",
+        "--output",
         "--outputs",
+        dest="outputs",
         type=Path,
         default=Path("outputs"),
         metavar="DIR",
@@ -105,6 +111,19 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="a failing metric fails the run (exit 4, nothing written) instead of being "
         "written as an error",
     )
+
+
+_LEVELS = ("test", "batch", "dashboard")
+
+
+def _level(text: str) -> str:
+    """A level as --level names it; report mode's metrics are the dashboard's."""
+    level = "dashboard" if text == "report" else text
+    if level not in _LEVELS:
+        raise argparse.ArgumentTypeError(
+            f"invalid choice: {text!r} (choose from {', '.join(map(repr, _LEVELS))})"
+        )
+    return level
 
 
 def _add_common(parser: argparse.ArgumentParser) -> None:
