@@ -1,0 +1,329 @@
+"""Trino's functions as stook computes them: the allow-list of a metric's query.
+
+A metric's query is Trino SQL. Each function it may call is listed here with how
+DuckDB computes Trino's value for it:
+
+- `SAME`: sqlglot's Trino-to-DuckDB translation already gives Trino's value (the
+  conformance corpus in the tests holds a case for each);
+- `REWRITTEN`: the call is replaced by one of the macros below, which compute what Trino
+  computes where DuckDB differs (a NULL where DuckDB gives '', Java's number formats,
+  decimal arithmetic, 1-based positions...).
+
+A function that is in neither is refused by name before anything runs: a DuckDB
+function that is not Trino's (`read_text`, `getenv`, ...), and a Trino function whose
+value stook does not reproduce. The macros dispatch on DuckDB's own types (typed macro
+overloads, resolved when the query binds), so a rewrite never guesses a type.
+"""
+
+from __future__ import annotations
+
+import math
+from decimal import ROUND_HALF_UP, Decimal, DivisionByZero, InvalidOperation, localcontext
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    import duckdb
+
+# The sqlglot node (its class name) of each function whose DuckDB translation is
+# Trino's value.
+SAME: frozenset[str] = frozenset(
+    {
+        # conditionals and casts (CAST to VARCHAR and AVG/ROUND/division are rewritten)
+        "Case",
+        "If",
+        "Coalesce",
+        "Nullif",
+        "Cast",
+        "TryCast",
+        "Greatest",
+        "Least",
+        "Exists",
+        # math
+        "Abs",
+        "Sqrt",
+        "Cbrt",
+        "Exp",
+        "Ln",
+        "Log",
+        "Pow",
+        "Floor",
+        "Ceil",
+        "Pi",
+        "Degrees",
+        "Radians",
+        "Sin",
+        "Cos",
+        "Tan",
+        "Asin",
+        "Acos",
+        "Atan",
+        "Atan2",
+        "IsNan",
+        # strings
+        "Length",
+        "Lower",
+        "Upper",
+        "Concat",
+        "ConcatWs",
+        "Replace",
+        "Reverse",
+        "StrPosition",
+        "StartsWith",
+        "Pad",
+        "Chr",
+        "RegexpLike",
+        "Levenshtein",
+        # aggregates
+        "Count",
+        "CountIf",
+        "Sum",
+        "Min",
+        "Max",
+        "AnyValue",
+        "ArgMin",
+        "ArgMax",
+        "Stddev",
+        "StddevSamp",
+        "StddevPop",
+        "Variance",
+        "VariancePop",
+        "LogicalAnd",
+        "LogicalOr",
+        "ApproxQuantile",
+        "ArrayAgg",
+        "Corr",
+        "CovarSamp",
+        "CovarPop",
+        # window functions
+        "RowNumber",
+        "Rank",
+        "DenseRank",
+        "PercentRank",
+        "CumeDist",
+        "Ntile",
+        "Lag",
+        "Lead",
+        "FirstValue",
+        "LastValue",
+        "NthValue",
+        # arrays and lambdas
+        "Array",
+        "ArraySize",
+        "ArrayContains",
+        "ArrayPosition",
+        "ArrayFilter",
+        "Transform",
+        "ArrayMax",
+        "ArrayMin",
+        "ArraySort",
+        "ArrayDistinct",
+        "ArrayToString",
+        "Unnest",
+        "Explode",
+        # dates and times (session time zone UTC, as the platform's)
+        "UnixToTime",
+        "TimeToUnix",
+        "Year",
+        "Month",
+        "Day",
+        "Hour",
+        "Minute",
+        "Second",
+    }
+)
+
+# Functions sqlglot does not know (exp.Anonymous), by their Trino name, each replaced by
+# the macro of the same name with the `trino_` prefix.
+REWRITTEN_BY_NAME: frozenset[str] = frozenset(
+    {"human_readable_seconds", "from_unixtime_nanos", "is_finite", "is_infinite", "nan", "infinity"}
+)
+
+# Why a DuckDB function a Trino query cannot mean is refused, said to the user.
+REASONS: dict[str, str] = {
+    name: "it reads files or URLs; a metric's query reads only its tables"
+    for name in (
+        "read_text",
+        "read_blob",
+        "read_csv",
+        "read_csv_auto",
+        "read_json",
+        "read_json_auto",
+        "read_json_objects",
+        "read_ndjson",
+        "read_ndjson_auto",
+        "read_ndjson_objects",
+        "read_parquet",
+        "parquet_scan",
+        "parquet_metadata",
+        "parquet_schema",
+        "glob",
+        "sniff_csv",
+        "iceberg_scan",
+        "delta_scan",
+        "sqlite_scan",
+    )
+} | {
+    name: "it reads the machine's settings or environment; a metric's query reads only its tables"
+    for name in ("getenv", "current_setting", "duckdb_settings", "current_schema", "version")
+}
+
+# Each macro: DuckDB SQL giving Trino's value. Typed parameter overloads dispatch on the
+# argument's DuckDB type (an unused typed parameter is never evaluated).
+_INTEGERS = ("TINYINT", "SMALLINT", "INTEGER", "BIGINT", "HUGEINT")
+_NUMBERS = (*_INTEGERS, "FLOAT", "DOUBLE")
+# Java's Character.isWhitespace, as an RE2 character class body.
+_JAVA_SPACE = (
+    r"\t\n\x0B\f\r\x1C-\x1F \x{1680}\x{2000}-\x{2006}\x{2008}-\x{200A}\x{2028}\x{2029}"
+    r"\x{205F}\x{3000}"
+)
+
+
+def _overloads(name: str, params: str, bodies: dict[str, str], fallback: str) -> str:
+    """CREATE MACRO `name`(t <type>, `params`) per body, and an untyped fallback."""
+    parts = [f"(t {typ}, {params}) AS {body}" for typ, body in bodies.items()]
+    parts.append(f"(t, {params}) AS {fallback}")
+    return f"CREATE MACRO {name} " + ", ".join(parts)
+
+
+MACROS: tuple[str, ...] = (
+    "CREATE MACRO trino_java_round(a) AS "
+    "CASE WHEN a - floor(a) >= 0.5 THEN floor(a) + 1 ELSE floor(a) END",
+    # Math.round(x * 10^d) / 10^d on the magnitude, as Trino's round(double, integer).
+    "CREATE MACRO trino_round_double(x, d) AS CASE WHEN isnan(x) OR isinf(x) THEN x "
+    "ELSE sign(x) * trino_java_round(abs(x) * pow(10, d)) / pow(10, d) END",
+    # round(x, d) keeps x's type (a DECIMAL its scale); a DOUBLE as Trino rounds one.
+    "CREATE MACRO trino_round(x, d) AS CASE WHEN typeof(x) IN ('DOUBLE', 'FLOAT') "
+    "THEN cast_to_type(trino_round_double(x, d), x) ELSE cast_to_type(round(x, d), x) END",
+    "CREATE MACRO trino_round0(x) AS CASE WHEN typeof(x) IN ('DOUBLE', 'FLOAT') "
+    "THEN cast_to_type(trino_round_double(x, 0), x) ELSE round(x) END",
+    # CAST(x AS VARCHAR): a DOUBLE as Java's Double.toString in scientific form; the
+    # types whose text is DuckDB's as is; the rest refused.
+    "CREATE MACRO trino_varchar(x) AS CASE "
+    "WHEN typeof(x) = 'DOUBLE' THEN trino_double_text(CAST(x AS VARCHAR)) "
+    f"WHEN typeof(x) IN ({', '.join(repr(t) for t in (*_INTEGERS, 'VARCHAR', 'BOOLEAN', 'DATE'))}) "
+    "OR typeof(x) LIKE 'DECIMAL%' THEN CAST(x AS VARCHAR) "
+    "ELSE error('CAST of a ' || typeof(x) || ' to VARCHAR: stook does not reproduce "
+    "Trino''s text for it') END",
+    # a / b: integers give an integer, truncated (DuckDB's integer_division setting);
+    # a DECIMAL quotient has the larger scale, rounded half up. Both branches are of
+    # a + b's type, the quotient's in Trino.
+    "CREATE MACRO trino_divide(a, b) AS CASE WHEN typeof(a + b) LIKE 'DECIMAL%' "
+    "THEN cast_to_type(trino_decimal_quotient(CAST(a AS VARCHAR), CAST(b AS VARCHAR)), a + b) "
+    "ELSE cast_to_type(a / b, a + b) END",
+    # AVG: of a DECIMAL, a DECIMAL of its scale rounded half up; else a DOUBLE (the
+    # sum is taken over DOUBLEs, see trino_avg_input).
+    _overloads(
+        "trino_avg_input",
+        "x",
+        {"DECIMAL": "x", "DOUBLE": "x", **{typ: "CAST(x AS DOUBLE)" for typ in _INTEGERS}},
+        "x",
+    ),
+    "CREATE MACRO trino_avg(s, n) AS CASE WHEN typeof(s) LIKE 'DECIMAL%' "
+    "THEN cast_to_type(trino_decimal_quotient(CAST(s AS VARCHAR), CAST(n AS VARCHAR)), s) "
+    "ELSE cast_to_type(CAST(s AS DOUBLE) / n, s) END",
+    # SUM of integers is a BIGINT in Trino (DuckDB's is a HUGEINT): overflow raises.
+    "CREATE MACRO trino_sum(s) AS CASE WHEN typeof(s) = 'HUGEINT' "
+    "THEN CAST(CAST(s AS BIGINT) AS HUGEINT) ELSE s END",
+    # NULL, not '', where nothing matches or the part is beyond the last.
+    "CREATE MACRO trino_regexp_extract(s, p, g) AS "
+    "CASE WHEN regexp_matches(s, p) THEN regexp_extract(s, p, g) END",
+    "CREATE MACRO trino_split_part(s, d, i) AS CASE "
+    "WHEN i < 1 THEN error('Index must be greater than zero') "
+    "WHEN i <= len(string_split(s, d)) THEN split_part(s, d, i) END",
+    # substr: start 0 or beyond either end gives ''; a negative start counts from the end.
+    "CREATE MACRO trino_substr(s, start, n) AS CASE "
+    "WHEN start = 0 OR n <= 0 OR start > length(s) OR length(s) + start + 1 <= 0 THEN '' "
+    "WHEN start < 0 THEN substring(s, length(s) + start + 1, n) "
+    "ELSE substring(s, start, n) END",
+    # Java's whitespace (Character.isWhitespace), not only ' '.
+    f"CREATE MACRO trino_trim(s) AS regexp_replace(s, '^[{_JAVA_SPACE}]+|[{_JAVA_SPACE}]+$', "
+    "'', 'g')",
+    f"CREATE MACRO trino_ltrim(s) AS regexp_replace(s, '^[{_JAVA_SPACE}]+', '')",
+    f"CREATE MACRO trino_rtrim(s) AS regexp_replace(s, '[{_JAVA_SPACE}]+$', '')",
+    "CREATE MACRO trino_width_bucket(x, b1, b2, n) AS CASE "
+    "WHEN n <= 0 THEN error('bucketCount must be greater than 0') "
+    "WHEN isnan(x) THEN error('operand must not be NaN') "
+    "WHEN isinf(b1) OR isnan(b1) THEN error('first bound must be finite') "
+    "WHEN isinf(b2) OR isnan(b2) THEN error('second bound must be finite') "
+    "WHEN b1 = b2 THEN error('bounds cannot equal each other') "
+    "WHEN b1 < b2 THEN CASE WHEN x < b1 THEN 0 WHEN x >= b2 THEN n + 1 "
+    "ELSE CAST(trunc(CAST(n AS DOUBLE) * (x - b1) / (b2 - b1)) AS BIGINT) + 1 END "
+    "ELSE CASE WHEN x > b1 THEN 0 WHEN x <= b2 THEN n + 1 "
+    "ELSE CAST(trunc(CAST(n AS DOUBLE) * (b1 - x) / (b1 - b2)) AS BIGINT) + 1 END END",
+    "CREATE MACRO trino_is_finite(x) AS isfinite(CAST(x AS DOUBLE))",
+    "CREATE MACRO trino_is_infinite(x) AS isinf(CAST(x AS DOUBLE))",
+    "CREATE MACRO trino_nan() AS CAST('NaN' AS DOUBLE)",
+    "CREATE MACRO trino_infinity() AS CAST('Infinity' AS DOUBLE)",
+    "CREATE MACRO trino_from_unixtime_nanos(n) AS "
+    "error('from_unixtime_nanos: stook does not reproduce Trino''s timestamp(9)')",
+    "CREATE MACRO trino_human_readable_seconds(x) AS trino_readable_seconds(CAST(x AS DOUBLE))",
+)
+
+
+def install(con: duckdb.DuckDBPyConnection) -> None:
+    """The macros and Python functions above, on `con` (before its configuration is
+    locked)."""
+    con.create_function(
+        "trino_double_text", java_double_text, ["VARCHAR"], "VARCHAR", side_effects=False
+    )
+    con.create_function(
+        "trino_decimal_quotient",
+        decimal_quotient,
+        ["VARCHAR", "VARCHAR"],
+        "VARCHAR",
+        side_effects=False,
+    )
+    con.create_function(
+        "trino_readable_seconds", readable_seconds, ["DOUBLE"], "VARCHAR", side_effects=False
+    )
+    for macro in MACROS:
+        con.execute(macro)
+
+
+def java_double_text(text: str) -> str:
+    """CAST(DOUBLE AS VARCHAR) in Trino, from DuckDB's text of the DOUBLE: the shortest
+    digits that read back as the value (Java's, as Python's repr), always in scientific
+    form: 3.77E1, 1.2E3, 0E0, -0E0."""
+    value = float(text)
+    if math.isnan(value):
+        return "NaN"
+    if math.isinf(value):
+        return "Infinity" if value > 0 else "-Infinity"
+    sign, digits, exponent = Decimal(repr(value)).as_tuple()
+    text = "".join(map(str, digits)).rstrip("0") or "0"
+    power = len(digits) - 1 + int(exponent) if text != "0" else 0
+    mantissa = text[0] + ("." + text[1:] if len(text) > 1 else "")
+    return f"{'-' if sign else ''}{mantissa}E{power}"
+
+
+def decimal_quotient(dividend: str, divisor: str) -> str:
+    """`dividend / divisor` (DECIMAL or integer text) at the larger of their scales,
+    rounded half up, as Trino divides decimals; a zero divisor raises."""
+    a, b = Decimal(dividend), Decimal(divisor)
+    if b == 0:
+        raise ZeroDivisionError("Division by zero")
+    scale = max(-int(a.as_tuple().exponent), -int(b.as_tuple().exponent), 0)
+    with localcontext() as context:
+        context.prec = 80
+        try:
+            quotient = (a / b).quantize(Decimal(1).scaleb(-scale), rounding=ROUND_HALF_UP)
+        except (DivisionByZero, InvalidOperation) as exc:  # pragma: no cover - b != 0
+            raise ZeroDivisionError("Division by zero") from exc
+    return str(quotient) if quotient.as_tuple().exponent != 0 else f"{quotient:f}"
+
+
+_UNITS = (("week", 604800), ("day", 86400), ("hour", 3600), ("minute", 60), ("second", 1))
+
+
+def readable_seconds(seconds: float) -> str:
+    """human_readable_seconds: whole weeks, days, hours, minutes and seconds, the
+    fraction rounded half up (Trino: 96 -> '1 minute, 36 seconds')."""
+    if math.isnan(seconds) or math.isinf(seconds):
+        raise ValueError(f"Invalid argument: {seconds}")
+    left = int(Decimal(repr(abs(seconds))).quantize(Decimal(1), rounding=ROUND_HALF_UP))
+    parts = []
+    for unit, size in _UNITS:
+        count, left = divmod(left, size)
+        if count:
+            parts.append(f"{count} {unit}{'' if count == 1 else 's'}")
+    return ", ".join(parts) or "0 seconds"
