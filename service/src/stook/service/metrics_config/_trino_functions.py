@@ -28,6 +28,9 @@ if TYPE_CHECKING:
 # Trino's value.
 SAME: frozenset[str] = frozenset(
     {
+        # operators sqlglot counts as functions
+        "And",
+        "Or",
         # conditionals and casts (CAST to VARCHAR and AVG/ROUND/division are rewritten)
         "Case",
         "If",
