@@ -119,9 +119,7 @@ _SETTINGS: dict[str, str | bool | int | float | list[str]] = {
     "autoload_known_extensions": False,
     "allow_community_extensions": False,
     "python_enable_replacements": False,
-    # Trino's: integer / integer is an integer; NULLs
-    # sort last whichever the direction (and the time zone, below, UTC).
-    "integer_division": True,
+    # Trino's: NULLs sort last whichever the direction (and the time zone, below, UTC).
     "default_null_order": "nulls_last",
 }
 

@@ -224,9 +224,34 @@ def _distinct_free(arg: exp.Expr) -> exp.Expr:
 def _cast(node: exp.Cast) -> exp.Expr:
     from sqlglot import exp
 
-    if not node.to.is_type(exp.DataType.Type.VARCHAR):
+    if node.to.is_type(exp.DataType.Type.VARCHAR):
+        return _call("trino_varchar", node.this)
+    if node.to.is_type(*exp.DataType.INTEGER_TYPES):
+        node.set("this", _call("trino_integral", node.this))
+    return node
+
+
+def _bracket(node: exp.Bracket) -> exp.Expr:
+    """x[i] (not element_at, whose NULL past the end is DuckDB's too) raises past the
+    ends. sqlglot holds the index 0-based."""
+    from sqlglot import exp
+
+    if node.args.get("safe") or len(node.expressions) != 1:
         return node
-    return _call("trino_varchar", node.this)
+    index = exp.Add(this=node.expressions[0].copy(), expression=exp.Literal.number(1))
+    return _call("trino_subscript", node.this.copy(), index, node.copy())
+
+
+def _array_position(node: exp.Expr) -> exp.Expr:
+    return _call("trino_array_position", node.this, node.expression)
+
+
+def _date_diff(node: exp.Expr) -> exp.Expr:
+    """date_diff counts whole units elapsed (DuckDB's date_sub), not boundaries crossed."""
+    from sqlglot import exp
+
+    unit = exp.Literal.string(str(node.args["unit"].name if node.args.get("unit") else "day"))
+    return _call("date_sub", unit, node.expression, node.this)
 
 
 def _regexp_extract(node: exp.Expr) -> exp.Expr:
@@ -243,7 +268,7 @@ def _split_part(node: exp.Expr) -> exp.Expr:
 def _substring(node: exp.Expr) -> exp.Expr:
     from sqlglot import exp
 
-    length = node.args.get("length") or exp.Literal.number(2**62)
+    length = node.args.get("length") or exp.Length(this=node.this.copy())
     return _call("trino_substr", node.this, node.args["start"], length)
 
 
@@ -287,6 +312,9 @@ _REWRITES: dict[str, Callable[[Any], exp.Expr]] = {
     "Substring": _substring,
     "Trim": _trim,
     "WidthBucket": _width_bucket,
+    "Bracket": _bracket,
+    "ArrayPosition": _array_position,
+    "DateDiff": _date_diff,
     "Anonymous": _anonymous,
 }
 

@@ -44,13 +44,13 @@ SAME: frozenset[str] = frozenset(
         # math
         "Abs",
         "Sqrt",
-        "Cbrt",
         "Exp",
         "Ln",
         "Log",
         "Pow",
         "Floor",
         "Ceil",
+        "Trunc",
         "Pi",
         "Degrees",
         "Radians",
@@ -119,12 +119,13 @@ SAME: frozenset[str] = frozenset(
         "ArrayMax",
         "ArrayMin",
         "ArraySort",
-        "ArrayDistinct",
         "ArrayToString",
         "Unnest",
         "Explode",
         # dates and times (session time zone UTC, as the platform's)
         "UnixToTime",
+        "TimestampTrunc",
+        "DateAdd",
         "TimeToUnix",
         "Year",
         "Month",
@@ -138,7 +139,7 @@ SAME: frozenset[str] = frozenset(
 # Functions sqlglot does not know (exp.Anonymous), by their Trino name, each replaced by
 # the macro of the same name with the `trino_` prefix.
 REWRITTEN_BY_NAME: frozenset[str] = frozenset(
-    {"human_readable_seconds", "from_unixtime_nanos", "is_finite", "is_infinite", "nan", "infinity"}
+    {"human_readable_seconds", "is_finite", "is_infinite", "nan", "infinity"}
 )
 
 # Why a DuckDB function a Trino query cannot mean is refused, said to the user.
@@ -194,24 +195,40 @@ MACROS: tuple[str, ...] = (
     # Math.round(x * 10^d) / 10^d on the magnitude, as Trino's round(double, integer).
     "CREATE MACRO trino_round_double(x, d) AS CASE WHEN isnan(x) OR isinf(x) THEN x "
     "ELSE sign(x) * trino_java_round(abs(x) * pow(10, d)) / pow(10, d) END",
-    # round(x, d) keeps x's type (a DECIMAL its scale); a DOUBLE as Trino rounds one.
+    # round(x, d) keeps x's type (a DECIMAL its scale, one more digit: x * 1); a
+    # DOUBLE as Trino rounds one.
     "CREATE MACRO trino_round(x, d) AS CASE WHEN typeof(x) IN ('DOUBLE', 'FLOAT') "
-    "THEN cast_to_type(trino_round_double(x, d), x) ELSE cast_to_type(round(x, d), x) END",
+    "THEN cast_to_type(trino_round_double(x, d), x * 1) ELSE cast_to_type(round(x, d), x * 1) "
+    "END",
     "CREATE MACRO trino_round0(x) AS CASE WHEN typeof(x) IN ('DOUBLE', 'FLOAT') "
-    "THEN cast_to_type(trino_round_double(x, 0), x) ELSE round(x) END",
+    "THEN cast_to_type(trino_round_double(x, 0), round(x)) ELSE round(x) END",
+    # CAST(x AS <integer type>): a DOUBLE rounds half away from zero (DuckDB's to even).
+    "CREATE MACRO trino_integral(x) AS CASE WHEN typeof(x) IN ('DOUBLE', 'FLOAT') "
+    "THEN cast_to_type(trino_round_double(TRY_CAST(x AS DOUBLE), 0), x) ELSE x END",
+    # x[i] past either end raises (DuckDB's gives NULL); v is DuckDB's x[i].
+    "CREATE MACRO trino_subscript(x, i, v) AS CASE "
+    "WHEN i > len(x) THEN error('Array subscript must be less than or equal to array length') "
+    "WHEN i < 1 THEN error('Array subscript must be positive') ELSE v END",
+    # array_position: 0, not NULL, where the element is absent.
+    "CREATE MACRO trino_array_position(x, e) AS "
+    "CASE WHEN x IS NOT NULL THEN coalesce(array_position(x, e), 0) END",
     # CAST(x AS VARCHAR): a DOUBLE as Java's Double.toString in scientific form; the
     # types whose text is DuckDB's as is; the rest refused.
     "CREATE MACRO trino_varchar(x) AS CASE "
     "WHEN typeof(x) = 'DOUBLE' THEN trino_double_text(CAST(x AS VARCHAR)) "
+    "WHEN typeof(x) = 'FLOAT' THEN error('CAST of a REAL to VARCHAR: stook does not "
+    "reproduce Trino''s text for it') "
     f"WHEN typeof(x) IN ({', '.join(repr(t) for t in (*_INTEGERS, 'VARCHAR', 'BOOLEAN', 'DATE'))}) "
     "OR typeof(x) LIKE 'DECIMAL%' THEN CAST(x AS VARCHAR) "
     "ELSE error('CAST of a ' || typeof(x) || ' to VARCHAR: stook does not reproduce "
     "Trino''s text for it') END",
-    # a / b: integers give an integer, truncated (DuckDB's integer_division setting);
-    # a DECIMAL quotient has the larger scale, rounded half up. Both branches are of
-    # a + b's type, the quotient's in Trino.
+    # a / b: integers give an integer, truncated toward zero, and raise on a zero
+    # divisor; a DECIMAL quotient has the larger scale, rounded half up; a DOUBLE's is
+    # IEEE's (Infinity, NaN). Every branch is of a + b's type, the quotient's in Trino.
     "CREATE MACRO trino_divide(a, b) AS CASE WHEN typeof(a + b) LIKE 'DECIMAL%' "
     "THEN cast_to_type(trino_decimal_quotient(CAST(a AS VARCHAR), CAST(b AS VARCHAR)), a + b) "
+    f"WHEN typeof(a + b) IN ({', '.join(repr(t) for t in _INTEGERS)}) "
+    "THEN cast_to_type(TRY_CAST(a AS HUGEINT) // TRY_CAST(b AS HUGEINT), a + b) "
     "ELSE cast_to_type(a / b, a + b) END",
     # AVG: of a DECIMAL, a DECIMAL of its scale rounded half up; else a DOUBLE (the
     # sum is taken over DOUBLEs, see trino_avg_input).
@@ -243,22 +260,22 @@ MACROS: tuple[str, ...] = (
     "'', 'g')",
     f"CREATE MACRO trino_ltrim(s) AS regexp_replace(s, '^[{_JAVA_SPACE}]+', '')",
     f"CREATE MACRO trino_rtrim(s) AS regexp_replace(s, '[{_JAVA_SPACE}]+$', '')",
+    # width_bucket(x, bound1, bound2, n): buckets over [min, max), counted from bound1.
+    "CREATE MACRO trino_bucket_up(x, lo, hi, n) AS CASE WHEN x < lo THEN 0 "
+    "WHEN x >= hi THEN n + 1 "
+    "ELSE CAST(trunc(CAST(n AS DOUBLE) * (x - lo) / (hi - lo)) AS BIGINT) + 1 END",
     "CREATE MACRO trino_width_bucket(x, b1, b2, n) AS CASE "
     "WHEN n <= 0 THEN error('bucketCount must be greater than 0') "
     "WHEN isnan(x) THEN error('operand must not be NaN') "
-    "WHEN isinf(b1) OR isnan(b1) THEN error('first bound must be finite') "
-    "WHEN isinf(b2) OR isnan(b2) THEN error('second bound must be finite') "
+    "WHEN NOT isfinite(b1) THEN error('first bound must be finite') "
+    "WHEN NOT isfinite(b2) THEN error('second bound must be finite') "
     "WHEN b1 = b2 THEN error('bounds cannot equal each other') "
-    "WHEN b1 < b2 THEN CASE WHEN x < b1 THEN 0 WHEN x >= b2 THEN n + 1 "
-    "ELSE CAST(trunc(CAST(n AS DOUBLE) * (x - b1) / (b2 - b1)) AS BIGINT) + 1 END "
-    "ELSE CASE WHEN x > b1 THEN 0 WHEN x <= b2 THEN n + 1 "
-    "ELSE CAST(trunc(CAST(n AS DOUBLE) * (b1 - x) / (b1 - b2)) AS BIGINT) + 1 END END",
+    "WHEN b1 > b2 THEN n - trino_bucket_up(x, b2, b1, n) + 1 "
+    "ELSE trino_bucket_up(x, b1, b2, n) END",
     "CREATE MACRO trino_is_finite(x) AS isfinite(CAST(x AS DOUBLE))",
     "CREATE MACRO trino_is_infinite(x) AS isinf(CAST(x AS DOUBLE))",
     "CREATE MACRO trino_nan() AS CAST('NaN' AS DOUBLE)",
     "CREATE MACRO trino_infinity() AS CAST('Infinity' AS DOUBLE)",
-    "CREATE MACRO trino_from_unixtime_nanos(n) AS "
-    "error('from_unixtime_nanos: stook does not reproduce Trino''s timestamp(9)')",
     "CREATE MACRO trino_human_readable_seconds(x) AS trino_readable_seconds(CAST(x AS DOUBLE))",
 )
 
@@ -322,7 +339,7 @@ def readable_seconds(seconds: float) -> str:
     """human_readable_seconds: whole weeks, days, hours, minutes and seconds, the
     fraction rounded half up (Trino: 96 -> '1 minute, 36 seconds')."""
     if math.isnan(seconds) or math.isinf(seconds):
-        raise ValueError(f"Invalid argument: {seconds}")
+        raise ValueError(f"Invalid argument found: {seconds}")
     left = int(Decimal(repr(abs(seconds))).quantize(Decimal(1), rounding=ROUND_HALF_UP))
     parts = []
     for unit, size in _UNITS:
