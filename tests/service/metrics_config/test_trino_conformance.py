@@ -129,3 +129,12 @@ def test_the_docs_show_this_corpus_figure(
     assert shown == figure(outcomes), "docs/metrics-config.md: paste this figure:\n" + figure(
         outcomes
     )
+
+
+def _current_figure() -> str:
+    with QueryEngine({"t": pl.DataFrame({"x": [1]})}) as engine:
+        return figure([(case, *_outcome(engine, case)) for case in CASES])
+
+
+if __name__ == "__main__":  # python -m tests.service.metrics_config.test_trino_conformance
+    print(_current_figure())

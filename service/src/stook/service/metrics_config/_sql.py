@@ -246,6 +246,25 @@ def _array_position(node: exp.Expr) -> exp.Expr:
     return _call("trino_array_position", node.this, node.expression)
 
 
+def _dpipe(node: exp.Expr) -> exp.Expr:
+    node.set("this", _call("trino_text", node.this))
+    node.set("expression", _call("trino_text", node.expression))
+    return node
+
+
+def _concat(node: exp.Expr) -> exp.Expr:
+    node.set("expressions", [_call("trino_text", e) for e in node.expressions])
+    return node
+
+
+def _array_call(name: str) -> Callable[[exp.Expr], exp.Expr]:
+    def rewrite(node: exp.Expr) -> exp.Expr:
+        args = [node.this] + ([node.expression] if node.expression is not None else [])
+        return _call(name, *args)
+
+    return rewrite
+
+
 def _date_diff(node: exp.Expr) -> exp.Expr:
     """date_diff counts whole units elapsed (DuckDB's date_sub), not boundaries crossed."""
     from sqlglot import exp
@@ -315,6 +334,11 @@ _REWRITES: dict[str, Callable[[Any], exp.Expr]] = {
     "Bracket": _bracket,
     "ArrayPosition": _array_position,
     "DateDiff": _date_diff,
+    "DPipe": _dpipe,
+    "Concat": _concat,
+    "ArrayMax": _array_call("trino_array_max"),
+    "ArrayMin": _array_call("trino_array_min"),
+    "ArrayContains": _array_call("trino_contains"),
     "Anonymous": _anonymous,
 }
 

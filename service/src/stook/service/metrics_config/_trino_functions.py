@@ -209,6 +209,18 @@ MACROS: tuple[str, ...] = (
     "CREATE MACRO trino_subscript(x, i, v) AS CASE "
     "WHEN i > len(x) THEN error('Array subscript must be less than or equal to array length') "
     "WHEN i < 1 THEN error('Array subscript must be positive') ELSE v END",
+    # || and concat take VARCHAR (or arrays) in Trino; DuckDB would print a number.
+    "CREATE MACRO trino_text(x) AS CASE WHEN typeof(x) IN ('VARCHAR', '\"NULL\"') "
+    "OR typeof(x) LIKE '%[]' THEN x ELSE error('|| and concat take VARCHAR in Trino, not ' "
+    "|| typeof(x) || ' (CAST it to VARCHAR)') END",
+    # array_max, array_min: NULL when an element is NULL; contains: NULL when absent
+    # but a NULL is there.
+    "CREATE MACRO trino_has_null(x) AS len(list_filter(x, lambda e: e IS NULL)) > 0",
+    "CREATE MACRO trino_array_max(x) AS CASE WHEN NOT trino_has_null(x) THEN list_max(x) END",
+    "CREATE MACRO trino_array_min(x) AS CASE WHEN NOT trino_has_null(x) THEN list_min(x) END",
+    "CREATE MACRO trino_contains(x, e) AS CASE WHEN e IS NULL THEN NULL "
+    "WHEN list_contains(x, e) THEN true WHEN trino_has_null(x) THEN NULL "
+    "WHEN x IS NOT NULL THEN false END",
     # array_position: 0, not NULL, where the element is absent.
     "CREATE MACRO trino_array_position(x, e) AS "
     "CASE WHEN x IS NOT NULL THEN coalesce(array_position(x, e), 0) END",
