@@ -17,7 +17,12 @@ from __future__ import annotations
 from collections.abc import Callable, Collection
 from typing import TYPE_CHECKING, Any
 
-from stook.service.metrics_config._trino_functions import REASONS, REWRITTEN_BY_NAME, SAME
+from stook.service.metrics_config._trino_functions import (
+    DATE_FORMAT_SPECIFIERS,
+    REASONS,
+    REWRITTEN_BY_NAME,
+    SAME,
+)
 
 if TYPE_CHECKING:
     from sqlglot import exp
@@ -102,6 +107,8 @@ def _node_refusal(node: exp.Expr, tables: set[str]) -> str | None:
         return None
     if isinstance(node, (exp.Command, exp.Parameter, exp.SessionParameter)):
         return f"uses {node.sql(dialect='trino')!r}: a metric's query reads only its tables"
+    if isinstance(node, exp.TimeToStr):
+        return _date_format_refusal(node)
     if isinstance(node, exp.Func) and not _allowed(node):
         name = _function_name(node)
         why = REASONS.get(
@@ -110,6 +117,24 @@ def _node_refusal(node: exp.Expr, tables: set[str]) -> str | None:
             "in docs/metrics-config.md)",
         )
         return f"calls {name}(): {why}"
+    return None
+
+
+def _date_format_refusal(node: exp.TimeToStr) -> str | None:
+    """date_format's pattern must be a literal of specifiers DuckDB prints as Trino does."""
+    import re
+
+    from sqlglot import exp
+
+    pattern = node.args.get("format")
+    if not isinstance(pattern, exp.Literal) or not pattern.is_string:
+        return "calls date_format() with a pattern that is not a literal string"
+    for specifier in re.findall(r"%-?.", pattern.this):
+        if specifier not in DATE_FORMAT_SPECIFIERS:
+            return (
+                f"calls date_format() with a specifier stook does not print as Trino does "
+                f"(strftime's {specifier!r})"
+            )
     return None
 
 

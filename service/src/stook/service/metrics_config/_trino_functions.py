@@ -124,6 +124,9 @@ SAME: frozenset[str] = frozenset(
         "Explode",
         # dates and times (session time zone UTC, as the platform's)
         "UnixToTime",
+        "TimeToStr",  # date_format, its pattern checked (DATE_FORMAT_SPECIFIERS)
+        "CurrentTimestamp",  # the platform's "now" too: a query using it is not repeatable
+        "CurrentDate",
         "TimestampTrunc",
         "DateAdd",
         "TimeToUnix",
@@ -134,6 +137,13 @@ SAME: frozenset[str] = frozenset(
         "Minute",
         "Second",
     }
+)
+
+# date_format's MySQL specifiers as sqlglot translates them to strftime's (%i -> %M,
+# %M -> %B, %e -> %-d, ...): those whose DuckDB text is Trino's. A pattern with another
+# (%U, %u, %V, %X, ...) is refused.
+DATE_FORMAT_SPECIFIERS: frozenset[str] = frozenset(
+    "%Y %y %m %-m %d %-d %H %-H %I %-I %M %S %p %j %B %b %A %a %f %%".split()
 )
 
 # Functions sqlglot does not know (exp.Anonymous), by their Trino name, each replaced by
