@@ -143,7 +143,28 @@ SAME: frozenset[str] = frozenset(
 # %M -> %B, %e -> %-d, ...): those whose DuckDB text is Trino's. A pattern with another
 # (%U, %u, %V, %X, ...) is refused.
 DATE_FORMAT_SPECIFIERS: frozenset[str] = frozenset(
-    "%Y %y %m %-m %d %-d %H %-H %I %-I %M %S %p %j %B %b %A %a %f %%".split()
+    [
+        "%Y",
+        "%y",
+        "%m",
+        "%-m",
+        "%d",
+        "%-d",
+        "%H",
+        "%-H",
+        "%I",
+        "%-I",
+        "%M",
+        "%S",
+        "%p",
+        "%j",
+        "%B",
+        "%b",
+        "%A",
+        "%a",
+        "%f",
+        "%%",
+    ]
 )
 
 # Functions sqlglot does not know (exp.Anonymous), by their Trino name, each replaced by
