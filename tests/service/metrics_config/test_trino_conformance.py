@@ -6,13 +6,15 @@ from __future__ import annotations
 
 import math
 from collections import Counter
-from decimal import Decimal
+from decimal import ROUND_FLOOR, Decimal
 from pathlib import Path
 from typing import Any
 
 import polars as pl
 import pytest
 import yaml
+from hypothesis import given
+from hypothesis import strategies as st
 
 from stook.service.metrics_config import QueryError
 from stook.service.metrics_config._query_engine import QueryEngine
@@ -99,6 +101,43 @@ def test_a_case_refused_unexpectedly_is_marked_so(
         if outcome == "refused" and "refused" not in case
     ]
     assert surprises == []
+
+
+def _java_double_text(value: float) -> str:
+    """Java's Double.toString, by its specification: of the decimals of the fewest
+    digits n that read back as `value` (n = 1 or 2 when one digit does), the closest,
+    ties to the even digit; in the scientific form of Trino's CAST(DOUBLE AS VARCHAR),
+    trailing zeros dropped."""
+    if math.isnan(value):
+        return "NaN"
+    if math.isinf(value):
+        return "Infinity" if value > 0 else "-Infinity"
+    if value == 0:
+        return "-0E0" if math.copysign(1, value) < 0 else "0E0"
+    exact = abs(Decimal(value))
+    found: list[Decimal] = []
+    for digits in range(1, 18):
+        step = Decimal(1).scaleb(exact.adjusted() + 1 - digits)
+        low = (exact / step).to_integral_value(ROUND_FLOOR) * step
+        around = [low, low + step] + ([low.quantize(step / 10)] if digits == 1 else [])
+        found = [d for d in around if float(d) == abs(value)]
+        if digits == 1 and found:  # Java: the closest of one or two digits
+            step = step / 10
+            low = (exact / step).to_integral_value(ROUND_FLOOR) * step
+            found += [d for d in (low, low + step) if float(d) == abs(value)]
+        if found:
+            break
+    best = min(found, key=lambda d: (abs(d - exact), int(d.scaleb(-d.as_tuple().exponent)) % 2))
+    power = best.adjusted()
+    mantissa = f"{best.scaleb(-power).normalize():f}"
+    return f"{'-' if value < 0 else ''}{mantissa}E{power}"
+
+
+@given(st.lists(st.floats(allow_nan=True, allow_infinity=True), min_size=1, max_size=50))
+def test_a_double_as_varchar_is_javas_text(values: list[float]) -> None:
+    with QueryEngine({"t": pl.DataFrame({"x": values}, schema={"x": pl.Float64})}) as engine:
+        rows = engine.run("m", "SELECT x, CAST(x AS VARCHAR) FROM t").rows
+    assert [text for _, text in rows] == [_java_double_text(v) for v, _ in rows]
 
 
 def figure(outcomes: list[tuple[dict[str, Any], str, str]]) -> str:

@@ -255,10 +255,29 @@ MACROS: tuple[str, ...] = (
     # array_position: 0, not NULL, where the element is absent.
     "CREATE MACRO trino_array_position(x, e) AS "
     "CASE WHEN x IS NOT NULL THEN coalesce(array_position(x, e), 0) END",
+    # A DOUBLE's text in Trino: Java's Double.toString digits, always in scientific
+    # form (3.77E1, 1.2E3, 0E0, -0E0, 1E-3). Those are the fewest digits that read back
+    # as the value, DuckDB's text's digits; but when that is one digit, the closest of
+    # one or two digits (printf's correctly rounded two: 4.9E-324, not 5E-324). From
+    # the text: its sign, its digits and the power of ten of the first one, each bound
+    # once by a lambda (a macro argument is copied wherever it is used). In SQL, not a
+    # Python function: a column of a million distinct values takes about 5 s.
+    "CREATE MACRO trino_sci(u) AS list_transform([regexp_extract(u, "
+    "'^(-?)([0-9]*)\\.?([0-9]*)(?:e([-+]?[0-9]+))?$', ['s', 'i', 'f', 'e'])], "
+    "lambda p: list_transform([ltrim(p.i || p.f, '0')], lambda z: CASE WHEN z = '' "
+    "THEN p.s || '0E0' ELSE list_transform([rtrim(z, '0')], lambda d: p.s || d[1] "
+    "|| CASE WHEN length(d) > 1 THEN '.' || d[2:] ELSE '' END || 'E' "
+    "|| CAST(coalesce(TRY_CAST(p.e AS INTEGER), 0) + length(p.i) - 1 "
+    "- (length(p.i || p.f) - length(z)) AS VARCHAR))[1] END)[1])[1]",
+    "CREATE MACRO trino_double_text(x) AS CASE WHEN isnan(x) THEN 'NaN' "
+    "WHEN isinf(x) THEN CASE WHEN x > 0 THEN 'Infinity' ELSE '-Infinity' END "
+    "ELSE list_transform([trino_sci(CAST(x AS VARCHAR))], lambda r: "
+    "CASE WHEN regexp_full_match(r, '-?[0-9]E.*') THEN trino_sci(printf('%.1e', x)) "
+    "ELSE r END)[1] END",
     # CAST(x AS VARCHAR): a DOUBLE as Java's Double.toString in scientific form; the
     # types whose text is DuckDB's as is; the rest refused.
     "CREATE MACRO trino_varchar(x) AS CASE "
-    "WHEN typeof(x) = 'DOUBLE' THEN trino_double_text(CAST(x AS VARCHAR)) "
+    "WHEN typeof(x) = 'DOUBLE' THEN trino_double_text(TRY_CAST(x AS DOUBLE)) "
     "WHEN typeof(x) = 'FLOAT' THEN error('CAST of a REAL to VARCHAR: stook does not "
     "reproduce Trino''s text for it') "
     f"WHEN typeof(x) IN ({', '.join(repr(t) for t in (*_INTEGERS, 'VARCHAR', 'BOOLEAN', 'DATE'))}) "
@@ -271,7 +290,7 @@ MACROS: tuple[str, ...] = (
     "CREATE MACRO trino_divide(a, b) AS CASE WHEN typeof(a + b) LIKE 'DECIMAL%' "
     "THEN cast_to_type(trino_decimal_quotient(CAST(a AS VARCHAR), CAST(b AS VARCHAR)), a + b) "
     f"WHEN typeof(a + b) IN ({', '.join(repr(t) for t in _INTEGERS)}) "
-    "THEN cast_to_type(TRY_CAST(a AS HUGEINT) // TRY_CAST(b AS HUGEINT), a + b) "
+    "THEN cast_to_type(a // b, a + b) "
     "ELSE cast_to_type(a / b, a + b) END",
     # AVG: of a DECIMAL, a DECIMAL of its scale rounded half up; else a DOUBLE (the
     # sum is taken over DOUBLEs, see trino_avg_input).
@@ -327,9 +346,6 @@ def install(con: duckdb.DuckDBPyConnection) -> None:
     """The macros and Python functions above, on `con` (before its configuration is
     locked)."""
     con.create_function(
-        "trino_double_text", java_double_text, ["VARCHAR"], "VARCHAR", side_effects=False
-    )
-    con.create_function(
         "trino_decimal_quotient",
         decimal_quotient,
         ["VARCHAR", "VARCHAR"],
@@ -341,22 +357,6 @@ def install(con: duckdb.DuckDBPyConnection) -> None:
     )
     for macro in MACROS:
         con.execute(macro)
-
-
-def java_double_text(text: str) -> str:
-    """CAST(DOUBLE AS VARCHAR) in Trino, from DuckDB's text of the DOUBLE: the shortest
-    digits that read back as the value (Java's, as Python's repr), always in scientific
-    form: 3.77E1, 1.2E3, 0E0, -0E0."""
-    value = float(text)
-    if math.isnan(value):
-        return "NaN"
-    if math.isinf(value):
-        return "Infinity" if value > 0 else "-Infinity"
-    sign, digits, exponent = Decimal(repr(value)).as_tuple()
-    text = "".join(map(str, digits)).rstrip("0") or "0"
-    power = len(digits) - 1 + int(exponent) if text != "0" else 0
-    mantissa = text[0] + ("." + text[1:] if len(text) > 1 else "")
-    return f"{'-' if sign else ''}{mantissa}E{power}"
 
 
 def decimal_quotient(dividend: str, divisor: str) -> str:
