@@ -127,10 +127,15 @@ def _java_double_text(value: float) -> str:
             found += [d for d in (low, low + step) if float(d) == abs(value)]
         if found:
             break
-    best = min(found, key=lambda d: (abs(d - exact), int(d.scaleb(-d.as_tuple().exponent)) % 2))
+    best = min(found, key=lambda d: (abs(d - exact), _last_digit_odd(d)))
     power = best.adjusted()
     mantissa = f"{best.scaleb(-power).normalize():f}"
     return f"{'-' if value < 0 else ''}{mantissa}E{power}"
+
+
+def _last_digit_odd(number: Decimal) -> int:
+    digits = number.as_tuple().digits
+    return digits[-1] % 2 if digits else 0
 
 
 @given(st.lists(st.floats(allow_nan=True, allow_infinity=True), min_size=1, max_size=50))
