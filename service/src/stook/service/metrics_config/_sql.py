@@ -169,9 +169,7 @@ def _call(name: str, *args: exp.Expr) -> exp.Expr:
 
 
 def _div(node: exp.Expr) -> exp.Expr:
-
-    a, b = node.this, node.expression
-    return _call("trino_divide", a, b)
+    return _call("trino_divide", node.this, node.expression)
 
 
 def _with_modifiers(node: exp.Expr) -> tuple[exp.Expr, Callable[[exp.Expr], exp.Expr]]:

@@ -1,24 +1,25 @@
 """Trino's functions as stook computes them: the allow-list of a metric's query.
 
-A metric's query is Trino SQL. Each function it may call is listed here with how
-DuckDB computes Trino's value for it:
+A metric's query is Trino SQL. Each function it may call is either
 
-- `SAME`: sqlglot's Trino-to-DuckDB translation already gives Trino's value (the
-  conformance corpus in the tests holds a case for each);
-- `REWRITTEN`: the call is replaced by one of the macros below, which compute what Trino
-  computes where DuckDB differs (a NULL where DuckDB gives '', Java's number formats,
-  decimal arithmetic, 1-based positions...).
+- in `SAME`: sqlglot's Trino-to-DuckDB translation already gives Trino's value, or
+- rewritten (`_sql`'s rewrites, and `REWRITTEN_BY_NAME`) into one of the `MACROS`
+  below, which compute what Trino computes where DuckDB differs: a NULL where DuckDB
+  gives '', Java's text of a DOUBLE, decimal arithmetic, rounding, 0-or-1-based
+  positions, errors Trino raises.
 
-A function that is in neither is refused by name before anything runs: a DuckDB
-function that is not Trino's (`read_text`, `getenv`, ...), and a Trino function whose
-value stook does not reproduce. The macros dispatch on DuckDB's own types (typed macro
-overloads, resolved when the query binds), so a rewrite never guesses a type.
+The conformance corpus in the tests holds cases for each. A function that is in neither
+is refused by name before anything runs: a DuckDB function that is not Trino's
+(`read_text`, `getenv`, ...; `REASONS` says why), and a Trino function whose value stook
+does not reproduce. The macros decide by DuckDB's own type of their argument when the
+query binds (`typeof` in a CASE whose branches all have the result's type, or a typed
+overload), so a rewrite never guesses a type.
 """
 
 from __future__ import annotations
 
 import math
-from decimal import ROUND_HALF_UP, Decimal, DivisionByZero, InvalidOperation, localcontext
+from decimal import ROUND_HALF_UP, Decimal, localcontext
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
@@ -130,6 +131,7 @@ SAME: frozenset[str] = frozenset(
         "TimestampTrunc",
         "DateAdd",
         "TimeToUnix",
+        "Extract",
         "Year",
         "Month",
         "Day",
@@ -343,8 +345,8 @@ MACROS: tuple[str, ...] = (
 
 
 def install(con: duckdb.DuckDBPyConnection) -> None:
-    """The macros and Python functions above, on `con` (before its configuration is
-    locked)."""
+    """The macros and the two Python functions they call, on `con` (before its
+    configuration is locked)."""
     con.create_function(
         "trino_decimal_quotient",
         decimal_quotient,
@@ -367,12 +369,9 @@ def decimal_quotient(dividend: str, divisor: str) -> str:
         raise ZeroDivisionError("Division by zero")
     scale = max(-int(a.as_tuple().exponent), -int(b.as_tuple().exponent), 0)
     with localcontext() as context:
-        context.prec = 80
-        try:
-            quotient = (a / b).quantize(Decimal(1).scaleb(-scale), rounding=ROUND_HALF_UP)
-        except (DivisionByZero, InvalidOperation) as exc:  # pragma: no cover - b != 0
-            raise ZeroDivisionError("Division by zero") from exc
-    return str(quotient) if quotient.as_tuple().exponent != 0 else f"{quotient:f}"
+        context.prec = 80  # DECIMAL(38) divided: exact before the rounding
+        quotient = (a / b).quantize(Decimal(1).scaleb(-scale), rounding=ROUND_HALF_UP)
+    return f"{quotient:f}"
 
 
 _UNITS = (("week", 604800), ("day", 86400), ("hour", 3600), ("minute", 60), ("second", 1))
