@@ -58,6 +58,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         formatter_class=HelpFormatter,
     )
     _add_common(check)
+    check.add_argument(
+        "--strict", action="store_true", help="unknown keys are errors (exit 2), not warnings"
+    )
     run = actions.add_parser(
         "eval",
         help="evaluate one level's metrics over emissions into metrics.binproto",
@@ -109,7 +112,7 @@ def _add_common(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace, *, out: TextIO | None = None) -> int:
     out = out or sys.stdout
     if args.action == "check":
-        return check(args.configs, args.templates, out=out)
+        return check(args.configs, args.templates, out=out, strict=args.strict)
     written = evaluate_offline(
         args.configs,
         args.emissions,
@@ -123,14 +126,17 @@ def run(args: argparse.Namespace, *, out: TextIO | None = None) -> int:
     return 0
 
 
-def check(configs: list[Path], templates: Path | None, *, out: TextIO) -> int:
-    from stook.service.metrics_config import MetricsConfigError, check_config, load_config
+def check(configs: list[Path], templates: Path | None, *, out: TextIO, strict: bool = False) -> int:
+    from stook.service.metrics_config import MetricsConfigError, check_config, read_config
 
+    # Every problem at once: the usable metrics are bound even when others are faulty.
+    config, problems = read_config(configs, templates, strict=strict)
     try:
-        config = load_config(configs, templates)
-        problems = check_config(config)
+        problems += check_config(config)
     except MetricsConfigError as exc:
-        problems = exc.problems
+        problems += exc.problems
+    for warning in config.warnings:
+        print(f"warning: {warning}", file=sys.stderr)
     if problems:
         for problem in problems:
             print(problem, file=sys.stderr)
