@@ -9,7 +9,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, TextIO
 
 if TYPE_CHECKING:
-    from stook.service.metrics_config import Level
+    from stook.service.metrics_config import Level, MetricsConfig
 
 DESCRIPTION = """\
 Evaluate the platform's config-defined metrics (.resim/metrics/config.resim.yml) on
@@ -164,11 +164,10 @@ def evaluate_offline(
         EmissionsSet,
         evaluate,
         find_jobs,
-        load_config,
         stable_id,
     )
 
-    config = load_config(configs, templates)
+    config = _load(configs, templates)
     config.metrics_for(level, metrics_set)  # an unknown set: exit 2 before any work
     try:
         jobs = find_jobs(emissions)
@@ -208,6 +207,19 @@ def evaluate_offline(
 
         write_preview([written], written.with_name(PREVIEW_NAME))
     return written
+
+
+def _load(configs: list[Path], templates: Path | None) -> MetricsConfig:
+    """The config, its warnings said on stderr (this command's logging is off until an
+    error is said); MetricsConfigError with every problem."""
+    from stook.service.metrics_config import MetricsConfigError, read_config
+
+    config, problems = read_config(configs, templates)
+    if problems:
+        raise MetricsConfigError(problems)
+    for warning in config.warnings:
+        print(f"warning: {warning}", file=sys.stderr)
+    return config
 
 
 def _as_uuid(text: str) -> str:

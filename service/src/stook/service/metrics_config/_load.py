@@ -293,6 +293,8 @@ def _template(body: Mapping[str, Any], where: str, problems: list[str]) -> str:
         return "custom"
     if kind != "system":
         problems.append(f"{where}: 'template_type' must be system or custom, not {kind!r}")
+    elif template is None:
+        problems.append(f"{where}: 'template' is required ({', '.join(SYSTEM_TEMPLATES)})")
     elif template not in SYSTEM_TEMPLATES:
         problems.append(
             f"{where}: 'template' must be one of {', '.join(SYSTEM_TEMPLATES)}, not {template!r}"
