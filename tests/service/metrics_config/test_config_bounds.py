@@ -72,6 +72,13 @@ HOSTILE: dict[str, tuple[Callable[[], str], str]] = {
         lambda: METRIC + f"    query_string: '{_in_list(650_000)}'\n",
         "metrics 'M': query_string is 5,",
     ),
+    "2,001 metrics": (
+        lambda: (
+            "version: 1\nmetrics:\n"
+            + "".join(f"  M{i}: {{type: test, query_string: SELECT 1}}\n" for i in range(2_001))
+        ),
+        ": 2,001 metrics; stook reads at most 2,000",
+    ),
     "17 MB file": (
         lambda: (
             METRIC + "    query_string: SELECT 1\n    description: '" + "x" * 17_000_000 + "'\n"

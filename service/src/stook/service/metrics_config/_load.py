@@ -61,6 +61,8 @@ STATUS_KEYS = ("query_string", "block", "warn")
 SET_KEYS = ("metrics",)
 DASHBOARD_KEYS = ("metrics_set", "description", "refresh", "day_range")
 
+# Topics, and metrics, one config may define.
+MAX_DEFINED = 2_000
 # Checked before a query reaches the SQL parser, whose time and stack grow with both.
 MAX_QUERY_CHARS = 1_000_000  # Trino's default `query.max-length`
 MAX_QUERY_NESTING = 32  # parentheses; stook's own bound, far above real queries
@@ -111,6 +113,14 @@ def read_config(
         docs.append((path, doc))
     merged = merge(docs, found)
     raw, origin = merged.doc, merged.origin
+    for section in ("topics", "metrics"):
+        if len(raw[section]) > MAX_DEFINED:
+            # Each costs a table or a parse and a bind: past this, a check takes minutes.
+            where = ", ".join(str(path) for path, _ in docs)
+            return _empty(), [
+                f"{where}: {len(raw[section]):,} {section}; stook reads at most "
+                f"{MAX_DEFINED:,} (its limit, far above real configs)"
+            ]
     folder = templates if templates is not None else files[0].parent / TEMPLATES_FOLDER
     topics = _topics(raw["topics"], origin, found)
     metrics = _metrics(raw["metrics"], origin, found)
