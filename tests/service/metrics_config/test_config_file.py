@@ -358,3 +358,16 @@ def test_read_config_keeps_the_usable_parts(tmp_path: Path) -> None:
     config, problems = read_config([_write(tmp_path, text)])
     assert list(config.metrics) == ["Max speed"]
     assert len(problems) == 2  # the type, and the missing template
+
+
+def test_load_config_logs_the_warnings_once(tmp_path: Path) -> None:
+    from structlog.testing import capture_logs
+
+    config = _write(tmp_path, HEAD + "metrics:\n" + GOOD_METRIC + "    unit: m/s\n")
+    with capture_logs() as logs:
+        loaded = load_config([config])
+    expected = f"{config}: metrics 'Max speed': unknown key 'unit' (did you mean 'units'?)"
+    assert loaded.warnings == (expected,)
+    assert [(log["log_level"], log["event"]) for log in logs] == [("warning", expected)]
+    with pytest.raises(MetricsConfigError, match="unknown key 'unit'"):
+        load_config([config], strict=True)
