@@ -371,3 +371,15 @@ def test_load_config_logs_the_warnings_once(tmp_path: Path) -> None:
     assert [(log["log_level"], log["event"]) for log in logs] == [("warning", expected)]
     with pytest.raises(MetricsConfigError, match="unknown key 'unit'"):
         load_config([config], strict=True)
+
+
+def test_a_file_that_cannot_be_read_is_said_alone(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    sets = _write(tmp_path, "version: 1\nmetrics sets:\n  main: {metrics: [Max speed]}\n", "s.yml")
+    broken = _write(tmp_path, HEAD + "metrics:\n" + GOOD_METRIC + "  [unclosed\n", "m.yml")
+    code, lines = _check(capsys, broken, sets)
+    assert code == 2
+    (line,) = lines  # not one more for the set naming a metric of the unread file
+    assert line.startswith(f"{broken} line ")
+    assert "not YAML" in line

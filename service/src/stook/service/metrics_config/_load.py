@@ -111,6 +111,9 @@ def read_config(
             continue
         budget = max(budget - _size(path), 0)
         docs.append((path, doc))
+    if found.problems:
+        # Without a file, the others' references to it would each be one more line.
+        return _empty(), found.problems
     merged = merge(docs, found)
     raw, origin = merged.doc, merged.origin
     for section in ("topics", "metrics"):
