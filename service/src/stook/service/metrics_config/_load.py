@@ -241,7 +241,7 @@ def _metrics(
         found.unknown(where, body, METRIC_KEYS)
         before = len(problems)
         level = body.get("type")
-        if level in LEVEL_ALIASES:
+        if isinstance(level, str) and level in LEVEL_ALIASES:
             found.notices.append(
                 f"{where}: type {level!r} is read as {LEVEL_ALIASES[level]!r}, its current name"
             )
@@ -388,7 +388,7 @@ def _dashboards(
         found.unknown(where, body, DASHBOARD_KEYS)
         before = len(problems)
         chosen = body.get("metrics_set")
-        if chosen is not None and chosen not in sets:
+        if chosen is not None and (not isinstance(chosen, str) or chosen not in sets):
             problems.append(f"{where}: names unknown metrics set {chosen!r}")
         refresh = body.get("refresh")
         if refresh is not None and refresh not in REFRESH_MODES:

@@ -92,15 +92,30 @@ def read_yaml(path: Path, *, budget: int = MAX_CONFIG_BYTES) -> dict[str, Any]:
         _check_events(path, yaml.parse(text, Loader=loader))
         doc = yaml.load(text, Loader=loader)  # a safe loader (no tags that build objects)
     except yaml.YAMLError as exc:
-        where = getattr(exc, "problem_mark", None)
-        line = f" line {where.line + 1}" if where is not None else ""
-        problem = getattr(exc, "problem", None) or str(exc)
-        raise MetricsConfigError([f"{path}{line}: not YAML ({problem})"]) from None
+        raise MetricsConfigError([f"{path}{_yaml_problem(exc, text)}"]) from None
     if doc is None:
         doc = {}
     if not isinstance(doc, dict):
         raise MetricsConfigError([f"{path}: a config is a YAML mapping, not {type(doc).__name__}"])
     return doc
+
+
+def _yaml_problem(exc: Exception, text: str) -> str:
+    """`line N: not YAML (why)`, on one line, from PyYAML's error."""
+    import yaml
+
+    mark = getattr(exc, "problem_mark", None)
+    if mark is not None:
+        line = mark.line + 1
+    elif isinstance(exc, yaml.reader.ReaderError):  # a character YAML forbids
+        line = text.count("\n", 0, exc.position) + 1
+    else:
+        line = None
+    why = getattr(exc, "problem", None)
+    if isinstance(exc, yaml.reader.ReaderError):
+        why = f"{exc.reason}: {chr(exc.character)!r}" if isinstance(exc.character, int) else None
+    why = " ".join(str(why or exc).split())
+    return f"{f' line {line}' if line else ''}: not YAML ({why})"
 
 
 @dataclass
