@@ -73,22 +73,28 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     run.add_argument(
         "--emissions",
         type=Path,
-        nargs="+",
+        action="append",
         required=True,
         metavar="PATH",
-        help="an emissions.resim.jsonl (one job) or a folder of per-job folders",
+        help="an emissions.resim.jsonl (one job) or a folder of per-job folders; "
+        "repeat the flag for more",
     )
     run.add_argument(
         "--level",
-        choices=("test", "batch", "dashboard"),
+        type=_level,
         required=True,
-        help="which metrics run: the test's, the batch's or the dashboard's (report)",
+        metavar="{test,batch,dashboard}",
+        help="which metrics run: the test's, the batch's or the dashboard's (report "
+        "mode's; 'report' is taken for 'dashboard')",
     )
     run.add_argument(
         "--metrics-set", metavar="NAME", help="only this metrics set's metrics (default: all)"
     )
     run.add_argument(
+        "-o",
+        "--output",
         "--outputs",
+        dest="outputs",
         type=Path,
         default=Path("outputs"),
         metavar="DIR",
@@ -97,6 +103,19 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     run.add_argument(
         "--preview", action="store_true", help="also write DIR/metrics.html (stook preview)"
     )
+
+
+_LEVELS = ("test", "batch", "dashboard")
+
+
+def _level(text: str) -> str:
+    """A level as --level names it; report mode's metrics are the dashboard's."""
+    level = "dashboard" if text == "report" else text
+    if level not in _LEVELS:
+        raise argparse.ArgumentTypeError(
+            f"invalid choice: {text!r} (choose from {', '.join(map(repr, _LEVELS))})"
+        )
+    return level
 
 
 def _add_common(parser: argparse.ArgumentParser) -> None:
