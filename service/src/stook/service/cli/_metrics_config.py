@@ -34,12 +34,17 @@ metadata table; absent IDs are generated from the folder names (stable), other k
 are null. Attached files (image, video metrics) are read from the job's folder and
 copied beside metrics.binproto.
 
+A metric whose query fails (ERROR) or whose template cannot draw its result
+(RENDER_ERROR: a Liquid error, a value the template cannot carry, a missing attached
+file) is written under its name as an error, said once on stderr; the others are
+written as usual. --strict makes it exit 4 instead, with nothing written.
+
 exit codes:
   0  check: the config is good; eval: metrics.binproto written
   2  a bad config (one line per problem), option or path
-  4  a bad emissions row (file, line, topic, column), a query the engine refused
-     (the metric, its SQL and the engine's message), a template that did not print
-     Plotly JSON, or an output that would not validate
+  4  a bad emissions row (file, line, topic, column), an output that would not
+     validate; with --strict, a failing metric (its query's SQL and the engine's
+     message, or what its template could not draw)
   5  the output could not be written
 Nothing is written unless everything succeeded."""
 
@@ -103,6 +108,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     run.add_argument(
         "--preview", action="store_true", help="also write DIR/metrics.html (stook preview)"
     )
+    run.add_argument(
+        "--strict",
+        action="store_true",
+        help="a failing metric fails the run (exit 4, nothing written) instead of being "
+        "written as an error",
+    )
 
 
 _LEVELS = ("test", "batch", "dashboard")
@@ -140,6 +151,7 @@ def run(args: argparse.Namespace, *, out: TextIO | None = None) -> int:
         templates=args.templates,
         outputs=args.outputs,
         preview=args.preview,
+        strict=args.strict,
     )
     print(written, file=out)
     return 0
@@ -174,8 +186,10 @@ def evaluate_offline(
     templates: Path | None,
     outputs: Path,
     preview: bool = False,
+    strict: bool = False,
 ) -> Path:
-    """Load, evaluate and write; nothing is written unless all of it succeeded."""
+    """Load, evaluate and write; nothing is written unless all of it succeeded. A failing
+    metric is written as an error and said on stderr (with `strict`: raised)."""
     from stook.sdk import MetricsWriter, validate_job_metrics
     from stook.service.cli._usage import UsageError
     from stook.service.metrics_config import (
@@ -206,7 +220,17 @@ def evaluate_offline(
     else:
         output_id = stable_id("report", ",".join(sorted(j.meta.job_id for j in jobs)))
     writer = MetricsWriter(_as_uuid(output_id), deterministic=True)
-    result = evaluate(config, emission_set.tables(), writer, level=level, metrics_set=metrics_set)
+    result = evaluate(
+        config,
+        emission_set.tables(),
+        writer,
+        level=level,
+        metrics_set=metrics_set,
+        strict=strict,
+        attached=lambda name: any((j.folder / name).is_file() for j in jobs),
+    )
+    for failure in result.failed:
+        print(f"stook: {failure}", file=sys.stderr)
     attached = []
     for name in result.files:
         found = next((j.folder / name for j in jobs if (j.folder / name).is_file()), None)
