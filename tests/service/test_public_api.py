@@ -198,6 +198,7 @@ PUBLIC_API: dict[str, list[str]] = {
         "evaluate",
         "find_jobs",
         "load_config",
+        "read_config",
         "stable_id",
     ],
     "stook.service.cli": ["Voice", "build_parser", "main", "run_cli"],

@@ -109,13 +109,13 @@ def test_a_bad_config_fails_before_the_function_runs(
 ) -> None:
     monkeypatch.setenv("STOOK_LOG_FORMAT", "console")
     inputs = _inputs(tmp_path, one_job)
-    (tmp_path / "bad.yml").write_text("topics: {}\n", encoding="utf-8")
+    (tmp_path / "bad.yml").write_text("version: 1\ntopics: [speed]\n", encoding="utf-8")
     toml = tmp_path / "stook.toml"
     toml.write_text('[metrics_config]\npaths = ["bad.yml"]\n', encoding="utf-8")
     out = tmp_path / "out"
     code = run_cli(["run", "--inputs", str(inputs), "--outputs", str(out), "--config", str(toml)])
     assert code == 2
-    assert "'version' is required" in capsys.readouterr().err
+    assert "'topics' must be a mapping" in capsys.readouterr().err
     assert not (out / "metrics.binproto").exists()
 
 

@@ -9,7 +9,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, TextIO
 
 if TYPE_CHECKING:
-    from stook.service.metrics_config import Level
+    from stook.service.metrics_config import Level, MetricsConfig
 
 DESCRIPTION = """\
 Evaluate the platform's config-defined metrics (.resim/metrics/config.resim.yml) on
@@ -63,6 +63,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         formatter_class=HelpFormatter,
     )
     _add_common(check)
+    check.add_argument(
+        "--strict", action="store_true", help="unknown keys are errors (exit 2), not warnings"
+    )
     run = actions.add_parser(
         "eval",
         help="evaluate one level's metrics over emissions into metrics.binproto",
@@ -139,7 +142,7 @@ def _add_common(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace, *, out: TextIO | None = None) -> int:
     out = out or sys.stdout
     if args.action == "check":
-        return check(args.configs, args.templates, out=out)
+        return check(args.configs, args.templates, out=out, strict=args.strict)
     written = evaluate_offline(
         args.configs,
         args.emissions,
@@ -154,14 +157,17 @@ def run(args: argparse.Namespace, *, out: TextIO | None = None) -> int:
     return 0
 
 
-def check(configs: list[Path], templates: Path | None, *, out: TextIO) -> int:
-    from stook.service.metrics_config import MetricsConfigError, check_config, load_config
+def check(configs: list[Path], templates: Path | None, *, out: TextIO, strict: bool = False) -> int:
+    from stook.service.metrics_config import MetricsConfigError, check_config, read_config
 
+    # Every problem at once: the usable metrics are bound even when others are faulty.
+    config, problems = read_config(configs, templates, strict=strict)
     try:
-        config = load_config(configs, templates)
-        problems = check_config(config)
+        problems += check_config(config)
     except MetricsConfigError as exc:
-        problems = exc.problems
+        problems += exc.problems
+    for warning in config.warnings:
+        print(f"warning: {warning}", file=sys.stderr)
     if problems:
         for problem in problems:
             print(problem, file=sys.stderr)
@@ -191,11 +197,10 @@ def evaluate_offline(
         EmissionsSet,
         evaluate,
         find_jobs,
-        load_config,
         stable_id,
     )
 
-    config = load_config(configs, templates)
+    config = _load(configs, templates)
     config.metrics_for(level, metrics_set)  # an unknown set: exit 2 before any work
     try:
         jobs = find_jobs(emissions)
@@ -245,6 +250,19 @@ def evaluate_offline(
 
         write_preview([written], written.with_name(PREVIEW_NAME))
     return written
+
+
+def _load(configs: list[Path], templates: Path | None) -> MetricsConfig:
+    """The config, its warnings said on stderr (this command's logging is off until an
+    error is said); MetricsConfigError with every problem."""
+    from stook.service.metrics_config import MetricsConfigError, read_config
+
+    config, problems = read_config(configs, templates)
+    if problems:
+        raise MetricsConfigError(problems)
+    for warning in config.warnings:
+        print(f"warning: {warning}", file=sys.stderr)
+    return config
 
 
 def _as_uuid(text: str) -> str:

@@ -24,7 +24,7 @@ from stook.service.metrics_config._errors import (
 )
 from stook.service.metrics_config._evaluate import Evaluation, evaluate
 from stook.service.metrics_config._jobs import JobMeta
-from stook.service.metrics_config._load import load_config
+from stook.service.metrics_config._load import load_config, read_config
 from stook.service.metrics_config._model import LEVELS, Level, Metric, MetricsConfig, Topic
 from stook.service.metrics_config._offline import OfflineJob, check_config, find_jobs, stable_id
 
@@ -47,5 +47,6 @@ __all__ = [
     "evaluate",
     "find_jobs",
     "load_config",
+    "read_config",
     "stable_id",
 ]

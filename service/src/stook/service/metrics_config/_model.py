@@ -9,6 +9,8 @@ from typing import Any, Literal
 
 Level = Literal["test", "batch", "dashboard"]
 LEVELS: tuple[Level, ...] = ("test", "batch", "dashboard")
+# Older configs name the dashboard level `report` (isaacsim-demo's report.resim.yml).
+LEVEL_ALIASES = {"report": "dashboard"}
 
 # The column types a topic's schema may name (the platform's list).
 COLUMN_TYPES = ("boolean", "int", "float", "string", "status", "image", "video")
@@ -66,6 +68,22 @@ class Metric:
         return self.template == "custom"
 
 
+Refresh = Literal["auto", "manual"]
+REFRESH_MODES: tuple[Refresh, ...] = ("auto", "manual")
+
+
+@dataclass(frozen=True, slots=True)
+class Dashboard:
+    """A dashboard the config defines: the metrics set it shows, how it refreshes and how
+    many days of batches it covers (None: the platform's default)."""
+
+    name: str
+    metrics_set: str | None = None
+    description: str = ""
+    refresh: Refresh | None = None
+    day_range: int | None = None
+
+
 @dataclass(frozen=True, slots=True)
 class MetricsConfig:
     """A merged, checked config (see `load_config`)."""
@@ -74,9 +92,12 @@ class MetricsConfig:
     topics: Mapping[str, Topic]
     metrics: Mapping[str, Metric]
     metrics_sets: Mapping[str, tuple[str, ...]]
-    dashboards: Mapping[str, Mapping[str, Any]]
+    dashboards: Mapping[str, Dashboard]
     templates: Mapping[str, str]  # custom template file name -> Liquid text
     files: tuple[Path, ...] = ()
+    # What `check` says but does not refuse: unknown keys (refused with --strict) and
+    # notices such as `type: report` read as `dashboard`. One line each, naming the file.
+    warnings: tuple[str, ...] = ()
 
     def metrics_for(self, level: Level, metrics_set: str | None = None) -> list[Metric]:
         """The metrics of `level` that run, in the config's order: those of `metrics_set`
