@@ -4,6 +4,7 @@ job.json), `check` passes, and `eval` writes the very output of the demo's batch
 
 from __future__ import annotations
 
+import json
 import shlex
 import subprocess
 from pathlib import Path
@@ -45,6 +46,13 @@ def test_the_readmes_metrics_config_commands_run_after_the_demo(tmp_path: Path) 
         assert shlex.join(["stook", *command[1:]]) in demo.stdout, demo.stdout
     runs = tmp_path / "demo-output" / "metrics-config" / "runs"
     assert len(list(runs.glob("*/job.json"))) == 12
+    # docs/metrics-config.md's example: lines and metadata of the demo's first job.
+    (job,) = runs.glob("*-5b23a57f-d931-582e-ac66-48aa6ca6a1f8")
+    lines = block("docs/metrics-config.md", '{"$metadata":', language="json").splitlines()
+    assert set(lines) <= set((job / "emissions.resim.jsonl").read_text().splitlines())
+    shown = json.loads(block("docs/metrics-config.md", '"job_id":', language="json"))
+    assert shown.items() <= json.loads((job / "job.json").read_text()).items()
+    assert (job / "frame_0039.png").is_file()
     for command in commands[1:]:
         done = subprocess.run(
             [*stook_command(), *command[1:]],
