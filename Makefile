@@ -7,6 +7,8 @@ PYTHON ?= python3
 VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.stook-installed
+# Test oracles that cannot share site-packages (see the $(STAMP) recipe).
+ORACLES := $(VENV)/oracles
 # `make demo` needs only the runtime and the emulator, not the dev tools (Ray, a browser
 # driver, mypy, mkdocs: most of the download); `make test` installs the rest.
 DEMO_STAMP := $(VENV)/.stook-demo-installed
@@ -24,6 +26,13 @@ $(STAMP): $(BIN)/python $(PYPROJECTS)
 	@echo "Installing stook with its dev tools into $(VENV) (first run only; a few minutes)"
 	$(PIP) --upgrade "pip>=25.1"
 	$(PIP) --group dev -e ./proto -e ./sdk -e './service[ray]' -e './service/testing[pytest,bench]'
+	# signalflag, a test oracle (its demo's session.resim.yml), apart from site-packages:
+	# its wheel also installs a `resim` shim that would shadow resim-open-core, the oracle
+	# the other tests import. The shim is removed; the tests add $(ORACLES)/signalflag to
+	# their import path (tests/service/metrics_config/test_demo_configs.py).
+	rm -rf $(ORACLES)/signalflag
+	$(PIP) --no-deps --target $(ORACLES)/signalflag "signalflag==1.8.0"
+	rm -rf $(ORACLES)/signalflag/resim $(ORACLES)/signalflag/bin
 	# Byte-compiled once, as a wheel install is: under PYTHONDONTWRITEBYTECODE an editable
 	# checkout would otherwise compile every stook module in every process.
 	$(BIN)/python -m compileall -q proto/src sdk/src service/src service/testing/src
