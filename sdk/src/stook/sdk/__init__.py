@@ -26,7 +26,7 @@ from stook.sdk._errors import (
     StookError,
     WriterError,
 )
-from stook.sdk._handle import MetricHandle, MetricOptions
+from stook.sdk._output import MetricHandle, MetricOptions
 from stook.sdk._metric_views import (
     BarChartMetric,
     BatchwiseBarChartMetric,
