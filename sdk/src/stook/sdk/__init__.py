@@ -27,24 +27,6 @@ from stook.sdk._errors import (
     WriterError,
 )
 from stook.sdk._output import MetricHandle, MetricOptions
-from stook.sdk._metric_views import (
-    BarChartMetric,
-    BatchwiseBarChartMetric,
-    Bucket,
-    DoubleOverTimeMetric,
-    DoubleSummaryMetric,
-    FailureLimits,
-    HistogramMetric,
-    ImageListMetric,
-    ImageMetric,
-    LinePlotMetric,
-    PlotlyMetric,
-    ScalarMetric,
-    StatesOverTimeMetric,
-    TextMetric,
-    TypedMetric,
-    UnknownMetric,
-)
 from stook.sdk._reader import (
     parse_job_metrics,
     parse_metric,
@@ -54,7 +36,28 @@ from stook.sdk._reader import (
     read_metrics_data,
 )
 from stook.sdk._validate import find_problems, validate_job_metrics
-from stook.sdk._views import EventView, JobMetricsView, MetricsDataView, MetricView
+from stook.sdk._views import (
+    BarChartMetric,
+    BatchwiseBarChartMetric,
+    Bucket,
+    DoubleOverTimeMetric,
+    DoubleSummaryMetric,
+    EventView,
+    FailureLimits,
+    HistogramMetric,
+    ImageListMetric,
+    ImageMetric,
+    JobMetricsView,
+    LinePlotMetric,
+    MetricsDataView,
+    MetricView,
+    PlotlyMetric,
+    ScalarMetric,
+    StatesOverTimeMetric,
+    TextMetric,
+    TypedMetric,
+    UnknownMetric,
+)
 from stook.sdk._writer import MetricsWriter
 
 __all__ = [

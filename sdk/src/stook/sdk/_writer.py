@@ -38,8 +38,14 @@ from stook.sdk._data import MetricsData, TimestampLike, UuidLike
 from stook.sdk._encode import failure_proto, timestamp_proto
 from stook.sdk._enums import MetricStatus, MetricType, SeriesKind
 from stook.sdk._errors import WriterError
-from stook.sdk._output import FailureDefinition, MetricHandle, MetricOptions, status_of
-from stook.sdk._output import OutputBuilder, all_or_nothing
+from stook.sdk._output import (
+    FailureDefinition,
+    MetricHandle,
+    MetricOptions,
+    OutputBuilder,
+    all_or_nothing,
+    status_of,
+)
 
 
 class MetricsWriter(OutputBuilder):

@@ -22,8 +22,7 @@ if TYPE_CHECKING:
 
     # The typed views (and protobuf with them) are imported once a job's metrics are read:
     # `stook run` builds its aggregations, which name records, before its first request.
-    from stook.sdk._metric_views import TypedMetric
-    from stook.sdk._views import JobMetricsView, MetricsDataView
+    from stook.sdk._views import JobMetricsView, MetricsDataView, TypedMetric
 
 _T = TypeVar("_T", bound="TypedMetric")
 
