@@ -1,4 +1,4 @@
-"""The output a writer builds: its metrics, metrics data and events, and their assembly.
+"""The output a writer builds: its metrics, metrics data and events, and their encoding.
 
 `OutputBuilder` holds the state of one JobMetrics output (test, batch or report
 metrics) and everything about it that does not depend on a metric's type: metrics data
@@ -11,25 +11,123 @@ Each metric method builds its proto at once and returns a `MetricHandle` on it; 
 handle's setters change that proto in place and return the handle, so that calls chain
 (``w.scalar(...).describe(...).importance(...)``). `MetricOptions` is the set of
 keyword arguments shared by every metric type.
+
+IDs come from an `IdScheme`: random UUIDs, or (``deterministic=True``) UUIDs derived
+from names, so that the same input gives byte-identical output, as tests, caches and
+reproducible batch runs want. The encoders (`data_to_proto`, `timestamp_proto`,
+`failure_proto`, ...) own how SDK values become schema messages and nothing about which
+metric needs which message; everything they do is deterministic.
 """
 
 from __future__ import annotations
 
 import functools
 import uuid
-from collections.abc import Callable, Sequence
+from collections import Counter
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
-from typing import Concatenate, ParamSpec, Self, TypedDict, TypeVar
+from typing import Any, Concatenate, ParamSpec, Self, TypedDict, TypeVar
+
+from google.protobuf import timestamp_pb2
 
 from stook.proto import metrics_pb2 as pb
+from stook.proto import uuid_pb2
 from stook.sdk import _data
 from stook.sdk._atomic import write_atomic
 from stook.sdk._data import MetricsData, TimestampLike, UuidLike
-from stook.sdk._encode import data_to_proto, timestamp_proto, uuid_proto
-from stook.sdk._enums import MetricImportance, MetricStatus, MetricType, SeriesKind
+from stook.sdk._enums import (
+    SERIES_FIELD,
+    MetricImportance,
+    MetricStatus,
+    MetricType,
+    SeriesKind,
+    data_type_of,
+)
 from stook.sdk._errors import WriterError
-from stook.sdk._ids import IdScheme
 from stook.sdk._validate import validate_job_metrics
+
+_STOOK_NAMESPACE = uuid.UUID("5d1f3c8e-6a0b-4c2e-9f3a-7b1e2d4c6a80")
+
+
+class IdScheme:
+    """Hands out metric, data and event IDs for one output."""
+
+    def __init__(self, job_id: uuid.UUID, *, deterministic: bool) -> None:
+        self.deterministic = deterministic
+        self._namespace = uuid.uuid5(_STOOK_NAMESPACE, str(job_id))
+        self._uses: Counter[str] = Counter()
+
+    def _derive(self, kind: str, name: str) -> uuid.UUID:
+        key = f"{kind}:{name}"
+        self._uses[key] += 1
+        n = self._uses[key]
+        # Event metrics may share a name; the counter keeps their IDs apart, in its own
+        # prefix so that no name can spell another's repeat ("a#2" is not "a", twice).
+        return uuid.uuid5(self._namespace, key if n == 1 else f"{kind}#{n}:{name}")
+
+    def metric_id(self, name: str) -> uuid.UUID:
+        return self._derive("metric", name) if self.deterministic else uuid.uuid4()
+
+    def event_id(self, name: str) -> uuid.UUID:
+        return self._derive("event", name) if self.deterministic else uuid.uuid4()
+
+    def data_id(self, name: str, own_id: uuid.UUID) -> uuid.UUID:
+        return uuid.uuid5(self._namespace, f"data:{name}") if self.deterministic else own_id
+
+
+def uuid_proto(value: uuid.UUID) -> uuid_pb2.UUID:
+    return uuid_pb2.UUID(data=str(value))
+
+
+def timestamp_proto(ns: int) -> timestamp_pb2.Timestamp:
+    seconds, nanos = divmod(ns, 1_000_000_000)
+    return timestamp_pb2.Timestamp(seconds=seconds, nanos=nanos)
+
+
+def failure_proto(above: float | None, below: float | None) -> pb.DoubleFailureDefinition:
+    f = pb.DoubleFailureDefinition()
+    if above is not None:
+        f.fails_above = above
+    if below is not None:
+        f.fails_below = below
+    return f
+
+
+def data_to_proto(data: MetricsData, ids: Mapping[str, uuid.UUID]) -> pb.MetricsData:
+    """The proto of one metrics-data item, with IDs as the writer assigned them."""
+    msg = pb.MetricsData(
+        metrics_data_id=pb.MetricsDataId(id=uuid_proto(ids[data.name])),
+        data_type=data_type_of(data.kind, indexed=data.indexed),
+        name=data.name,
+        unit=data.unit,
+    )
+    if data.kind is SeriesKind.EXTERNAL_FILE:
+        msg.external_file.path = data.external_path or ""
+        return msg
+    if data.index is not None:
+        msg.is_indexed = True
+        msg.index_data_id.CopyFrom(pb.MetricsDataId(id=uuid_proto(ids[data.index.name])))
+        msg.index_data_type = data_type_of(data.index.kind, indexed=data.index.indexed)
+    if isinstance(data.values, dict):
+        msg.is_per_category = True
+        msg.category_names.extend(data.values)
+        for category, values in data.values.items():
+            _fill_series(msg.series_per_category.category_to_series[category], data.kind, values)
+    else:
+        _fill_series(msg.series, data.kind, data.values or [])
+    return msg
+
+
+def _fill_series(series: pb.Series, kind: SeriesKind, values: Sequence[Any]) -> None:
+    target = getattr(series, SERIES_FIELD[kind])
+    target.SetInParent()
+    match kind:
+        case SeriesKind.TIMESTAMP:
+            target.series.extend(timestamp_proto(v) for v in values)
+        case SeriesKind.UUID:
+            target.series.extend(uuid_pb2.UUID(data=v) for v in values)
+        case _:
+            target.series.extend(values)
 
 
 class MetricOptions(TypedDict, total=False):

@@ -35,7 +35,6 @@ from stook.sdk._arguments import (
 )
 from stook.sdk._buckets import Bucket, histogram_buckets
 from stook.sdk._data import MetricsData, TimestampLike, UuidLike
-from stook.sdk._encode import failure_proto, timestamp_proto
 from stook.sdk._enums import MetricStatus, MetricType, SeriesKind
 from stook.sdk._errors import WriterError
 from stook.sdk._output import (
@@ -44,7 +43,9 @@ from stook.sdk._output import (
     MetricOptions,
     OutputBuilder,
     all_or_nothing,
+    failure_proto,
     status_of,
+    timestamp_proto,
 )
 
 
