@@ -27,7 +27,7 @@ from stook.sdk import (
     data,
     read_metrics_data,
 )
-from stook.sdk._buckets import histogram_buckets
+from stook.sdk._writer import histogram_buckets
 from stook.sdk.aggregations import JobRecord, MergedHistogram, SeriesByName, _histogram
 from tests.sdk.aggregations.support import Output, fold, job, reference_counts
 

@@ -13,10 +13,10 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, TypeVar
 
-from stook.sdk._buckets import Bucket, histogram_buckets
 from stook.sdk._enums import MetricType, SeriesKind
 from stook.sdk._errors import ReadError, WriterError
 from stook.sdk._views import BarChartMetric, HistogramMetric, TypedMetric
+from stook.sdk._writer import Bucket, histogram_buckets
 from stook.sdk.aggregations._errors import JobDataError
 from stook.sdk.aggregations._record import JobRecord
 

@@ -12,8 +12,8 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Self
 
 from stook.sdk import _data
-from stook.sdk._buckets import histogram_buckets
 from stook.sdk._errors import WriterError
+from stook.sdk._writer import histogram_buckets
 from stook.sdk.aggregations._base import Aggregation, Needs
 from stook.sdk.aggregations._record import JobRecord, Scalar
 from stook.sdk.aggregations._scalar_columns import columns_of
