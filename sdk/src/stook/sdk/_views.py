@@ -46,7 +46,13 @@ from stook.sdk._enums import (
     MetricType,
     SeriesKind,
 )
-from stook.sdk._errors import MalformedError, MissingDataError, ReadError, read_error
+from stook.sdk._errors import (
+    MalformedError,
+    MetricNotFoundError,
+    MissingDataError,
+    ReadError,
+    read_error,
+)
 
 if TYPE_CHECKING:
     import polars as pl
@@ -559,13 +565,6 @@ class UnknownMetric(TypedMetric):
     metrics data it references, in field order (``view.raw`` has the rest)."""
 
     data: tuple[MetricsDataView, ...]
-
-
-class MetricNotFoundError(KeyError):
-    """No metric of that name; a KeyError whose message reads as a sentence."""
-
-    def __str__(self) -> str:
-        return str(self.args[0])
 
 
 def not_found(name: str, names: Iterable[str]) -> MetricNotFoundError:

@@ -7,11 +7,16 @@ dataclass, and name it in the config as ``[[batch.custom]] class = "pkg.mod:Clas
 or register it under the ``stook.aggregations`` entry-point group.
 """
 
+from stook.sdk._errors import (
+    AggregationConfigError,
+    JobDataError,
+    SummaryError,
+    SummaryVersionError,
+)
 from stook.sdk.aggregations._base import Aggregation, BatchAggregation, Needs, ReportAggregation
 from stook.sdk.aggregations._by_tag import ByExperienceTag
 from stook.sdk.aggregations._category_totals import CategoryTotals
 from stook.sdk.aggregations._columns import JobColumns, JobSummary, ScalarColumn
-from stook.sdk.aggregations._errors import JobDataError
 from stook.sdk.aggregations._event_counts import EventCounts
 from stook.sdk.aggregations._histogram import MergedHistogram
 from stook.sdk.aggregations._record import (
@@ -22,7 +27,6 @@ from stook.sdk.aggregations._record import (
     Scalar,
 )
 from stook.sdk.aggregations._registry import (
-    AggregationConfigError,
     build,
     build_all,
     default_batch_aggregations,
@@ -43,9 +47,7 @@ from stook.sdk.aggregations._summary import (
     BatchSummary,
     BatchSummaryWriter,
     ColumnarSummary,
-    SummaryError,
     SummaryJob,
-    SummaryVersionError,
     decode_summary,
     encode_summary,
     summary_columns_from_data,

@@ -14,10 +14,9 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, TypeVar
 
 from stook.sdk._enums import MetricType, SeriesKind
-from stook.sdk._errors import ReadError, WriterError
+from stook.sdk._errors import JobDataError, ReadError, WriterError
 from stook.sdk._views import BarChartMetric, HistogramMetric, TypedMetric
 from stook.sdk._writer import Bucket, histogram_buckets
-from stook.sdk.aggregations._errors import JobDataError
 from stook.sdk.aggregations._record import JobRecord
 
 if TYPE_CHECKING:

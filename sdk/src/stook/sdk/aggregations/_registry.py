@@ -14,7 +14,7 @@ import typing
 from collections.abc import Iterator, Mapping, Sequence
 from typing import Any
 
-from stook.sdk._errors import StookError
+from stook.sdk._errors import AggregationConfigError
 from stook.sdk.aggregations._base import Aggregation
 from stook.sdk.aggregations._scalar_defaults import ScalarDefaults
 from stook.sdk.aggregations._status_counts import JobStatusCounts, MetricStatusCounts, PassRate
@@ -76,10 +76,6 @@ REPORT_BUILTIN = BuiltinKinds(
     },
 )
 _BUILTIN_BY_SECTION = {"batch": BUILTIN, "report": REPORT_BUILTIN}
-
-
-class AggregationConfigError(StookError):
-    """A config table does not describe an aggregation that can be built."""
 
 
 def default_batch_aggregations() -> list[Aggregation[Any]]:

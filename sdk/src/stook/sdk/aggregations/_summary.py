@@ -36,7 +36,7 @@ from itertools import chain, repeat
 from typing import TYPE_CHECKING, Any, Final, Literal, Self
 
 from stook.sdk._data import strings
-from stook.sdk._errors import StookError
+from stook.sdk._errors import SummaryError, SummaryVersionError
 from stook.sdk.aggregations._base import Aggregation, Needs
 from stook.sdk.aggregations._columns import JobColumns, ScalarColumn
 from stook.sdk.aggregations._record import JobRecord, Scalar
@@ -60,14 +60,6 @@ _U16 = struct.Struct("<H")
 _U32 = struct.Struct("<I")
 _WIDTH_CODES = {1: "B", 2: "H", 4: "I"}
 _NO_ID = bytes(16)
-
-
-class SummaryError(StookError):
-    """Bytes that are not a stook batch summary (truncated, or another format)."""
-
-
-class SummaryVersionError(SummaryError):
-    """A summary written by a newer stook, in a layout this one does not know."""
 
 
 @dataclass(frozen=True, slots=True)
