@@ -13,19 +13,23 @@ from stook.sdk._errors import (
     SummaryError,
     SummaryVersionError,
 )
-from stook.sdk.aggregations._base import Aggregation, BatchAggregation, Needs, ReportAggregation
+from stook.sdk.aggregations._base import (
+    UNKNOWN_STATUS,
+    Aggregation,
+    BatchAggregation,
+    BatchRecord,
+    JobEvent,
+    JobRecord,
+    Needs,
+    ReportAggregation,
+    Scalar,
+    SeriesByName,
+)
 from stook.sdk.aggregations._by_tag import ByExperienceTag
 from stook.sdk.aggregations._category_totals import CategoryTotals
 from stook.sdk.aggregations._columns import JobColumns, JobSummary, ScalarColumn
 from stook.sdk.aggregations._event_counts import EventCounts
 from stook.sdk.aggregations._histogram import MergedHistogram
-from stook.sdk.aggregations._record import (
-    UNKNOWN_STATUS,
-    BatchRecord,
-    JobEvent,
-    JobRecord,
-    Scalar,
-)
 from stook.sdk.aggregations._registry import (
     build,
     build_all,
@@ -33,7 +37,6 @@ from stook.sdk.aggregations._registry import (
 )
 from stook.sdk.aggregations._scalar_defaults import ScalarDefaults
 from stook.sdk.aggregations._scalar_stats import ScalarStats
-from stook.sdk.aggregations._series_map import SeriesByName
 from stook.sdk.aggregations._status_counts import (
     JOB_STATUSES,
     METRIC_STATUSES,

@@ -22,8 +22,7 @@ from typing import Self
 from stook.sdk import _data as data
 from stook.sdk._enums import MetricStatus
 from stook.sdk._writer import MetricsWriter
-from stook.sdk.aggregations._base import Aggregation, Needs
-from stook.sdk.aggregations._record import JobRecord
+from stook.sdk.aggregations._base import Aggregation, JobRecord, Needs
 from stook.sdk.stats import (
     Better,
     ComparisonVerdict,

@@ -9,10 +9,8 @@ from typing import Self
 from stook.sdk import _data
 from stook.sdk._enums import MetricStatus
 from stook.sdk._writer import MetricsWriter
-from stook.sdk.aggregations._base import Aggregation, Needs
+from stook.sdk.aggregations._base import Aggregation, JobRecord, Needs, exact_sum
 from stook.sdk.aggregations._job_metrics import bar_chart_of, finite, labelled_doubles
-from stook.sdk.aggregations._record import JobRecord
-from stook.sdk.aggregations._sums import exact_sum
 
 
 @dataclass

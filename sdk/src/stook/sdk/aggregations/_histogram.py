@@ -12,10 +12,8 @@ from stook.sdk import _data
 from stook.sdk._enums import MetricStatus, SeriesKind
 from stook.sdk._errors import JobDataError
 from stook.sdk._writer import Bucket, MetricsWriter, histogram_buckets
-from stook.sdk.aggregations._base import Aggregation, Needs
+from stook.sdk.aggregations._base import Aggregation, JobRecord, Needs, SeriesByName
 from stook.sdk.aggregations._job_metrics import histogram_of
-from stook.sdk.aggregations._record import JobRecord
-from stook.sdk.aggregations._series_map import SeriesByName
 
 if TYPE_CHECKING:
     import numpy as np

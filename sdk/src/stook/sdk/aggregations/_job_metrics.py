@@ -17,7 +17,7 @@ from stook.sdk._enums import MetricType, SeriesKind
 from stook.sdk._errors import JobDataError, ReadError, WriterError
 from stook.sdk._views import BarChartMetric, HistogramMetric, TypedMetric
 from stook.sdk._writer import Bucket, histogram_buckets
-from stook.sdk.aggregations._record import JobRecord
+from stook.sdk.aggregations._base import JobRecord
 
 if TYPE_CHECKING:
     import polars as pl

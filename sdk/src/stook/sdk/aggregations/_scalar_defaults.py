@@ -14,11 +14,15 @@ from typing import TYPE_CHECKING, Self
 from stook.sdk import _data
 from stook.sdk._errors import WriterError
 from stook.sdk._writer import histogram_buckets
-from stook.sdk.aggregations._base import Aggregation, Needs
-from stook.sdk.aggregations._record import JobRecord, Scalar
+from stook.sdk.aggregations._base import (
+    Aggregation,
+    JobRecord,
+    Needs,
+    Scalar,
+    exact_mean,
+    pick_unit,
+)
 from stook.sdk.aggregations._scalar_columns import columns_of
-from stook.sdk.aggregations._sums import exact_mean
-from stook.sdk.aggregations._units import pick_unit
 
 if TYPE_CHECKING:
     from stook.sdk._writer import MetricsWriter

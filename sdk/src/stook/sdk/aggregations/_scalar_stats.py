@@ -12,10 +12,7 @@ from typing import TYPE_CHECKING, Self
 
 from stook.sdk._errors import WriterError
 from stook.sdk._writer import MetricsWriter
-from stook.sdk.aggregations._base import Aggregation, Needs
-from stook.sdk.aggregations._record import JobRecord
-from stook.sdk.aggregations._sums import exact_mean
-from stook.sdk.aggregations._units import pick_unit
+from stook.sdk.aggregations._base import Aggregation, JobRecord, Needs, exact_mean, pick_unit
 
 if TYPE_CHECKING:
     pass

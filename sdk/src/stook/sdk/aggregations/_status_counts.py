@@ -17,8 +17,7 @@ from itertools import chain
 from typing import TYPE_CHECKING, Self
 
 from stook.sdk._enums import MetricStatus
-from stook.sdk.aggregations._base import Aggregation
-from stook.sdk.aggregations._record import JobRecord
+from stook.sdk.aggregations._base import Aggregation, JobRecord
 
 if TYPE_CHECKING:
     from stook.sdk._writer import MetricsWriter

@@ -37,9 +37,8 @@ from typing import TYPE_CHECKING, Any, Final, Literal, Self
 
 from stook.sdk._data import strings
 from stook.sdk._errors import SummaryError, SummaryVersionError
-from stook.sdk.aggregations._base import Aggregation, Needs
+from stook.sdk.aggregations._base import Aggregation, JobRecord, Needs, Scalar
 from stook.sdk.aggregations._columns import JobColumns, ScalarColumn
-from stook.sdk.aggregations._record import JobRecord, Scalar
 from stook.sdk.aggregations._scalar_columns import columns_of
 from stook.sdk.aggregations._status_counts import COUNT_BATCH
 

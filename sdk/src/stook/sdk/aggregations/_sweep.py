@@ -13,10 +13,7 @@ from typing import Self
 from stook.sdk import _data
 from stook.sdk._enums import MetricStatus
 from stook.sdk._writer import MetricsWriter
-from stook.sdk.aggregations._base import Aggregation, Needs
-from stook.sdk.aggregations._record import JobRecord
-from stook.sdk.aggregations._sums import exact_mean
-from stook.sdk.aggregations._units import pick_unit
+from stook.sdk.aggregations._base import Aggregation, JobRecord, Needs, exact_mean, pick_unit
 
 #: how a job without one of the parameters is shown in the table
 UNSET = "(unset)"

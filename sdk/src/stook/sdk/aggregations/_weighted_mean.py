@@ -10,10 +10,7 @@ from typing import Self
 
 from stook.sdk._enums import MetricStatus
 from stook.sdk._writer import MetricsWriter
-from stook.sdk.aggregations._base import Aggregation, Needs
-from stook.sdk.aggregations._record import JobRecord
-from stook.sdk.aggregations._sums import exact_sum
-from stook.sdk.aggregations._units import pick_unit
+from stook.sdk.aggregations._base import Aggregation, JobRecord, Needs, exact_sum, pick_unit
 
 
 @dataclass

@@ -10,8 +10,7 @@ from typing import Self
 
 from stook.sdk._enums import MetricStatus
 from stook.sdk._writer import MetricsWriter
-from stook.sdk.aggregations._base import Aggregation
-from stook.sdk.aggregations._record import BatchRecord
+from stook.sdk.aggregations._base import Aggregation, BatchRecord
 from stook.sdk.aggregations.report._job_groups import counts, first_seen, status_in
 from stook.sdk.aggregations.report._timeline import BatchPoint
 

@@ -10,9 +10,7 @@ from typing import Self
 from stook.sdk import _data
 from stook.sdk._enums import MetricStatus
 from stook.sdk._writer import MetricsWriter
-from stook.sdk.aggregations._base import Aggregation, Needs
-from stook.sdk.aggregations._record import BatchRecord
-from stook.sdk.aggregations._units import pick_unit
+from stook.sdk.aggregations._base import Aggregation, BatchRecord, Needs, pick_unit
 from stook.sdk.aggregations.report._timeline import BatchPoint, axis, axis_name
 
 QUANTILES = (("p10", 0.10), ("median", 0.50), ("p90", 0.90))

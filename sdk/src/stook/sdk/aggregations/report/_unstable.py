@@ -11,8 +11,7 @@ from typing import TYPE_CHECKING, Self
 
 from stook.sdk._enums import MetricStatus
 from stook.sdk._writer import MetricsWriter
-from stook.sdk.aggregations._base import Aggregation, Needs
-from stook.sdk.aggregations._record import BatchRecord
+from stook.sdk.aggregations._base import Aggregation, BatchRecord, Needs
 from stook.sdk.aggregations.report._change_points import noise_scale
 from stook.sdk.aggregations.report._timeline import BatchPoint
 
