@@ -22,7 +22,7 @@ from stook.sdk.aggregations._base import (
     exact_mean,
     pick_unit,
 )
-from stook.sdk.aggregations._scalar_columns import columns_of
+from stook.sdk.aggregations._columns import values_by_name
 
 if TYPE_CHECKING:
     from stook.sdk._writer import MetricsWriter
@@ -100,7 +100,7 @@ class ScalarDefaults(Aggregation[JobRecord]):
         """Add the waiting jobs' scalars to `columns`, in the order the jobs came."""
         waiting, self.waiting = self.waiting, []
         metrics = list(set().union(*waiting))
-        for metric, column in zip(metrics, columns_of(waiting, metrics), strict=True):
+        for metric, column in zip(metrics, values_by_name(waiting, metrics), strict=True):
             # The jobs without `metric` left out (a Scalar is never false).
             found = list(filter(None, column))
             mine = self.columns.get(metric)
