@@ -28,7 +28,6 @@ from stook.sdk.aggregations._base import (
 from stook.sdk.aggregations._by_tag import ByExperienceTag
 from stook.sdk.aggregations._category_totals import CategoryTotals
 from stook.sdk.aggregations._columns import JobColumns, JobSummary, ScalarColumn
-from stook.sdk.aggregations._event_counts import EventCounts
 from stook.sdk.aggregations._histogram import MergedHistogram
 from stook.sdk.aggregations._registry import (
     build,
@@ -40,6 +39,7 @@ from stook.sdk.aggregations._scalar_stats import ScalarStats
 from stook.sdk.aggregations._status_counts import (
     JOB_STATUSES,
     METRIC_STATUSES,
+    EventCounts,
     JobStatusCounts,
     MetricStatusCounts,
     PassRate,
