@@ -26,9 +26,9 @@ from stook.sdk.aggregations._base import (
     SeriesByName,
 )
 from stook.sdk.aggregations._by_tag import ByExperienceTag
-from stook.sdk.aggregations._category_totals import CategoryTotals
 from stook.sdk.aggregations._columns import JobColumns, JobSummary, ScalarColumn
 from stook.sdk.aggregations._histogram import MergedHistogram
+from stook.sdk.aggregations._job_metrics import CategoryTotals
 from stook.sdk.aggregations._registry import (
     build,
     build_all,
