@@ -25,7 +25,6 @@ from stook.sdk.aggregations._base import (
     Scalar,
     SeriesByName,
 )
-from stook.sdk.aggregations._by_tag import ByExperienceTag
 from stook.sdk.aggregations._columns import JobColumns, JobSummary, ScalarColumn
 from stook.sdk.aggregations._histogram import MergedHistogram
 from stook.sdk.aggregations._job_metrics import CategoryTotals
@@ -35,7 +34,12 @@ from stook.sdk.aggregations._registry import (
     default_batch_aggregations,
 )
 from stook.sdk.aggregations._scalar_defaults import ScalarDefaults
-from stook.sdk.aggregations._scalar_stats import ScalarStats
+from stook.sdk.aggregations._scalar_stats import (
+    ByExperienceTag,
+    ParameterSweep,
+    ScalarStats,
+    WeightedMean,
+)
 from stook.sdk.aggregations._status_counts import (
     JOB_STATUSES,
     METRIC_STATUSES,
@@ -56,8 +60,6 @@ from stook.sdk.aggregations._summary import (
     summary_columns_from_data,
     summary_from_data,
 )
-from stook.sdk.aggregations._sweep import ParameterSweep
-from stook.sdk.aggregations._weighted_mean import WeightedMean
 
 __all__ = [
     "JOB_STATUSES",
