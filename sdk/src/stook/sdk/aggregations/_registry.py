@@ -49,16 +49,16 @@ class BuiltinKinds(Mapping[str, type[Aggregation[Any]]]):
 BUILTIN = BuiltinKinds(
     "stook.sdk.aggregations",
     {
-        "weighted_mean": "._weighted_mean:WeightedMean",
+        "weighted_mean": "._scalar_stats:WeightedMean",
         "histogram": "._histogram:MergedHistogram",
         "scalar_stats": "._scalar_stats:ScalarStats",
         "job_status_counts": "._status_counts:JobStatusCounts",
         "metric_status_counts": "._status_counts:MetricStatusCounts",
         "pass_rate": "._status_counts:PassRate",
-        "category_totals": "._category_totals:CategoryTotals",
-        "events": "._event_counts:EventCounts",
-        "sweep": "._sweep:ParameterSweep",
-        "by_tag": "._by_tag:ByExperienceTag",
+        "category_totals": "._job_metrics:CategoryTotals",
+        "events": "._status_counts:EventCounts",
+        "sweep": "._scalar_stats:ParameterSweep",
+        "by_tag": "._scalar_stats:ByExperienceTag",
     },
 )
 REPORT_BUILTIN = BuiltinKinds(
