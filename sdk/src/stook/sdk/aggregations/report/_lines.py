@@ -13,11 +13,13 @@ from stook.sdk._writer import MetricsWriter
 from stook.sdk.aggregations._base import Aggregation, BatchRecord, Needs, pick_unit
 from stook.sdk.aggregations.report._change_points import (
     DEFAULT_PENALTY,
+    MIN_BASELINE,
     Shift,
+    Verdict,
+    check,
     fitted_levels,
     level_shifts,
 )
-from stook.sdk.aggregations.report._regression import MIN_BASELINE, Verdict, check
 from stook.sdk.aggregations.report._timeline import BatchPoint, api_status, axis, axis_name
 
 
