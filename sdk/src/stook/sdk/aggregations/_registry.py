@@ -70,9 +70,9 @@ REPORT_BUILTIN = BuiltinKinds(
         "test_status_over_time": "._statuses:TestStatusOverTime",
         "job_metric_status_counts": "._statuses:JobMetricStatusCounts",
         "batch_metric_status_counts": "._statuses:BatchMetricStatusCounts",
-        "job_scalar_distributions": "._job_distributions:JobScalarDistributions",
+        "job_scalar_distributions": "._lines:JobScalarDistributions",
         "change_points": "._change_report:ChangePoints",
-        "unstable_experiences": "._unstable:UnstableExperiences",
+        "unstable_experiences": "._experiences:UnstableExperiences",
     },
 )
 _BUILTIN_BY_SECTION = {"batch": BUILTIN, "report": REPORT_BUILTIN}

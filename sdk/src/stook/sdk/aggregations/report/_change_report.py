@@ -21,8 +21,14 @@ from stook.sdk.aggregations.report._change_points import (
     rate_shifts,
 )
 from stook.sdk.aggregations.report._experiences import FAILED, PASSED
-from stook.sdk.aggregations.report._job_groups import counts, first_seen, status_in
-from stook.sdk.aggregations.report._timeline import BatchPoint, axis, axis_name
+from stook.sdk.aggregations.report._timeline import (
+    BatchPoint,
+    axis,
+    axis_name,
+    counts,
+    first_seen,
+    status_in,
+)
 
 _T = TypeVar("_T")
 

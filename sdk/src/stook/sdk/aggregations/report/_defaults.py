@@ -11,15 +11,17 @@ from typing import Any
 
 from stook.sdk.aggregations._base import Aggregation
 from stook.sdk.aggregations.report._change_report import ChangePoints
-from stook.sdk.aggregations.report._experiences import FlakyExperiences, MostFailedExperiences
-from stook.sdk.aggregations.report._job_distributions import JobScalarDistributions
-from stook.sdk.aggregations.report._lines import ScalarLines
+from stook.sdk.aggregations.report._experiences import (
+    FlakyExperiences,
+    MostFailedExperiences,
+    UnstableExperiences,
+)
+from stook.sdk.aggregations.report._lines import JobScalarDistributions, ScalarLines
 from stook.sdk.aggregations.report._statuses import (
     BatchMetricStatusCounts,
     JobMetricStatusCounts,
     TestStatusOverTime,
 )
-from stook.sdk.aggregations.report._unstable import UnstableExperiences
 
 
 def default_report_aggregations(
