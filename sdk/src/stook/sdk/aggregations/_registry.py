@@ -1,6 +1,11 @@
-"""Aggregations by name: the built-ins, plugins from the `stook.aggregations` (batch) and
-`stook.report_aggregations` (report) entry-point groups, and ``module:Class`` references;
-built from the config's ``[[batch.<kind>]]`` and ``[[report.<kind>]]`` tables."""
+"""Aggregations by name, and the ones every batch and every report gets.
+
+The built-ins, plugins from the `stook.aggregations` (batch) and
+`stook.report_aggregations` (report) entry-point groups, and ``module:Class`` references,
+built from the config's ``[[batch.<kind>]]`` and ``[[report.<kind>]]`` tables;
+`default_batch_aggregations` and `default_report_aggregations` are what a batch and a
+report get with or without a config.
+"""
 
 from __future__ import annotations
 
@@ -81,6 +86,53 @@ _BUILTIN_BY_SECTION = {"batch": BUILTIN, "report": REPORT_BUILTIN}
 def default_batch_aggregations() -> list[Aggregation[Any]]:
     """What every batch gets, with or without a config."""
     return [ScalarDefaults(), JobStatusCounts(), MetricStatusCounts(), PassRate()]
+
+
+def default_report_aggregations(
+    *,
+    project_id: str,
+    top_n: int = 10,
+    regression_window: int = 10,
+    regression_threshold: float = 3.5,
+    job_metrics: Sequence[str] | None = None,
+    change_points: bool = True,
+    change_penalty: float = 3.0,
+    unstable_experiences: bool = True,
+) -> list[Aggregation[Any]]:
+    """What every report gets; the arguments are the ``[report]`` settings."""
+    # Imported here: `stook.sdk.aggregations`, which every batch run imports, does not
+    # import the report's modules.
+    from stook.sdk.aggregations.report import (
+        BatchMetricStatusCounts,
+        ChangePoints,
+        FlakyExperiences,
+        JobMetricStatusCounts,
+        JobScalarDistributions,
+        MostFailedExperiences,
+        ScalarLines,
+        TestStatusOverTime,
+        UnstableExperiences,
+    )
+
+    aggregations: list[Aggregation[Any]] = [
+        ScalarLines(
+            window=regression_window,
+            threshold=regression_threshold,
+            change_points=change_points,
+            change_penalty=change_penalty,
+        ),
+        MostFailedExperiences(top_n=top_n),
+        TestStatusOverTime(project_id=project_id),
+        JobMetricStatusCounts(),
+        BatchMetricStatusCounts(),
+        JobScalarDistributions(metrics=job_metrics),
+        FlakyExperiences(top_n=top_n),
+    ]
+    if change_points:
+        aggregations.append(ChangePoints(penalty=change_penalty, top_n=top_n))
+    if unstable_experiences:
+        aggregations.append(UnstableExperiences(top_n=top_n, metrics=job_metrics))
+    return aggregations
 
 
 def load_class(reference: str, *, where: str) -> type[Aggregation[Any]]:

@@ -3,9 +3,9 @@
 Each folds in one `BatchRecord` at a time, like batch aggregations fold in jobs.
 """
 
+from stook.sdk.aggregations._registry import default_report_aggregations
 from stook.sdk.aggregations.report._change_points import Verdict, check
 from stook.sdk.aggregations.report._change_report import ChangePoints, ChangePointSummary
-from stook.sdk.aggregations.report._defaults import default_report_aggregations
 from stook.sdk.aggregations.report._experiences import (
     FlakyExperiences,
     MostFailedExperiences,
