@@ -14,7 +14,6 @@ in ``_modules`` is private.
 # polars and numpy are imported by the functions that build frames, not here: reading,
 # writing and validating a file do not need them (the frames' dtypes are in stook.sdk.dtypes).
 from stook.sdk import data
-from stook.sdk._atomic import remove_stale_temp_files, write_atomic
 from stook.sdk._data import MetricsData
 from stook.sdk._enums import MetricImportance, MetricStatus, MetricType, SeriesKind
 from stook.sdk._errors import (
@@ -26,7 +25,7 @@ from stook.sdk._errors import (
     StookError,
     WriterError,
 )
-from stook.sdk._output import MetricHandle, MetricOptions
+from stook.sdk._output import MetricHandle, MetricOptions, remove_stale_temp_files, write_atomic
 from stook.sdk._reader import (
     parse_job_metrics,
     parse_metric,

@@ -33,10 +33,10 @@ from stook.sdk.aggregations._registry import (
     build_all,
     default_batch_aggregations,
 )
-from stook.sdk.aggregations._scalar_defaults import ScalarDefaults
 from stook.sdk.aggregations._scalar_stats import (
     ByExperienceTag,
     ParameterSweep,
+    ScalarDefaults,
     ScalarStats,
     WeightedMean,
 )

@@ -21,7 +21,7 @@ from typing import Any
 
 from stook.sdk._errors import AggregationConfigError
 from stook.sdk.aggregations._base import Aggregation
-from stook.sdk.aggregations._scalar_defaults import ScalarDefaults
+from stook.sdk.aggregations._scalar_stats import ScalarDefaults
 from stook.sdk.aggregations._status_counts import JobStatusCounts, MetricStatusCounts, PassRate
 
 ENTRY_POINT_GROUP = "stook.aggregations"
