@@ -284,13 +284,6 @@ class SeriesByName(Mapping[str, "pl.Series"]):
 
         return doubles_array(view.raw.series.doubles)
 
-    def packed_of(self, name: str) -> bytes | None:
-        """The values of `name` as little-endian float64 bytes (None without such data),
-        bit for bit the series' values: for an aggregation that joins many jobs' values
-        into one array, rather than make an array per job."""
-        values = self.values_of(name)
-        return None if values is None else values.astype("<f8", copy=False).tobytes()
-
 
 @dataclass(frozen=True, slots=True)
 class Needs:
