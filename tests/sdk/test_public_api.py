@@ -259,3 +259,22 @@ def test_ruff_bans_every_private_sdk_module_outside_the_sdk() -> None:
     assert private <= banned, sorted(private - banned)
     assert "TID251" in settings["select"]
     assert settings["per-file-ignores"] == {"sdk/**": ["TID251"], "tests/**": ["TID251"]}
+
+
+@pytest.mark.parametrize("package", PACKAGES)
+def test_every_exported_name_is_in_the_api_reference(package: str) -> None:
+    # Each name renders from its docstring (mkdocstrings), as `::: package.Name`, or
+    # with its whole module, as `::: package`.
+    from pathlib import Path
+
+    reference = Path(__file__).resolve().parents[2] / "docs" / "reference"
+    entries = {
+        line.removeprefix("::: ").strip()
+        for page in reference.glob("*.md")
+        for line in page.read_text().splitlines()
+        if line.startswith("::: ")
+    }
+    if package in entries:
+        return
+    missing = [name for name in PUBLIC_API[package] if f"{package}.{name}" not in entries]
+    assert missing == []

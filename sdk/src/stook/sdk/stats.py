@@ -154,6 +154,7 @@ def holm_adjusted(p_values: Sequence[float]) -> list[float]:
 
 
 Better = typing.Literal["lower", "higher"]
+"""Which way a metric is better: a lower value or a higher one."""
 
 
 class ComparisonVerdict(enum.StrEnum):

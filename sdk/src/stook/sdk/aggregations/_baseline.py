@@ -144,6 +144,9 @@ class _Side:
 
 @dataclass(frozen=True, slots=True)
 class PassRateComparison:
+    """The two batches' pass rates (Wilson intervals), their difference (Newcombe's) and
+    its verdict."""
+
     baseline: Interval  # Wilson, as proportions
     candidate: Interval
     difference: Interval  # Newcombe, candidate - baseline
@@ -152,6 +155,9 @@ class PassRateComparison:
 
 @dataclass(frozen=True, slots=True)
 class MetricComparison:
+    """One SCALAR job metric of both batches: each side's mean, their difference (the
+    seeded bootstrap), its Holm-adjusted p-value, and the verdict."""
+
     name: str
     unit: str
     verdict: ComparisonVerdict
@@ -165,6 +171,10 @@ class MetricComparison:
 
 @dataclass(frozen=True, slots=True)
 class ComparisonResult:
+    """What `BaselineComparison.result()` computes: the baseline it compared with, the pass
+    rates, the experiences that flipped or still fail, every metric's comparison, and the
+    overall status (`regressed` when it is a failure)."""
+
     baseline: BaselineInfo
     pass_rate: PassRateComparison | None
     newly_failing: list[str]
