@@ -8,7 +8,7 @@ import math
 import pytest
 
 from stook.sdk import MetricsWriter, WriterError, data, find_problems
-from stook.sdk._buckets import histogram_buckets
+from stook.sdk._writer import histogram_buckets
 from tests.sdk.support import JOB, writer_error
 
 

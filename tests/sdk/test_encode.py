@@ -243,7 +243,7 @@ def test_a_million_doubles_round_trip_bit_for_bit() -> None:
     ],
 )
 def test_a_status_series_is_encoded_as_extend_would(values: Sequence[int]) -> None:
-    from stook.sdk._encode import _fill_series
+    from stook.sdk._output import _fill_series
 
     fast = pb.Series()
     _fill_series(fast, SeriesKind.STATUS, values)
@@ -255,7 +255,7 @@ def test_a_status_series_is_encoded_as_extend_would(values: Sequence[int]) -> No
 
 
 def test_statuses_that_are_no_numbers_still_reach_extend_and_its_error() -> None:
-    from stook.sdk._encode import _fill_series
+    from stook.sdk._output import _fill_series
 
     with pytest.raises(ValueError, match="unknown enum label"):
         _fill_series(pb.Series(), SeriesKind.STATUS, ["not a status"])

@@ -22,7 +22,7 @@ def test_fresh_keeps_configuration_and_drops_state() -> None:
         2,
         1,
     )
-    assert (new.total, new.counts, new.chunks, new.jobs) == (0, None, [], 0)
+    assert (new.total, new.counts, new.arrays, new.jobs) == (0, None, [], 0)
     stats = fold(ScalarStats(metric="x", stats=["max"], name="X"), [job(scalars={"x": 1.0})])
     fresh_stats = stats.fresh()
     assert isinstance(fresh_stats, ScalarStats)

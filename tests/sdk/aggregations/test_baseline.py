@@ -270,7 +270,7 @@ def test_bad_options_are_refused(options: dict[str, object], message: str) -> No
 
 
 def test_long_lists_are_cut_and_chart_names_never_collide() -> None:
-    from stook.sdk.aggregations._baseline_output import MAX_BARS, MAX_NAMED
+    from stook.sdk.aggregations._baseline import MAX_BARS, MAX_NAMED
 
     rng = random.Random(5)
     comparison = BaselineComparison()

@@ -28,7 +28,7 @@ from stook.sdk.aggregations import (
 )
 from stook.sdk.aggregations._columns import JobSummaries
 from stook.sdk.aggregations._summary import decode_summary_columns
-from stook.sdk.aggregations.report._unstable import _medians
+from stook.sdk.aggregations.report._experiences import _medians
 from tests.hypothesis_profiles import examples
 from tests.sdk.aggregations.report.test_merge import FACTORIES
 

@@ -15,6 +15,7 @@ import uuid
 from collections.abc import Callable
 from typing import Any
 
+import numpy as np
 import polars as pl
 import pytest
 
@@ -181,11 +182,13 @@ def travelled(partial: BatchAggregation) -> Any:
 
 
 def state(aggregation: Any) -> dict[str, Any]:
-    """The fields, Series as lists (a Series compares element-wise)."""
+    """The fields, Series and arrays as lists (they compare element-wise)."""
     out = {}
     for key, value in vars(aggregation).items():
         if isinstance(value, list) and value and isinstance(value[0], pl.Series):
             value = pl.concat(value).to_list()
+        elif isinstance(value, list) and value and isinstance(value[0], np.ndarray):
+            value = np.concatenate(value).tolist()
         out[key] = value
     return out
 

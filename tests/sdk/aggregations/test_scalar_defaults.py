@@ -155,7 +155,7 @@ def test_scalar_defaults_columns_are_the_jobs_scalars_in_arrival_order() -> None
 def test_sorted_finite_values_agree_with_the_element_path(values: list[float]) -> None:
     from array import array
 
-    from stook.sdk.aggregations._scalar_defaults import _sorted_finite
+    from stook.sdk.aggregations._scalar_stats import _sorted_finite
 
     got = _sorted_finite(array("d", values))
     expected = sorted(v + 0.0 for v in values if math.isfinite(v))
@@ -167,7 +167,7 @@ def test_sorted_finite_values_agree_with_the_element_path(values: list[float]) -
 def test_units_counted_as_counter_update_counts_them(units: list[str]) -> None:
     from collections import Counter
 
-    from stook.sdk.aggregations._scalar_defaults import _count_units
+    from stook.sdk.aggregations._scalar_stats import _count_units
 
     counts: Counter[str] = Counter({"m": 1})
     _count_units(counts, units)

@@ -6,8 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from stook.sdk.stats import bootstrap_mean_difference, mean_interval, seed_from
-from stook.sdk.stats._bootstrap import _BLOCK
+from stook.sdk.stats import _BLOCK, bootstrap_mean_difference, mean_interval, seed_from
 
 
 def test_the_same_seed_gives_the_same_interval_and_another_seed_another() -> None:

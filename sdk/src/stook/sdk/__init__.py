@@ -14,7 +14,6 @@ in ``_modules`` is private.
 # polars and numpy are imported by the functions that build frames, not here: reading,
 # writing and validating a file do not need them (the frames' dtypes are in stook.sdk.dtypes).
 from stook.sdk import data
-from stook.sdk._atomic import remove_stale_temp_files, write_atomic
 from stook.sdk._data import MetricsData
 from stook.sdk._enums import MetricImportance, MetricStatus, MetricType, SeriesKind
 from stook.sdk._errors import (
@@ -26,25 +25,7 @@ from stook.sdk._errors import (
     StookError,
     WriterError,
 )
-from stook.sdk._handle import MetricHandle, MetricOptions
-from stook.sdk._metric_views import (
-    BarChartMetric,
-    BatchwiseBarChartMetric,
-    Bucket,
-    DoubleOverTimeMetric,
-    DoubleSummaryMetric,
-    FailureLimits,
-    HistogramMetric,
-    ImageListMetric,
-    ImageMetric,
-    LinePlotMetric,
-    PlotlyMetric,
-    ScalarMetric,
-    StatesOverTimeMetric,
-    TextMetric,
-    TypedMetric,
-    UnknownMetric,
-)
+from stook.sdk._output import MetricHandle, MetricOptions, remove_stale_temp_files, write_atomic
 from stook.sdk._reader import (
     parse_job_metrics,
     parse_metric,
@@ -54,7 +35,28 @@ from stook.sdk._reader import (
     read_metrics_data,
 )
 from stook.sdk._validate import find_problems, validate_job_metrics
-from stook.sdk._views import EventView, JobMetricsView, MetricsDataView, MetricView
+from stook.sdk._views import (
+    BarChartMetric,
+    BatchwiseBarChartMetric,
+    Bucket,
+    DoubleOverTimeMetric,
+    DoubleSummaryMetric,
+    EventView,
+    FailureLimits,
+    HistogramMetric,
+    ImageListMetric,
+    ImageMetric,
+    JobMetricsView,
+    LinePlotMetric,
+    MetricsDataView,
+    MetricView,
+    PlotlyMetric,
+    ScalarMetric,
+    StatesOverTimeMetric,
+    TextMetric,
+    TypedMetric,
+    UnknownMetric,
+)
 from stook.sdk._writer import MetricsWriter
 
 __all__ = [

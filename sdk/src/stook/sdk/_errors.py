@@ -1,8 +1,25 @@
-"""The SDK's exception types: one base, one type per thing that can go wrong.
+"""The SDK's exceptions: one base, one type per thing that can go wrong.
 
+The hierarchy::
+
+    StookError                      every error stook raises on purpose
+    ├── WriterError (ValueError)    a metric or data cannot form a valid output
+    ├── OutputWriteError (OSError)  the output file could not be written
+    ├── InvalidMetricsError         a JobMetrics message breaks the platform's rules
+    ├── ReadError                   bytes are not readable as the message they should be
+    │   ├── MissingDataError        a metric references data the output does not hold
+    │   └── JobDataError            a job's data is not what an aggregation can read
+    ├── AggregationConfigError      a config table does not describe an aggregation
+    └── SummaryError                bytes are not a stook batch summary
+        └── SummaryVersionError     a summary in a newer stook's layout
+
+    MetricNotFoundError (KeyError)  no metric of that name in a `JobMetricsView`
+
+`Problem` is one rule an output breaks, as `InvalidMetricsError.problems` lists them.
 `MalformedError` and `read_error` are the reader's internals, not part of the public
 surface: a view that finds a value it cannot decode raises the former deep down, and
 the reader's entry points turn it into a `ReadError` that names what was being read.
+Which exit code each error means is the service's to say (docs/cli.md).
 """
 
 from __future__ import annotations
@@ -82,3 +99,28 @@ class InvalidMetricsError(StookError):
         first = str(problems[0]) if problems else "invalid metrics"
         more = f" (and {len(problems) - 1} more)" if len(problems) > 1 else ""
         super().__init__(first + more)
+
+
+class JobDataError(ReadError):
+    """A job's metric or data is not what the configured aggregation can read, or it
+    disagrees with another job's (histogram buckets that differ, say). The message names
+    the job or jobs at fault. It is invalid data, like any `ReadError`."""
+
+
+class AggregationConfigError(StookError):
+    """A config table does not describe an aggregation that can be built."""
+
+
+class SummaryError(StookError):
+    """Bytes that are not a stook batch summary (truncated, or another format)."""
+
+
+class SummaryVersionError(SummaryError):
+    """A summary written by a newer stook, in a layout this one does not know."""
+
+
+class MetricNotFoundError(KeyError):
+    """No metric of that name; a KeyError whose message reads as a sentence."""
+
+    def __str__(self) -> str:
+        return str(self.args[0])

@@ -30,8 +30,8 @@ from stook.sdk.aggregations._base import Aggregation
 
 R = TypeVar("R")
 
-#: the job ID the checked outputs are written under (any fixed ID would do)
 CHECK_JOB_ID = uuid.UUID("5ab1e5ab-1e5a-4b1e-8ab1-e5ab1e5ab1e5")
+"""The job ID the checked outputs are written under (any fixed ID would do)."""
 
 _MAX_DIFF_LINES = 40
 

@@ -10,14 +10,26 @@ Each metric method checks its arguments, builds its proto at once and returns a
 
 This module owns the one method per metric type: which data kinds it takes and which
 fields of the metric's values it fills. What every type shares -- metrics data and
-their index chains, IDs, events, the overall status, writing the file -- is
-`OutputBuilder`'s (in `_output`); the protobuf encoding is `_encode`'s.
+their index chains, IDs, events, the overall status, the protobuf encoding, writing the
+file -- is `OutputBuilder`'s (in `_output`).
+
+The argument checks below (`require_kind`, `matching_statuses`, `check_color`, ...)
+each raise a `WriterError` that names the metric before anything is written, so that a
+mistake shows where it is made rather than as a platform refusal of the finished
+output: they check what the SDK's types cannot (data kinds and indexes, matching shapes
+and counts, UUID and colour spellings). `histogram_buckets` is the one place that turns
+"N buckets between lower and upper" or a list of explicit pairs into checked,
+contiguous buckets: the ``histogram`` method calls it, and so do the aggregations
+(`MergedHistogram` bins its values on the edges the histogram metric will carry,
+`ScalarDefaults` asks it which bucket counts floating point can tell apart).
 """
 
 from __future__ import annotations
 
+import itertools
 import json
 import math
+import uuid
 from collections.abc import Mapping, Sequence
 from typing import Any, Unpack
 
@@ -25,21 +37,122 @@ from google.protobuf import struct_pb2
 
 from stook.proto import metrics_pb2 as pb
 from stook.sdk import _data
-from stook.sdk._arguments import (
-    canonical_uuid,
-    check_color,
-    flat_strings,
-    legend_names,
-    matching_statuses,
-    require_kind,
-)
-from stook.sdk._buckets import Bucket, histogram_buckets
 from stook.sdk._data import MetricsData, TimestampLike, UuidLike
-from stook.sdk._encode import failure_proto, timestamp_proto
 from stook.sdk._enums import MetricStatus, MetricType, SeriesKind
 from stook.sdk._errors import WriterError
-from stook.sdk._handle import FailureDefinition, MetricHandle, MetricOptions, status_of
-from stook.sdk._output import OutputBuilder, all_or_nothing
+from stook.sdk._output import (
+    FailureDefinition,
+    MetricHandle,
+    MetricOptions,
+    OutputBuilder,
+    all_or_nothing,
+    failure_proto,
+    status_of,
+    timestamp_proto,
+)
+
+Bucket = tuple[float, float]
+
+
+def histogram_buckets(
+    name: str, buckets: int | Sequence[Bucket], lower: float | None, upper: float | None
+) -> list[Bucket]:
+    """Equal-width buckets from a count and bounds, or explicit ones checked for contiguity."""
+    if isinstance(buckets, int):
+        if lower is None or upper is None or not lower < upper or buckets < 1:
+            raise WriterError(
+                f"metric {name!r}: {buckets} buckets need lower < upper and a count of at least 1"
+            )
+        width = (upper - lower) / buckets
+        # The first and last edges are the bounds themselves (0 * inf would be NaN).
+        edges = [lower, *(lower + i * width for i in range(1, buckets)), upper]
+        if not all(math.isfinite(e) for e in edges) or any(
+            a >= b for a, b in itertools.pairwise(edges)
+        ):
+            raise WriterError(
+                f"metric {name!r}: {buckets} buckets between {lower} and {upper} cannot be told "
+                "apart in floating point; use fewer buckets or wider bounds"
+            )
+        return list(itertools.pairwise(edges))
+    pairs = [(float(lo), float(hi)) for lo, hi in buckets]
+    if not pairs:
+        raise WriterError(f"metric {name!r}: a histogram needs at least one bucket")
+    for i, (lo, hi) in enumerate(pairs):
+        if not lo < hi:
+            raise WriterError(f"metric {name!r}: bucket {i} has lower {lo} >= upper {hi}")
+        if i and pairs[i - 1][1] != lo:
+            raise WriterError(
+                f"metric {name!r}: bucket {i} starts at {lo} but bucket {i - 1} ends at "
+                f"{pairs[i - 1][1]}"
+            )
+    if (lower is not None and lower != pairs[0][0]) or (
+        upper is not None and upper != pairs[-1][1]
+    ):
+        raise WriterError(f"metric {name!r}: lower/upper must match the first and last bucket")
+    return pairs
+
+
+def require_kind(
+    metric: str, data: MetricsData, kind: SeriesKind, *, index: SeriesKind | None = None
+) -> None:
+    if data.kind is not kind:
+        raise WriterError(
+            f"metric {metric!r}: data {data.name!r} holds {data.kind.value} values, "
+            f"{kind.value} needed"
+        )
+    if index is not None and (data.index is None or data.index.kind is not index):
+        raise WriterError(
+            f"metric {metric!r}: data {data.name!r} must be indexed by a {index.value} series"
+        )
+
+
+def matching_statuses(
+    metric: str,
+    series: list[MetricsData],
+    statuses: Sequence[MetricsData] | None,
+    status: MetricStatus,
+    make: Any,
+) -> list[MetricsData]:
+    """The status series of each value series: the given ones, checked, or made by `make`."""
+    if statuses is None:
+        return [make(s, None, status) for s in series]
+    if len(statuses) != len(series):
+        raise WriterError(f"metric {metric!r}: give one status series per value series")
+    for s, st in zip(series, statuses, strict=True):
+        require_kind(metric, st, SeriesKind.STATUS)
+        if st.shape() != s.shape() or st.index is not s.index:
+            raise WriterError(
+                f"metric {metric!r}: status series {st.name!r} must have the shape and index "
+                f"of {s.name!r}"
+            )
+    return list(statuses)
+
+
+def legend_names(metric: str, names: Sequence[str] | None, series: list[MetricsData]) -> list[str]:
+    if names is None:
+        return [s.name for s in series]
+    if len(names) != len(series):
+        raise WriterError(f"metric {metric!r}: give one legend name per series")
+    return list(names)
+
+
+def flat_strings(data: MetricsData) -> list[str]:
+    if isinstance(data.values, dict):
+        return [str(v) for vs in data.values.values() for v in vs]
+    return [str(v) for v in data.values or []]
+
+
+def canonical_uuid(metric: str, value: object) -> str:
+    try:
+        return str(value if isinstance(value, uuid.UUID) else uuid.UUID(str(value)))
+    except ValueError:
+        raise WriterError(f"metric {metric!r}: {value!r} is not a UUID") from None
+
+
+def check_color(metric: str, color: str) -> None:
+    body = color[1:] if color.startswith("#") else ""
+    if len(body) not in (6, 8) or any(c not in "0123456789abcdefABCDEF" for c in body):
+        raise WriterError(f"metric {metric!r}: colour {color!r} is not #RRGGBB or #RRGGBBAA")
 
 
 class MetricsWriter(OutputBuilder):

@@ -9,8 +9,7 @@ import numpy as np
 import pytest
 import ruptures
 
-from stook.sdk._pelt import _l2_cost, ruptures_cost
-from stook.sdk.aggregations.report._change_points import MIN_SEGMENT
+from stook.sdk.aggregations.report._change_points import MIN_SEGMENT, SummedL2Cost, ruptures_cost
 
 
 @pytest.mark.parametrize("seed", range(6))
@@ -24,7 +23,7 @@ def test_same_costs_and_breakpoints_as_ruptures_l2(seed: int) -> None:
             level += rng.choice([-1, 1]) * rng.uniform(2, 6)
         values.append(level + rng.gauss(0, 1))
     signal = np.asarray(values).reshape(-1, 1)
-    ours, theirs = _l2_cost()().fit(signal), ruptures.costs.CostL2().fit(signal)
+    ours, theirs = SummedL2Cost().fit(signal), ruptures.costs.CostL2().fit(signal)
     for start, end in [(0, n), (0, 2), (3, n - 1), (n // 2, n)]:
         assert ours.error(start, end) == pytest.approx(theirs.error(start, end), abs=1e-9)
     pen = 3.0 * np.log(n) + 8

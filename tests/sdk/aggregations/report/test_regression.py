@@ -11,7 +11,7 @@ from hypothesis import assume, given
 from hypothesis import strategies as st
 
 from stook.sdk.aggregations.report import Verdict, check
-from stook.sdk.aggregations.report._regression import MAD_TO_SIGMA, MIN_BASELINE, RELATIVE_FLOOR
+from stook.sdk.aggregations.report._change_points import MAD_TO_SIGMA, MIN_BASELINE, RELATIVE_FLOOR
 from tests.hypothesis_profiles import examples
 
 

@@ -12,8 +12,12 @@ import numpy as np
 import pytest
 import ruptures
 
-from stook.sdk._pelt import _vector_pelt, ruptures_cost, search
-from stook.sdk.aggregations.report._change_points import penalty
+from stook.sdk.aggregations.report._change_points import (
+    _partition,
+    penalty,
+    ruptures_cost,
+    search,
+)
 
 
 def _levels(rng: random.Random, n: int) -> np.ndarray:
@@ -46,7 +50,7 @@ def test_same_partition_as_ruptures_pelt(seed: int) -> None:
     cost = ruptures_cost("l2" if kind == 0 else "binomial")()
     pen = rng.choice([penalty(n), 0.5, 2.0, 30.0])
     theirs = ruptures.Pelt(custom_cost=cost, min_size=1, jump=1).fit(signal)._seg(pen)
-    ours = _vector_pelt()(custom_cost=cost, min_size=1, jump=1).fit(signal)._seg(pen)
+    ours = _partition(cost.fit(signal), n, pen)
     assert list(ours.items()) == sorted(theirs.items())
 
 
@@ -54,17 +58,7 @@ def test_a_constant_series_ties_everywhere_and_still_agrees() -> None:
     signal = np.zeros((30, 1))
     cost = ruptures_cost("l2")()
     theirs = ruptures.Pelt(custom_cost=cost, min_size=1, jump=1).fit(signal).predict(pen=0.0)
-    ours = _vector_pelt()(custom_cost=cost, min_size=1, jump=1).fit(signal).predict(pen=0.0)
-    assert ours == theirs
-
-
-def test_other_settings_take_ruptures_own_search() -> None:
-    signal = _levels(random.Random(1), 60)
-    for jump, min_size in ((5, 1), (1, 3)):
-        cost = ruptures_cost("l2")()
-        theirs = ruptures.Pelt(custom_cost=cost, min_size=min_size, jump=jump).fit(signal)
-        ours = _vector_pelt()(custom_cost=cost, min_size=min_size, jump=jump).fit(signal)
-        assert ours.predict(pen=4.0) == theirs.predict(pen=4.0)
+    assert search("l2", signal, 0.0, 1) == theirs[:-1]
 
 
 @pytest.mark.parametrize("seed", range(60))
@@ -94,7 +88,7 @@ def test_the_search_imports_neither_ruptures_nor_scipy() -> None:
     script = (
         "import sys\n"
         "import numpy as np\n"
-        "from stook.sdk._pelt import search\n"
+        "from stook.sdk.aggregations.report._change_points import search\n"
         "levels = np.asarray([0.0] * 10 + [5.0] * 10).reshape(-1, 1)\n"
         "rates = np.column_stack([[0.0] * 10 + [9.0] * 10, [10.0] * 20])\n"
         "print(search('l2', levels, 10.0, 1), search('binomial', rates, 10.0, 1))\n"

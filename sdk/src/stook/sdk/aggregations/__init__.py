@@ -7,32 +7,43 @@ dataclass, and name it in the config as ``[[batch.custom]] class = "pkg.mod:Clas
 or register it under the ``stook.aggregations`` entry-point group.
 """
 
-from stook.sdk.aggregations._base import Aggregation, BatchAggregation, Needs, ReportAggregation
-from stook.sdk.aggregations._by_tag import ByExperienceTag
-from stook.sdk.aggregations._category_totals import CategoryTotals
-from stook.sdk.aggregations._columns import JobColumns, JobSummary, ScalarColumn
-from stook.sdk.aggregations._errors import JobDataError
-from stook.sdk.aggregations._event_counts import EventCounts
-from stook.sdk.aggregations._histogram import MergedHistogram
-from stook.sdk.aggregations._record import (
+from stook.sdk._errors import (
+    AggregationConfigError,
+    JobDataError,
+    SummaryError,
+    SummaryVersionError,
+)
+from stook.sdk.aggregations._base import (
     UNKNOWN_STATUS,
+    Aggregation,
+    BatchAggregation,
     BatchRecord,
     JobEvent,
     JobRecord,
+    Needs,
+    ReportAggregation,
     Scalar,
+    SeriesByName,
 )
+from stook.sdk.aggregations._columns import JobColumns, JobSummary, ScalarColumn
+from stook.sdk.aggregations._histogram import MergedHistogram
+from stook.sdk.aggregations._job_metrics import CategoryTotals
 from stook.sdk.aggregations._registry import (
-    AggregationConfigError,
     build,
     build_all,
     default_batch_aggregations,
 )
-from stook.sdk.aggregations._scalar_defaults import ScalarDefaults
-from stook.sdk.aggregations._scalar_stats import ScalarStats
-from stook.sdk.aggregations._series_map import SeriesByName
+from stook.sdk.aggregations._scalar_stats import (
+    ByExperienceTag,
+    ParameterSweep,
+    ScalarDefaults,
+    ScalarStats,
+    WeightedMean,
+)
 from stook.sdk.aggregations._status_counts import (
     JOB_STATUSES,
     METRIC_STATUSES,
+    EventCounts,
     JobStatusCounts,
     MetricStatusCounts,
     PassRate,
@@ -43,16 +54,12 @@ from stook.sdk.aggregations._summary import (
     BatchSummary,
     BatchSummaryWriter,
     ColumnarSummary,
-    SummaryError,
     SummaryJob,
-    SummaryVersionError,
     decode_summary,
     encode_summary,
     summary_columns_from_data,
     summary_from_data,
 )
-from stook.sdk.aggregations._sweep import ParameterSweep
-from stook.sdk.aggregations._weighted_mean import WeightedMean
 
 __all__ = [
     "JOB_STATUSES",

@@ -9,18 +9,17 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, Self
 
 from stook.sdk import _data
-from stook.sdk._buckets import Bucket, histogram_buckets
 from stook.sdk._enums import MetricStatus, SeriesKind
-from stook.sdk._writer import MetricsWriter
-from stook.sdk.aggregations._base import Aggregation, Needs
-from stook.sdk.aggregations._errors import JobDataError
+from stook.sdk._errors import JobDataError
+from stook.sdk._writer import Bucket, MetricsWriter, histogram_buckets
+from stook.sdk.aggregations._base import Aggregation, JobRecord, Needs
 from stook.sdk.aggregations._job_metrics import histogram_of
-from stook.sdk.aggregations._record import JobRecord
-from stook.sdk.aggregations._series_map import SeriesByName
 
 if TYPE_CHECKING:
     import numpy as np
     import polars as pl
+
+    Doubles = np.ndarray[Any, np.dtype[np.float64]]
 
 DEFAULT_MAX_VALUES = 2_000_000
 DEFAULT_BUCKETS = 20
@@ -30,17 +29,36 @@ _BIN_BATCH = 1 << 16
 # binary search of the edges per value. Measured on 65,536 values: 0.15 ms against 3.1 at
 # 10 buckets, 4.2 against 6.5 ms at 160; the search grows with the log of the buckets.
 _COMPARE_UP_TO = 128
-_LITTLE_ENDIAN_F8 = "<f8"
 
 
-def _pooled_categories(job: JobRecord, name: str) -> pl.Series | None:
-    """Per-category doubles have no single series: the histogram pools every category's
-    values, on purpose (one distribution across categories; `category_totals` keeps them
-    apart)."""
+def _doubles_of(job: JobRecord, name: str) -> Doubles | None:
+    """The job's values of double data `name` as float64 (None without such data).
+
+    From the job's view of the data when it has one (`JobRecord.data`, which a fetch
+    fills): the doubles straight from the message, without a polars Series. Otherwise
+    from `JobRecord.series` (a hand-made record's). Per-category doubles contribute
+    every category's values, pooled on purpose: one distribution across categories
+    (`category_totals` keeps them apart).
+    """
     view = job.data.get(name)
-    if view is None or not view.per_category or view.kind is not SeriesKind.DOUBLE:
-        return None
-    return view.frame().get_column("value").alias(name)
+    if view is not None and view.kind is SeriesKind.DOUBLE:
+        if view.per_category:
+            return _float64(view.frame().get_column("value"))
+        from stook.sdk._series import doubles_array
+
+        return doubles_array(view.raw.series.doubles)
+    series = job.series.get(name)
+    return None if series is None else _float64(series)
+
+
+def _float64(series: pl.Series) -> Doubles:
+    """A Series' values as a float64 array; nulls (only a hand-made record's series has
+    them) read as zeros, as they always have."""
+    import polars as pl
+
+    if series.dtype != pl.Float64:
+        series = series.cast(pl.Float64)
+    return series.fill_null(0.0).to_numpy()
 
 
 @dataclass
@@ -69,29 +87,17 @@ class MergedHistogram(Aggregation[JobRecord]):
     x_axis_name: str | None = None
     metric: str | None = None
 
-    chunks: list[pl.Series] = field(default_factory=list, init=False)
-    # In exact mode, a fetched job's values (numpy, from `SeriesByName.values_of`) wait
-    # here and join `chunks` as one Series, _CONSOLIDATE_AT jobs at a time or whenever
-    # `chunks` is read (see `_kept`): a polars Series per job cost more than the rest of
-    # the job's update. Order is kept: a polars job first joins the waiting values.
-    kept_arrays: list[np.ndarray[Any, np.dtype[np.float64]]] = field(
-        default_factory=list, init=False
-    )
-    # Fetched jobs' values as little-endian doubles (`SeriesByName.packed_of`) wait here
-    # and become one array _BIN_BATCH values at a time (see `_settle`): an array and a NaN
-    # check per job cost more than the rest of the job's update. Read only once settled.
-    packed: list[bytes] = field(default_factory=list, init=False)
-    packed_bytes: int = field(default=0, init=False)
+    # The appended values, float64 with their NaNs dropped: an array per job, or per run
+    # of jobs once joined. While the values are kept, they are joined into one array
+    # _CONSOLIDATE_AT arrays at a time (thousands of small arrays cost more than their
+    # values). Once past the cap, they wait here to be binned into `bucket_counts`
+    # _BIN_BATCH values at a time (`waiting`): binning each job's few hundred values
+    # alone cost a quarter of the client's CPU per request.
+    arrays: list[Doubles] = field(default_factory=list, init=False)
+    waiting: int = field(default=0, init=False)
     bucket_counts: list[int] | None = field(default=None, init=False)
     total: int = field(default=0, init=False)
     outside_counted: int = field(default=0, init=False)
-    # In counts mode, values wait here and are binned _BIN_BATCH at a time: binning each
-    # job's few hundred values alone cost a quarter of the client's CPU per request.
-    # A job's values come as a Series, or as numpy from a fetch (`SeriesByName.values_of`).
-    unbinned: list[pl.Series | np.ndarray[Any, np.dtype[np.float64]]] = field(
-        default_factory=list, init=False
-    )
-    unbinned_values: int = field(default=0, init=False)
     dropped_nan: int = field(default=0, init=False)
     jobs: int = field(default=0, init=False)
     # Metric mode: the buckets the jobs used, learnt from the first job that had the metric
@@ -153,56 +159,127 @@ class MergedHistogram(Aggregation[JobRecord]):
 
     @property
     def binned(self) -> bool:
-        self._settle()
         return self.bucket_counts is not None
 
     @property
     def counts(self) -> list[int] | None:
         """Exact values per bucket once past the cap; None while the values are kept."""
-        self._flush()
+        self._bin_waiting()
         return self.bucket_counts
 
     @property
     def outside(self) -> int:
         """Values outside [lower, upper], counted into the edge buckets (counts mode)."""
-        self._flush()
+        self._bin_waiting()
         return self.outside_counted
 
-    def _settle(self) -> None:
-        """Add the values waiting in `packed` as one array, as `_add_array` of each job's
-        would have: in their order, their NaNs dropped and counted."""
-        if self.packed:
+    def update(self, job: JobRecord) -> None:
+        if self.metric is not None:
+            found = histogram_of(job, self.metric)
+            if found is None:
+                return
+            self._adopt_edges(list(found.buckets), job.job_id)
+            if found.x_axis_name:
+                self.axis_names.add(found.x_axis_name)
+            values = _float64(found.values)
+        else:
+            assert self.data is not None
+            got = _doubles_of(job, self.data)
+            if got is None:
+                return
+            values = got
+        self.jobs += 1
+        # The minimum is NaN exactly when a value is (numpy's propagates NaN): one pass.
+        # Not a dot product: BLAS runs one of many thousands of values in threads, whose
+        # spinning cost more CPU than the whole fold.
+        if len(values) and math.isnan(values.min()):
             import numpy as np
 
-            packed, self.packed, self.packed_bytes = self.packed, [], 0
-            # Joined into a bytearray, whose buffer is aligned for doubles (a bytes
-            # object's is not, and numpy's unaligned loops are ~40x slower).
-            self._add_array(np.frombuffer(bytearray().join(packed), _LITTLE_ENDIAN_F8))
+            nan = np.isnan(values)
+            self.dropped_nan += int(np.count_nonzero(nan))
+            values = values[~nan]
+        self._append(values)
 
-    def _flush(self) -> None:
-        self._settle()
-        if self.unbinned:
-            import numpy as np
+    def merge(self, other: Self) -> None:
+        if self.metric is not None and other.edges is not None:
+            self._adopt_edges(other.edges, other.edges_job)
+            self.axis_names |= other.axis_names
+        self.jobs += other.jobs
+        self.dropped_nan += other.dropped_nan
+        theirs = other.counts  # bins their waiting values
+        self.outside_counted += other.outside_counted
+        if theirs is not None:
+            if self.bucket_counts is None:
+                self._switch_to_counts()
+            mine = self.counts
+            assert mine is not None
+            self.bucket_counts = [a + b for a, b in zip(mine, theirs, strict=True)]
+            self.total += other.total
+            return
+        for values in other.arrays:
+            self._append(values)
 
-            pending, self.unbinned, self.unbinned_values = self.unbinned, [], 0
-            # Counts do not depend on the order of the values: each kind is joined its own
-            # way (a Series' to_numpy each costs ~4x its share of one concat).
-            arrays = [p for p in pending if isinstance(p, np.ndarray)]
-            if arrays:
-                self._bin_values(np.concatenate(arrays))
-            if len(arrays) < len(pending):
-                import polars as pl
+    def __getstate__(self) -> dict[str, object]:
+        """What travels between processes (see `Aggregation`): waiting values binned first,
+        so a histogram in counts mode is its bucket counts (a few hundred bytes, whatever
+        the number of values), and kept values as one array (8 bytes a value) rather than
+        an array per job, each with its own framing."""
+        if self.bucket_counts is not None:
+            self._bin_waiting()
+        elif len(self.arrays) > 1:
+            self._join()
+        return dict(self.__dict__)
 
-                series = [p for p in pending if not isinstance(p, np.ndarray)]
-                self._bin(pl.concat(series, rechunk=True))
+    def values(self) -> pl.Series:
+        """The appended values (exact mode only), sorted: jobs arrive in any order, and a
+        histogram does not depend on the order of its values, so sorted output is stable."""
+        import polars as pl
 
-    def _bin(self, s: pl.Series) -> None:
-        self._bin_values(s.to_numpy())
+        name = self.data or self.metric
+        if not self.arrays:
+            return pl.Series(name, [], dtype=pl.Float64)
+        # -0.0 becomes 0.0 (-0.0 + 0.0 is 0.0; they compare equal, so sorting alone would
+        # keep their arrival order), and the sum is a copy to sort in place. Sorted in
+        # numpy: a fifth of polars' zip_with and sort (0.2 against 1.1 ms for 30,000
+        # values), and the same bits, as no two other equal doubles differ in bits.
+        array = self._join() + 0.0
+        array.sort()
+        return pl.Series(name, array)
 
-    def _bin_values(self, values: np.ndarray[Any, np.dtype[np.float64]]) -> None:
+    def _append(self, values: Doubles) -> None:
+        """Append values without NaNs: kept, or waiting to be binned past the cap."""
+        self.total += len(values)
+        self.arrays.append(values)
+        if self.bucket_counts is not None:
+            self.waiting += len(values)
+            if self.waiting >= _BIN_BATCH:
+                self._bin_waiting()
+        elif self.total > self.max_values:
+            self._switch_to_counts()
+        elif len(self.arrays) >= _CONSOLIDATE_AT:
+            self._join()
+
+    def _join(self) -> Doubles:
+        """The kept values as one array, which then is `arrays`' only one."""
         import numpy as np
 
-        assert self.bucket_counts is not None  # only called once binned
+        if len(self.arrays) != 1:
+            self.arrays = [np.concatenate(self.arrays)]
+        return self.arrays[0]
+
+    def _switch_to_counts(self) -> None:
+        self.bucket_counts = [0] * len(self._edges())
+        self.waiting = sum(len(a) for a in self.arrays)
+        self._bin_waiting()
+
+    def _bin_waiting(self) -> None:
+        """Bin the values waiting in `arrays` (counts mode; nothing otherwise)."""
+        if self.bucket_counts is None or not self.arrays:
+            return
+        import numpy as np
+
+        values = np.concatenate(self.arrays)
+        self.arrays, self.waiting = [], 0
         edges = self._edges()
         # Two counts rather than one of an or: lower < upper, so no value is in both.
         below = int(np.count_nonzero(values < edges[0][0]))
@@ -212,8 +289,8 @@ class MergedHistogram(Aggregation[JobRecord]):
         # (numpy rather than polars: a polars value_counts per batch cost 4x the search.)
         if len(edges) <= _COMPARE_UP_TO:
             # A bucket holds the values below its upper edge less those below its lower
-            # one, the edge buckets also the values beyond them (and NaN the last, as a
-            # search puts it). Each edge is one vectorized pass over the values.
+            # one, the edge buckets also the values beyond them. Each edge is one
+            # vectorized pass over the values.
             below_inner = [int(np.count_nonzero(values < lo)) for lo, _ in edges[1:]]
             counts = np.diff(np.array([0, *below_inner, len(values)]))
         else:
@@ -225,164 +302,7 @@ class MergedHistogram(Aggregation[JobRecord]):
             mine + int(new) for mine, new in zip(self.bucket_counts, counts, strict=True)
         ]
 
-    def _kept(self) -> list[pl.Series]:
-        """`chunks`, with the values waiting in `kept_arrays` joined to them as one Series."""
-        self._settle()
-        if self.kept_arrays:
-            import numpy as np
-            import polars as pl
-
-            arrays, self.kept_arrays = self.kept_arrays, []
-            assert self.data is not None  # numpy values come for `data` only
-            self.chunks.append(pl.Series(self.data, np.concatenate(arrays)))
-        return self.chunks
-
-    def _switch_to_counts(self) -> None:
-        self.bucket_counts = [0] * len(self._edges())
-        chunks, self.chunks = self._kept(), []
-        for chunk in chunks:
-            self._bin(chunk)
-
-    def _add(self, s: pl.Series) -> None:
-        if self.bucket_counts is not None:
-            self._add_unbinned(s)
-            return
-        self.total += s.len()
-        self._kept().append(s)
-        if len(self.chunks) >= _CONSOLIDATE_AT:
-            import polars as pl
-
-            # Thousands of small Series cost far more than their values; one big one does not.
-            self.chunks = [pl.concat(self.chunks, rechunk=True)]
-        if self.total > self.max_values:
-            self._switch_to_counts()
-
-    def _add_unbinned(self, values: pl.Series | np.ndarray[Any, np.dtype[np.float64]]) -> None:
-        self.total += len(values)
-        self.unbinned.append(values)
-        self.unbinned_values += len(values)
-        if self.unbinned_values >= _BIN_BATCH:
-            self._flush()
-
-    def _add_array(self, values: np.ndarray[Any, np.dtype[np.float64]]) -> None:
-        """Add jobs' values as numpy (no nulls, Float64): as `_add` of their series with
-        the NaNs dropped, without the polars Series while in counts mode."""
-        # The minimum is NaN exactly when a value is (numpy's propagates NaN): one pass.
-        # Not a dot product: BLAS runs one of many thousands of values in threads, whose
-        # spinning cost more CPU than the whole fold.
-        if len(values) and math.isnan(values.min()):
-            import numpy as np
-
-            nan = np.isnan(values)
-            nans = int(np.count_nonzero(nan))
-            if nans:
-                self.dropped_nan += nans
-                values = values[~nan]
-        if self.bucket_counts is not None:
-            self._add_unbinned(values)
-            return
-        self.total += len(values)
-        self.kept_arrays.append(values)
-        if len(self.kept_arrays) >= _CONSOLIDATE_AT:
-            self._kept()
-        if self.total > self.max_values:
-            self._switch_to_counts()
-
-    def update(self, job: JobRecord) -> None:
-        if self.data is not None and isinstance(job.series, SeriesByName):
-            packed = job.series.packed_of(self.data)
-            if packed is not None:
-                self.jobs += 1
-                self.packed.append(packed)
-                self.packed_bytes += len(packed)
-                if self.packed_bytes >= _BIN_BATCH * 8:
-                    self._settle()
-                return
-        self._settle()  # the values before this job's, in their order
-        if self.metric is not None:
-            found = histogram_of(job, self.metric)
-            if found is None:
-                return
-            self._adopt_edges(list(found.buckets), job.job_id)
-            if found.x_axis_name:
-                self.axis_names.add(found.x_axis_name)
-            s = found.values
-        else:
-            assert self.data is not None
-            series = job.series.get(self.data)
-            if series is None:
-                series = _pooled_categories(job, self.data)
-            if series is None:
-                return
-            s = series
-        self.jobs += 1
-        import polars as pl
-
-        if s.dtype != pl.Float64:
-            s = s.cast(pl.Float64)
-        # A sum is NaN only when a value is (or +inf meets -inf). It is one native pass,
-        # where `is_nan()` runs a polars query: ~70 µs per job-sized series, measured.
-        if math.isnan(s.sum()):
-            nans = int(s.is_nan().sum())
-            if nans:
-                self.dropped_nan += nans
-                s = s.drop_nans()
-        self._add(s)
-
-    def merge(self, other: Self) -> None:
-        self._settle()
-        other._settle()
-        if self.metric is not None and other.edges is not None:
-            self._adopt_edges(other.edges, other.edges_job)
-            self.axis_names |= other.axis_names
-        self.jobs += other.jobs
-        self.dropped_nan += other.dropped_nan
-        theirs = other.counts  # flushes their unbinned values
-        self.outside_counted += other.outside_counted
-        if theirs is not None:
-            if self.bucket_counts is None:
-                self._switch_to_counts()
-            mine = self.counts
-            assert mine is not None
-            self.bucket_counts = [a + b for a, b in zip(mine, theirs, strict=True)]
-            self.total += other.total
-            return
-        for chunk in other._kept():
-            self._add(chunk)
-
-    def __getstate__(self) -> dict[str, object]:
-        """What travels between processes (see `Aggregation`): pending values binned first,
-        so a histogram in counts mode is its bucket counts (a few hundred bytes, whatever
-        the number of values), and kept values as one Series (8 bytes a value) rather than
-        a Series per job, each with its own few hundred bytes of framing."""
-        self._flush()
-        if len(self._kept()) > 1:
-            import polars as pl
-
-            self.chunks = [pl.concat(self.chunks, rechunk=True)]
-        return dict(self.__dict__)
-
-    def values(self) -> pl.Series:
-        """The appended series (exact mode only), sorted: jobs arrive in any order, and a
-        histogram does not depend on the order of its values, so sorted output is stable."""
-        import polars as pl
-
-        chunks = self._kept()
-        if not chunks:
-            return pl.Series(self.data or self.metric, [], dtype=pl.Float64)
-        values = pl.concat(chunks, rechunk=True)
-        # -0.0 becomes 0.0: they compare equal, so sorting alone keeps their arrival order.
-        if values.null_count() == 0:
-            # In numpy, where -0.0 + 0.0 is 0.0 (polars folds `x + 0.0` to x), and sorted
-            # there: a fifth of polars' zip_with and sort (0.2 against 1.1 ms for 30,000
-            # values), and the same bits, as no two other equal doubles differ in bits.
-            array = values.to_numpy() + 0.0
-            array.sort()
-            return pl.Series(values.name, array)
-        return values.zip_with(values != 0.0, pl.zeros(values.len(), eager=True)).sort()
-
     def finish(self, writer: MetricsWriter) -> None:
-        self._settle()
         if self.total == 0:
             writer.text(
                 self.name,

@@ -1,6 +1,11 @@
-"""Aggregations by name: the built-ins, plugins from the `stook.aggregations` (batch) and
-`stook.report_aggregations` (report) entry-point groups, and ``module:Class`` references;
-built from the config's ``[[batch.<kind>]]`` and ``[[report.<kind>]]`` tables."""
+"""Aggregations by name, and the ones every batch and every report gets.
+
+The built-ins, plugins from the `stook.aggregations` (batch) and
+`stook.report_aggregations` (report) entry-point groups, and ``module:Class`` references,
+built from the config's ``[[batch.<kind>]]`` and ``[[report.<kind>]]`` tables;
+`default_batch_aggregations` and `default_report_aggregations` are what a batch and a
+report get with or without a config.
+"""
 
 from __future__ import annotations
 
@@ -14,9 +19,9 @@ import typing
 from collections.abc import Iterator, Mapping, Sequence
 from typing import Any
 
-from stook.sdk._errors import StookError
+from stook.sdk._errors import AggregationConfigError
 from stook.sdk.aggregations._base import Aggregation
-from stook.sdk.aggregations._scalar_defaults import ScalarDefaults
+from stook.sdk.aggregations._scalar_stats import ScalarDefaults
 from stook.sdk.aggregations._status_counts import JobStatusCounts, MetricStatusCounts, PassRate
 
 ENTRY_POINT_GROUP = "stook.aggregations"
@@ -49,16 +54,16 @@ class BuiltinKinds(Mapping[str, type[Aggregation[Any]]]):
 BUILTIN = BuiltinKinds(
     "stook.sdk.aggregations",
     {
-        "weighted_mean": "._weighted_mean:WeightedMean",
+        "weighted_mean": "._scalar_stats:WeightedMean",
         "histogram": "._histogram:MergedHistogram",
         "scalar_stats": "._scalar_stats:ScalarStats",
         "job_status_counts": "._status_counts:JobStatusCounts",
         "metric_status_counts": "._status_counts:MetricStatusCounts",
         "pass_rate": "._status_counts:PassRate",
-        "category_totals": "._category_totals:CategoryTotals",
-        "events": "._event_counts:EventCounts",
-        "sweep": "._sweep:ParameterSweep",
-        "by_tag": "._by_tag:ByExperienceTag",
+        "category_totals": "._job_metrics:CategoryTotals",
+        "events": "._status_counts:EventCounts",
+        "sweep": "._scalar_stats:ParameterSweep",
+        "by_tag": "._scalar_stats:ByExperienceTag",
     },
 )
 REPORT_BUILTIN = BuiltinKinds(
@@ -70,21 +75,64 @@ REPORT_BUILTIN = BuiltinKinds(
         "test_status_over_time": "._statuses:TestStatusOverTime",
         "job_metric_status_counts": "._statuses:JobMetricStatusCounts",
         "batch_metric_status_counts": "._statuses:BatchMetricStatusCounts",
-        "job_scalar_distributions": "._job_distributions:JobScalarDistributions",
+        "job_scalar_distributions": "._lines:JobScalarDistributions",
         "change_points": "._change_report:ChangePoints",
-        "unstable_experiences": "._unstable:UnstableExperiences",
+        "unstable_experiences": "._experiences:UnstableExperiences",
     },
 )
 _BUILTIN_BY_SECTION = {"batch": BUILTIN, "report": REPORT_BUILTIN}
 
 
-class AggregationConfigError(StookError):
-    """A config table does not describe an aggregation that can be built."""
-
-
 def default_batch_aggregations() -> list[Aggregation[Any]]:
     """What every batch gets, with or without a config."""
     return [ScalarDefaults(), JobStatusCounts(), MetricStatusCounts(), PassRate()]
+
+
+def default_report_aggregations(
+    *,
+    project_id: str,
+    top_n: int = 10,
+    regression_window: int = 10,
+    regression_threshold: float = 3.5,
+    job_metrics: Sequence[str] | None = None,
+    change_points: bool = True,
+    change_penalty: float = 3.0,
+    unstable_experiences: bool = True,
+) -> list[Aggregation[Any]]:
+    """What every report gets; the arguments are the ``[report]`` settings."""
+    # Imported here: `stook.sdk.aggregations`, which every batch run imports, does not
+    # import the report's modules.
+    from stook.sdk.aggregations.report import (
+        BatchMetricStatusCounts,
+        ChangePoints,
+        FlakyExperiences,
+        JobMetricStatusCounts,
+        JobScalarDistributions,
+        MostFailedExperiences,
+        ScalarLines,
+        TestStatusOverTime,
+        UnstableExperiences,
+    )
+
+    aggregations: list[Aggregation[Any]] = [
+        ScalarLines(
+            window=regression_window,
+            threshold=regression_threshold,
+            change_points=change_points,
+            change_penalty=change_penalty,
+        ),
+        MostFailedExperiences(top_n=top_n),
+        TestStatusOverTime(project_id=project_id),
+        JobMetricStatusCounts(),
+        BatchMetricStatusCounts(),
+        JobScalarDistributions(metrics=job_metrics),
+        FlakyExperiences(top_n=top_n),
+    ]
+    if change_points:
+        aggregations.append(ChangePoints(penalty=change_penalty, top_n=top_n))
+    if unstable_experiences:
+        aggregations.append(UnstableExperiences(top_n=top_n, metrics=job_metrics))
+    return aggregations
 
 
 def load_class(reference: str, *, where: str) -> type[Aggregation[Any]]:

@@ -36,11 +36,9 @@ from itertools import chain, repeat
 from typing import TYPE_CHECKING, Any, Final, Literal, Self
 
 from stook.sdk._data import strings
-from stook.sdk._errors import StookError
-from stook.sdk.aggregations._base import Aggregation, Needs
-from stook.sdk.aggregations._columns import JobColumns, ScalarColumn
-from stook.sdk.aggregations._record import JobRecord, Scalar
-from stook.sdk.aggregations._scalar_columns import columns_of
+from stook.sdk._errors import SummaryError, SummaryVersionError
+from stook.sdk.aggregations._base import Aggregation, JobRecord, Needs, Scalar
+from stook.sdk.aggregations._columns import JobColumns, ScalarColumn, values_by_name
 from stook.sdk.aggregations._status_counts import COUNT_BATCH
 
 if TYPE_CHECKING:
@@ -60,14 +58,6 @@ _U16 = struct.Struct("<H")
 _U32 = struct.Struct("<I")
 _WIDTH_CODES = {1: "B", 2: "H", 4: "I"}
 _NO_ID = bytes(16)
-
-
-class SummaryError(StookError):
-    """Bytes that are not a stook batch summary (truncated, or another format)."""
-
-
-class SummaryVersionError(SummaryError):
-    """A summary written by a newer stook, in a layout this one does not know."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -149,7 +139,7 @@ def _encode(
     metric_names = sorted(set().union(*scalars))
     # Per metric, each job's scalar or None (a job without it), then the scalars there
     # are and their units.
-    by_job = columns_of(scalars, metric_names)
+    by_job = values_by_name(scalars, metric_names)
     found = [list(filter(None, column)) for column in by_job]
     units = [list(map(unit_of, column)) for column in found]
     experiences = sorted(set(job_experiences))

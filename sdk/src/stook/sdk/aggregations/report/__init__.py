@@ -3,18 +3,24 @@
 Each folds in one `BatchRecord` at a time, like batch aggregations fold in jobs.
 """
 
+from stook.sdk.aggregations._registry import default_report_aggregations
+from stook.sdk.aggregations.report._change_points import Verdict, check
 from stook.sdk.aggregations.report._change_report import ChangePoints, ChangePointSummary
-from stook.sdk.aggregations.report._defaults import default_report_aggregations
-from stook.sdk.aggregations.report._experiences import FlakyExperiences, MostFailedExperiences
-from stook.sdk.aggregations.report._job_distributions import JobScalarDistributions
-from stook.sdk.aggregations.report._lines import RegressionSummary, ScalarLines
-from stook.sdk.aggregations.report._regression import Verdict, check
+from stook.sdk.aggregations.report._experiences import (
+    FlakyExperiences,
+    MostFailedExperiences,
+    UnstableExperiences,
+)
+from stook.sdk.aggregations.report._lines import (
+    JobScalarDistributions,
+    RegressionSummary,
+    ScalarLines,
+)
 from stook.sdk.aggregations.report._statuses import (
     BatchMetricStatusCounts,
     JobMetricStatusCounts,
     TestStatusOverTime,
 )
-from stook.sdk.aggregations.report._unstable import UnstableExperiences
 
 __all__ = [
     "BatchMetricStatusCounts",

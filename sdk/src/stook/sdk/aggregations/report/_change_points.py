@@ -24,6 +24,19 @@ difference, not the spread of all of them), and the largest tenth of the differe
 left out: ``sigma = mean(|d| without the largest) / E[that mean under N(0, 2)]``, at least
 2 % of the series' median, as in the regression check, so that a perfectly flat series
 does not flag a change of a thousandth.
+
+The search (`search`) finds a series' breakpoints under a cost kind and a penalty as
+ruptures' `Pelt` finds them, bit for bit. With the settings stook searches with
+(``jump=1``, ``min_size=1``), `Pelt` runs nothing of its own but the cost's `fit`, a
+check that the signal is not empty and a sort: the search itself (`_partition`) and the
+costs (`SummedL2Cost`, `BinomialCost`) are this module's, over numpy arrays. So that
+search runs without importing ruptures, which imports scipy's sparse, spatial, optimize,
+stats and signal packages (about 1.5 s of CPU, more than a report's whole search). Other
+settings go through ruptures' own `Pelt`, imported then.
+
+Whether the latest batch moved (`check`, a `Verdict`) is judged against a robust
+baseline of the batches before it: the median and the median absolute deviation ignore
+a few wild batches, where a mean and a standard deviation would be dragged along.
 """
 
 from __future__ import annotations
@@ -33,14 +46,260 @@ import itertools
 import math
 import statistics
 from collections.abc import Sequence
-from dataclasses import dataclass
-from typing import TYPE_CHECKING
-
-from stook.sdk._pelt import search
-from stook.sdk.aggregations.report._regression import RELATIVE_FLOOR
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
     import numpy as np
+
+
+#: the cost kinds: least squares around each segment's mean, and the binomial deviance of
+#: each segment's failed of counted jobs
+COSTS = ("l2", "binomial")
+
+
+def search(kind: str, signal: np.ndarray, pen: float, min_size: int) -> list[int]:
+    """The breakpoints (segments' starts after the first) of `signal` under cost `kind`."""
+    cost = _cost(kind)()
+    if min_size <= 1:  # `Pelt` takes the larger of it and the cost's, which is 1
+        return [int(b) for b in _search_without_ruptures(cost, signal, pen)[:-1]]
+    import ruptures
+
+    algo = ruptures.Pelt(custom_cost=ruptures_cost(kind)(), min_size=min_size, jump=1)
+    return [int(b) for b in algo.fit(signal).predict(pen=pen)[:-1]]
+
+
+def ruptures_cost(kind: str) -> Any:
+    """The cost class of `kind`, registered as ruptures' `BaseCost`: `Pelt` takes a custom
+    cost only when it is one (and else silently searches with its own "l2")."""
+    from ruptures.base import BaseCost
+
+    cost = _cost(kind)
+    BaseCost.register(cost)
+    return cost
+
+
+def _cost(kind: str) -> Any:
+    if kind == "l2":
+        return SummedL2Cost
+    if kind == "binomial":
+        return BinomialCost
+    raise ValueError(f"unknown cost kind {kind!r}")
+
+
+def _search_without_ruptures(cost: Any, signal: np.ndarray, pen: float) -> list[int]:
+    """What ``ruptures.Pelt(custom_cost=cost, min_size=1, jump=1).fit(signal).predict(pen)``
+    gives, without ruptures: with those settings `Pelt` runs nothing of its own but
+    `fit` (the cost's), a check that the signal is not empty, and the sort of the
+    partition's ends."""
+    cost.fit(signal)
+    n = int(signal.shape[0])
+    if n < 1:  # what ruptures' `sanity_check` refuses for these settings
+        from ruptures.exceptions import BadSegmentationParameters
+
+        raise BadSegmentationParameters
+    return sorted(end for _, end in _partition(cost, n, pen))
+
+
+def _partition(cost: Any, n: int, pen: float) -> dict[tuple[int, int], float]:
+    """ruptures' `Pelt._seg` for `jump=1`, `min_size=1`, over numpy arrays: the same
+    partition of `n` samples, penalised values and all, bit for bit.
+
+    ruptures keeps one dict per candidate start and sums it for every (start, end) pair;
+    without change points nothing is pruned, so a series of a thousand batches costs
+    half a million Python-level cost calls and dict sums (about a third of a second
+    each series). Here a cost's `errors` gives every admissible start's cost at once.
+    Those may differ from `error`'s by rounding (numpy's log against math.log; a sum
+    taken in another order), so every start within a hair of a decision — the minimum,
+    or the pruning bound — is settled with ruptures' own arithmetic: `error(start, end)
+    + pen` appended to the start's partition values and summed with Python's `sum`, as
+    `Pelt._seg` does.
+    """
+    import numpy as np
+
+    # Per end of a partition of signal[0:end]: its segments' values in ruptures'
+    # order (the (0, 0): 0 entry first), their Python sum, the last start.
+    values: list[tuple[float, ...]] = [(0,)]
+    totals = np.zeros(n + 1)
+    previous = [0] * (n + 1)
+    admissible = np.zeros(0, dtype=np.int64)
+
+    def settled(t: int, end: int) -> tuple[float, float]:
+        value = cost.error(t, end) + pen
+        return sum((*values[t], value)), value
+
+    for end in range(1, n + 1):
+        admissible = np.append(admissible, end - 1)
+        candidates = totals[admissible] + (cost.errors(admissible, end) + pen)
+        low = float(candidates.min())
+        # Far wider than any rounding: the partitions' totals are sums of a few
+        # hundred nonnegative terms.
+        slack = 1e-9 * (abs(low) + pen)
+        best_t, best_total, best_value = -1, 0.0, 0.0
+        for i in np.flatnonzero(candidates <= low + 2 * slack).tolist():
+            t = int(admissible[i])
+            total, value = settled(t, end)
+            if best_t < 0 or total < best_total:  # the first of equals, as min()
+                best_t, best_total, best_value = t, total, value
+        values.append((*values[best_t], best_value))
+        totals[end] = best_total
+        previous[end] = best_t
+        bound = best_total + pen
+        keep = candidates <= bound
+        for i in np.flatnonzero(np.abs(candidates - bound) <= 2 * slack).tolist():
+            keep[i] = settled(int(admissible[i]), end)[0] <= bound
+        admissible = admissible[keep]
+    partition: dict[tuple[int, int], float] = {}
+    end = n
+    while end > 0:
+        start = previous[end]
+        partition[(start, end)] = values[end][-1]
+        end = start
+    return dict(sorted(partition.items()))
+
+
+def _binomial_deviance(failed: float, counted: float) -> float:
+    """-2 log likelihood of `failed` of `counted` at their own share (0 log 0 = 0)."""
+    out = 0.0
+    for k in (failed, counted - failed):
+        if k > 0:
+            out -= 2.0 * k * math.log(k / counted)
+    return out
+
+
+class SummedL2Cost:
+    """ruptures' L2 cost (a segment's squared deviations from its mean) from running sums:
+    O(1) per segment where `CostL2` takes a variance over it, which made the search
+    cubic-ish in the batches (tens of seconds for a report of a thousand batches)."""
+
+    model = "l2"
+    min_size = 1  # Pelt takes the larger of this and its own min_size
+
+    def fit(self, signal: np.ndarray) -> SummedL2Cost:
+        import numpy as np
+
+        self.signal = signal
+        column = signal[:, 0]
+        self.sums: list[float] = np.concatenate([[0.0], np.cumsum(column)]).tolist()
+        self.squares: list[float] = np.concatenate([[0.0], np.cumsum(column**2)]).tolist()
+        self.sums_array = np.asarray(self.sums)
+        self.squares_array = np.asarray(self.squares)
+        return self
+
+    def error(self, start: int, end: int) -> float:
+        total = self.sums[end] - self.sums[start]
+        squares = self.squares[end] - self.squares[start]
+        return max(0.0, squares - total * total / (end - start))
+
+    def errors(self, starts: np.ndarray, end: int) -> np.ndarray:
+        """`error(start, end)` for every start at once."""
+        import numpy as np
+
+        total = self.sums[end] - self.sums_array[starts]
+        squares = self.squares[end] - self.squares_array[starts]
+        out: np.ndarray = np.maximum(0.0, squares - total * total / (end - starts))
+        return out
+
+
+class BinomialCost:
+    """A ruptures cost: the binomial deviance of a segment's failed and counted jobs."""
+
+    model = "binomial"
+    min_size = 1  # Pelt takes the larger of this and its own min_size
+
+    def fit(self, signal: np.ndarray) -> BinomialCost:
+        import numpy as np
+
+        self.signal = signal
+        self.cumulative = np.vstack([np.zeros((1, 2)), np.cumsum(signal, axis=0)])
+        return self
+
+    def error(self, start: int, end: int) -> float:
+        failed, counted = self.cumulative[end] - self.cumulative[start]
+        return _binomial_deviance(float(failed), float(counted))
+
+    def errors(self, starts: np.ndarray, end: int) -> np.ndarray:
+        """`error(start, end)` for every start at once (to rounding: numpy's log)."""
+        import numpy as np
+
+        failed = self.cumulative[end, 0] - self.cumulative[starts, 0]
+        counted = self.cumulative[end, 1] - self.cumulative[starts, 1]
+        out = np.zeros(len(starts))
+        for k in (failed, counted - failed):
+            some = k > 0
+            out[some] -= 2.0 * k[some] * np.log(k[some] / counted[some])
+        return out
+
+
+# 1.4826 * MAD estimates the standard deviation of normally distributed values.
+MAD_TO_SIGMA = 1.4826
+# Without this floor a perfectly flat baseline (MAD 0) would flag any change at all.
+RELATIVE_FLOOR = 0.02
+MIN_BASELINE = 3
+
+
+@dataclass(frozen=True, slots=True)
+class Verdict:
+    """The regression check of one series: `regressed` is None when no verdict is possible."""
+
+    regressed: bool | None
+    latest: float
+    baseline_median: float = 0.0
+    baseline_mad: float = 0.0
+    deviations: float = 0.0
+    baseline_size: int = 0
+    reason: str = ""
+    #: positions in the checked values of the baseline's first and last value; where a
+    #: baseline sits says nothing about the verdict, so equal verdicts may differ here
+    baseline_span: tuple[int, int] = field(default=(0, 0), compare=False)
+
+    @property
+    def change(self) -> float:
+        return self.latest - self.baseline_median
+
+    @property
+    def relative_change(self) -> float | None:
+        if self.baseline_median == 0:
+            return None
+        return self.change / abs(self.baseline_median)
+
+
+def check(values: Sequence[float], *, window: int, threshold: float) -> Verdict:
+    """Compare the last value with the `window` values before it.
+
+    `threshold` is in robust standard deviations (1.4826 x MAD, floored at 2% of the
+    baseline's median): past it, the series regressed.
+    """
+    if not values:
+        raise ValueError("no values to check")
+    latest = values[-1]
+    if not math.isfinite(latest):
+        return Verdict(None, latest, reason="the latest value is not a finite number")
+    # Infinite or NaN batches say nothing about the usual level; they are left out.
+    start = max(len(values) - 1 - window, 0)
+    positions = [i for i in range(start, len(values) - 1) if math.isfinite(values[i])]
+    baseline = [values[i] for i in positions]
+    if len(baseline) < MIN_BASELINE:
+        return Verdict(
+            None,
+            latest,
+            baseline_size=len(baseline),
+            reason=f"{len(baseline)} earlier batches; at least {MIN_BASELINE} are needed",
+        )
+    median = statistics.median(baseline)
+    mad = statistics.median(abs(v - median) for v in baseline)
+    scale = max(MAD_TO_SIGMA * mad, RELATIVE_FLOOR * abs(median), 1e-12)
+    deviations = abs(latest - median) / scale
+    return Verdict(
+        deviations > threshold,
+        latest,
+        baseline_median=median,
+        baseline_mad=mad,
+        deviations=deviations,
+        baseline_size=len(baseline),
+        baseline_span=(positions[0], positions[-1]),
+    )
+
 
 #: the default multiplier of ln(n) in the penalty (the BIC's is 2)
 DEFAULT_PENALTY = 3.0

@@ -11,9 +11,7 @@ from typing import Self, TypeVar
 from stook.sdk import _data
 from stook.sdk._enums import MetricStatus
 from stook.sdk._writer import MetricsWriter
-from stook.sdk.aggregations._base import Aggregation, Needs
-from stook.sdk.aggregations._record import BatchRecord
-from stook.sdk.aggregations._units import pick_unit
+from stook.sdk.aggregations._base import Aggregation, BatchRecord, Needs, pick_unit
 from stook.sdk.aggregations.report._change_points import (
     DEFAULT_PENALTY,
     MIN_POINTS,
@@ -23,8 +21,14 @@ from stook.sdk.aggregations.report._change_points import (
     rate_shifts,
 )
 from stook.sdk.aggregations.report._experiences import FAILED, PASSED
-from stook.sdk.aggregations.report._job_groups import counts, first_seen, status_in
-from stook.sdk.aggregations.report._timeline import BatchPoint, axis, axis_name
+from stook.sdk.aggregations.report._timeline import (
+    BatchPoint,
+    axis,
+    axis_name,
+    counts,
+    first_seen,
+    status_in,
+)
 
 _T = TypeVar("_T")
 

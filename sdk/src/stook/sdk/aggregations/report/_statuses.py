@@ -14,11 +14,9 @@ from typing import Self
 from stook.sdk import _data
 from stook.sdk._enums import MetricStatus
 from stook.sdk._writer import MetricsWriter
-from stook.sdk.aggregations._base import Aggregation, Needs
-from stook.sdk.aggregations._record import BatchRecord
+from stook.sdk.aggregations._base import Aggregation, BatchRecord, Needs
 from stook.sdk.aggregations._status_counts import JOB_STATUSES, METRIC_STATUSES, ordered_counts
-from stook.sdk.aggregations.report._job_groups import counts, first_seen
-from stook.sdk.aggregations.report._timeline import BatchPoint
+from stook.sdk.aggregations.report._timeline import BatchPoint, counts, first_seen
 
 STATUS_COLORS = {
     "PASSED": "#2e7d32",
