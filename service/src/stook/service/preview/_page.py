@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 from collections.abc import Sequence
 from functools import cache
 from pathlib import Path
@@ -96,13 +97,31 @@ def metric_card(metric: MetricView, ctx: Context) -> str:
     if metric.should_display is False:
         meta.append("<span>hidden on the dashboard</span>")
     meta += [f'<span class="tag">{esc(k)}: {esc(v)}</span>' for k, v in metric.tags]
-    description = f'<p class="desc">{esc(metric.description)}</p>' if metric.description else ""
+    description = _description(metric.description) if metric.description else ""
     type_name = _enum_text(metric.type)
     return (
         f'<article class="card metric" data-metric="{esc(metric.name)}" '
         f'data-type="{esc(type_name)}"><h2>{esc(metric.name)}</h2>'
         f'<div class="meta">{"".join(meta)}</div>{description}{body(metric, ctx)}</article>'
     )
+
+
+# Longer descriptions fold to their lead: a report's every line plot explains itself in
+# a paragraph, and the charts are what a reader scans.
+FOLDED_DESCRIPTION = 160
+_LEAD = re.compile(r"(.{12,120}?[:.;])\s")
+
+
+def _description(text: str) -> str:
+    if len(text) <= FOLDED_DESCRIPTION:
+        return f'<p class="desc">{esc(text)}</p>'
+    lead = _LEAD.match(text)
+    if lead is not None:
+        summary, rest = lead[1], text[lead.end() :]
+    else:
+        summary = text[:100].rsplit(" ", 1)[0] + " …"
+        rest = text
+    return f'<details class="desc"><summary>{esc(summary)}</summary><p>{esc(rest)}</p></details>'
 
 
 def _count(n: int, noun: str) -> str:
@@ -249,7 +268,7 @@ def _length(data: MetricsDataView) -> str:
     for s in series:
         which = s.WhichOneof("series")
         total += len(getattr(s, which).series) if which else 0
-    return f"{total:,} values"
+    return _count(total, "value")
 
 
 def page(sources: Sequence[Source]) -> str:
@@ -278,7 +297,8 @@ def page(sources: Sequence[Source]) -> str:
         '<meta name="viewport" content="width=device-width, initial-scale=1">'
         f"<title>stook preview: {esc(names)}</title><style>{CSS}</style></head>"
         f'<body><header class="page"><h1>stook preview</h1><p>{esc(names)} '
-        "· charts with many points are drawn thinned; tables and values are exact</p></header>"
+        "· values to six significant digits, exact on hover; charts with many points drawn "
+        "thinned</p></header>"
         f'<main class="grid{" single" if len(sources) == 1 else ""}" '
         f'style="--columns:{len(sources)}">{"".join(cells)}</main>'
         f"<script>{plotly_js()}</script>"
