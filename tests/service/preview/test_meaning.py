@@ -85,7 +85,7 @@ def test_points_beyond_the_bound_of_a_passing_metric_are_explained(tmp_path: Pat
     speed = card(page, "Speed over time")
     figure = figure_of(page, "Speed over time")
     colors = figure["data"][0]["marker"]["color"]
-    assert set(colors) == {GREEN, ORANGE}
+    assert set(colors) == {BLUE, ORANGE}  # the line's colour, and what fails
     assert ">PASSED</span>" in speed
     assert re.search(r"\d+ FAIL_WARN of 60 points beyond the bound", speed)
     assert "the metric&#x27;s status, as written, is PASSED" in speed

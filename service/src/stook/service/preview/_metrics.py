@@ -111,9 +111,7 @@ def telling(statuses: Sequence[str] | None, metric: MetricView) -> Sequence[str]
 _FAILING = ("FAIL_WARN", "FAIL_BLOCK")
 
 
-def _points_note(
-    shown: Sequence[Sequence[str]], metric: MetricView, bounded: bool
-) -> str | None:
+def _points_note(shown: Sequence[Sequence[str]], metric: MetricView, bounded: bool) -> str | None:
     """Why points beyond a chart's failure bound can sit in a passing metric: the
     points' statuses and the metric's are each as written, and only the metric's counts."""
     own = _own_status(metric)
@@ -137,7 +135,8 @@ def _trace(
     statuses: Sequence[str] | None,
     color: str,
 ) -> dict[str, Any]:
-    """A line of (x, y) points, thinned for drawing, markers coloured by point status."""
+    """A line of (x, y) points, thinned for drawing; a failing point's marker in its
+    status's colour, the others in the line's, so that what fails stands out."""
     positions = thin(ys)
     y = pick(ys, positions) or []
     x = pick(xs, positions) if xs is not None else list(positions)
@@ -153,7 +152,8 @@ def _trace(
     }
     if statuses:
         shown = pick(statuses, positions) or []
-        trace["marker"] = {"color": [status_color(s) for s in shown], "size": 6}
+        colors = [status_color(s) if s in _FAILING else color for s in shown]
+        trace["marker"] = {"color": colors, "size": 6}
         trace["text"] = shown
         trace["hovertemplate"] = "%{x}<br>%{y}<br>%{text}<extra>" + esc(name) + "</extra>"
     return trace
@@ -596,7 +596,7 @@ def batchwise_bar_chart(metric: MetricView, ctx: Context) -> str:
     layout = {
         "barmode": "stack" if stacked else "group",
         "xaxis": {
-            "title": {"text": mv.x_axis_name if mv.HasField("x_axis_name") else "batch time"},
+            "title": {"text": mv.x_axis_name if mv.HasField("x_axis_name") else "batch time (UTC)"},
             "type": "date",
         },
         "yaxis": {"title": {"text": _with_unit(mv.y_axis_name, unit)}},
