@@ -636,11 +636,16 @@ def states_over_time(metric: MetricView, ctx: Context) -> str:
         trace["line"]["shape"] = "hv"
         trace["mode"] = "lines+markers"
         shown = trace["y"]
+        # The statuses of the points drawn: the same positions as the states'. A failure
+        # state, or a failing point, stands out; the rest is in the line's colour.
+        shown_statuses = list(pick(statuses, thin(states)) or []) if statuses else []
+        shown_statuses += [""] * (len(shown) - len(shown_statuses))
+        line = PALETTE[i % len(PALETTE)]
         colors = [
             status_color("FAIL_BLOCK")
-            if s in failing
-            else (status_color(statuses[j]) if statuses and j < len(statuses) else PALETTE[0])
-            for j, s in enumerate(shown)
+            if state in failing
+            else (status_color(status) if status in _FAILING else line)
+            for state, status in zip(shown, shown_statuses, strict=False)
         ]
         trace["marker"] = {"color": colors, "size": 6}
         traces.append(trace)

@@ -204,7 +204,7 @@ def _events_card(ctx: Context) -> str:
         layout = {
             "height": 150 + 16 * len({e.name for e in timed}),
             "xaxis": {
-                "title": {"text": "seconds from the start" if relative else "time (UTC)"},
+                "title": {"text": "time from the start (s)" if relative else "time (UTC)"},
                 "range": _event_range(timed, relative),
                 **({} if relative else {"type": "date"}),
             },
