@@ -217,3 +217,21 @@ def test_the_page_says_how_values_are_shown() -> None:
     docs = (Path(__file__).resolve().parents[3] / "docs" / "preview.md").read_text()
     assert "never rounded" not in docs
     assert "six significant digits" in docs
+
+
+def test_a_config_metric_that_failed_reads_as_an_error() -> None:
+    # As `stook metrics-config` writes one: NOT_APPLICABLE, its message as the text, a tag.
+    writer = MetricsWriter(uuid.UUID(int=12))
+    settings = '{"xaxis": {"label": "Speed (m/s)", "min": 0, "max": 40}, "display": {"bins": 20}}'
+    writer.text("Broken", "column 'speed' does not exist", status=MetricStatus.NOT_APPLICABLE).tag(
+        "error", "ERROR"
+    ).tag("template_settings", settings)
+    writer.scalar("Fine", 1.0).tag("area", "safety")
+    page = page_of(writer)
+    broken = card(page, "Broken")
+    assert '<article class="card metric failed" data-metric="Broken"' in page
+    assert ">ERROR</span>" in broken
+    assert "error: ERROR" not in broken  # said once, as the chip
+    assert '<details class="tag"><summary>template_settings</summary>' in broken
+    assert '<article class="card metric" data-metric="Fine"' in page
+    assert '<span class="tag">area: safety</span>' in card(page, "Fine")

@@ -19,7 +19,7 @@ from stook.sdk import EventView, MetricsDataView, MetricView
 from stook.service.preview._figures import Figures
 from stook.service.preview._metrics import Context, body, esc, kind_text, status_chip
 from stook.service.preview._sources import Source, human_size
-from stook.service.preview._style import CSS, status_color
+from stook.service.preview._style import CSS, ERROR_COLOR, status_color
 from stook.service.preview._values import status_name, timestamp_text
 
 _SCRIPT = """
@@ -87,8 +87,26 @@ def _enum_text(value: Any) -> str:
     return value.name if hasattr(value, "name") else str(value)
 
 
+# How `stook metrics-config` marks a config-defined metric that failed: the platform's
+# ERROR (its query) or RENDER_ERROR (its template), as a tag, JobMetrics having no such
+# status (the metric itself is NOT_APPLICABLE, its text the message).
+ERROR_TAG = "error"
+ERROR_MARKS = ("ERROR", "RENDER_ERROR")
+# A tag's value longer than this (a config metric's template_settings, as JSON) is folded.
+LONG_TAG = 48
+
+
+def _tag(key: str, value: str) -> str:
+    if len(value) <= LONG_TAG:
+        return f'<span class="tag">{esc(key)}: {esc(value)}</span>'
+    return f'<details class="tag"><summary>{esc(key)}</summary><code>{esc(value)}</code></details>'
+
+
 def metric_card(metric: MetricView, ctx: Context) -> str:
     meta = [status_chip(metric.status if isinstance(metric.status, int) else None)]
+    error = next((v for k, v in metric.tags if k == ERROR_TAG and v in ERROR_MARKS), None)
+    if error is not None:
+        meta.insert(0, f'<span class="chip" style="background:{ERROR_COLOR}">{esc(error)}</span>')
     meta.append(f"<span>{esc(_enum_text(metric.type))}</span>")
     if isinstance(metric.importance, int) and metric.importance:
         meta.append(f"<span>{esc(_enum_text(metric.importance).lower())} importance</span>")
@@ -96,11 +114,12 @@ def metric_card(metric: MetricView, ctx: Context) -> str:
         meta.append('<span class="blocking">blocking</span>')
     if metric.should_display is False:
         meta.append("<span>hidden on the dashboard</span>")
-    meta += [f'<span class="tag">{esc(k)}: {esc(v)}</span>' for k, v in metric.tags]
+    meta += [_tag(k, v) for k, v in metric.tags if not (k == ERROR_TAG and v == error)]
     description = _description(metric.description) if metric.description else ""
     type_name = _enum_text(metric.type)
     return (
-        f'<article class="card metric" data-metric="{esc(metric.name)}" '
+        f'<article class="card metric{" failed" if error else ""}" '
+        f'data-metric="{esc(metric.name)}" '
         f'data-type="{esc(type_name)}"><h2>{esc(metric.name)}</h2>'
         f'<div class="meta">{"".join(meta)}</div>{description}{body(metric, ctx)}</article>'
     )

@@ -14,6 +14,8 @@ STATUS_COLORS: dict[str, str] = {
     "NO_STATUS": "#bdc1c6",
 }
 UNKNOWN_STATUS_COLOR = "#9334e6"
+ERROR_COLOR = "#a50e0e"
+"""A metric that could not be computed (a config metric's failed query or template)."""
 
 # Traces without a status of their own.
 PALETTE = ["#1a73e8", "#e8710a", "#12b5cb", "#9334e6", "#f538a0", "#188038", "#a142f4"]
@@ -66,6 +68,9 @@ header.page p { margin: 2px 0 0; color: var(--muted); font-size: 12px; }
 .section { grid-column: 1 / -1; margin: 8px 0 -4px; font-size: 15px; color: var(--muted); }
 .card { background: var(--card); border: 1px solid var(--line); border-radius: 8px;
   padding: 12px 14px; min-width: 0; break-inside: avoid; page-break-inside: avoid; }
+.card.failed { border-color: #d93025; }
+details.tag { display: inline-block; }
+details.tag code { display: block; white-space: pre-wrap; overflow-wrap: anywhere; }
 .card.absent { background: transparent; border-style: dashed; color: var(--muted); }
 .card h2 { margin: 0; font-size: 15px; word-break: break-word; }
 .card h3 { margin: 0 0 4px; font-size: 16px; word-break: break-all; }
