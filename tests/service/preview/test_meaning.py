@@ -87,8 +87,10 @@ def test_points_beyond_the_bound_of_a_passing_metric_are_explained(tmp_path: Pat
     colors = figure["data"][0]["marker"]["color"]
     assert set(colors) == {BLUE, ORANGE}  # the line's colour, and what fails
     assert ">PASSED</span>" in speed
-    assert re.search(r"\d+ FAIL_WARN of 60 points beyond the bound", speed)
-    assert "the metric&#x27;s status, as written, is PASSED" in speed
+    assert re.search(
+        r"Points failing by their own status, in its colour: \d+ FAIL_WARN of 60", speed
+    )
+    assert "The metric&#x27;s status, as written, is PASSED" in speed
     # The bound is drawn in ink: a line, not a status.
     assert {s["line"]["color"] for s in figure["layout"]["shapes"]} == {"#5f6368"}
 

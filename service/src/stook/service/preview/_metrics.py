@@ -123,8 +123,8 @@ def _points_note(shown: Sequence[Sequence[str]], metric: MetricView, bounded: bo
     if not said:
         return None
     return (
-        f"{' and '.join(said)} of {total:,} points beyond the bound, in their own status's "
-        f"colour; the metric's status, as written, is {own}, and the file's follows it."
+        f"Points failing by their own status, in its colour: {' and '.join(said)} of "
+        f"{total:,}. The metric's status, as written, is {own}, and the file's follows it."
     )
 
 
