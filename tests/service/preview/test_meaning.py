@@ -237,3 +237,12 @@ def test_a_config_metric_that_failed_reads_as_an_error() -> None:
     assert '<details class="tag"><summary>template_settings</summary>' in broken
     assert '<article class="card metric" data-metric="Fine"' in page
     assert '<span class="tag">area: safety</span>' in card(page, "Fine")
+
+
+def test_series_colours_never_look_like_a_status() -> None:
+    writer = MetricsWriter(uuid.UUID(int=13))
+    x = data.doubles("Day", [0.0, 1.0])
+    writer.line_plot("Seven series", [x] * 7, [data.doubles(f"s{i}", [1.0, 2.0]) for i in range(7)])
+    traces = figure_of(page_of(writer), "Seven series")["data"]
+    assert len({t["line"]["color"] for t in traces}) == 7
+    assert {t["line"]["color"] for t in traces}.isdisjoint({GREEN, ORANGE, RED})

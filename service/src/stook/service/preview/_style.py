@@ -17,8 +17,8 @@ UNKNOWN_STATUS_COLOR = "#9334e6"
 ERROR_COLOR = "#a50e0e"
 """A metric that could not be computed (a config metric's failed query or template)."""
 
-# Traces without a status of their own.
-PALETTE = ["#1a73e8", "#e8710a", "#12b5cb", "#9334e6", "#f538a0", "#188038", "#a142f4"]
+# Traces without a status of their own: no green, orange or red, which say a status.
+PALETTE = ["#1a73e8", "#12b5cb", "#f538a0", "#3949ab", "#8d6e63", "#9e9d24", "#546e7a"]
 
 
 # A bar, slice or point named for a status (a job's conflated status, a metric's status)
