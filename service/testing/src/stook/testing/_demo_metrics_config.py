@@ -37,7 +37,7 @@ def write_attached_frames(view: JobMetricsView, folder: Path) -> list[Path]:
     attach no real files, and batch mode names an attached file without downloading it
     (the platform keeps the job's files): the demo draws one in its place, so that the
     preview shows an image where a user's would show theirs."""
-    written = []
+    written: list[Path] = []
     for data in view.data:
         path = data.external_path
         if path is None or not path.lower().endswith(".png"):
