@@ -13,6 +13,7 @@ import json
 import re
 import uuid
 from bisect import bisect_right
+from collections import Counter
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from datetime import datetime, timedelta
@@ -34,6 +35,7 @@ from stook.service.preview._values import (
     number_text,
     pick,
     status_name,
+    tally,
     thin,
     time_index,
     timestamp_text,
@@ -105,7 +107,7 @@ def telling(statuses: Sequence[str] | None, metric: MetricView) -> Sequence[str]
     if not statuses:
         return None
     own = _own_status(metric)
-    return statuses if any(s != own for s in statuses) else None
+    return statuses if set(tally(statuses)) - {own} else None
 
 
 _FAILING = ("FAIL_WARN", "FAIL_BLOCK")
@@ -118,7 +120,8 @@ def _points_note(shown: Sequence[Sequence[str]], metric: MetricView, bounded: bo
     if not bounded or own in _FAILING:
         return None
     total = sum(len(s) for s in shown)
-    failing = {f: sum(list(s).count(f) for s in shown) for f in _FAILING}
+    counts = sum((tally(s) for s in shown), Counter[str]())
+    failing = {f: counts[f] for f in _FAILING}
     said = [f"{n:,} {name}" for name, n in failing.items() if n]
     if not said:
         return None

@@ -8,6 +8,7 @@ Values that JSON cannot hold (NaN, infinities) become None, which plotly draws a
 from __future__ import annotations
 
 import math
+from collections import Counter
 from collections.abc import Callable, Sequence
 from datetime import datetime, timedelta
 from typing import Any, overload
@@ -58,6 +59,18 @@ class Converted(Sequence[Any]):
         if isinstance(i, slice):
             return [self._convert(item) for item in self._items[i]]
         return self._convert(self._items[i])
+
+
+def tally(items: Sequence[Any]) -> Counter[Any]:
+    """How often each value occurs. A converted series of hashable elements (statuses:
+    enum numbers) is counted as written, and only its distinct elements converted: a
+    20,000-point series' statuses cost one C loop, not 20,000 conversions."""
+    if not isinstance(items, Converted):
+        return Counter(items)
+    counts: Counter[Any] = Counter()
+    for item, n in Counter(items._items).items():
+        counts[items._convert(item)] += n
+    return counts
 
 
 def _timestamp(t: Any) -> str:
