@@ -7,6 +7,12 @@ PYTHON ?= python3
 VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.stook-installed
+# `make demo` needs only the runtime and the emulator, not the dev tools (Ray, a browser
+# driver, mypy, mkdocs: most of the download); `make test` installs the rest.
+DEMO_STAMP := $(VENV)/.stook-demo-installed
+PYPROJECTS := pyproject.toml proto/pyproject.toml sdk/pyproject.toml service/pyproject.toml \
+	service/testing/pyproject.toml
+PIP := $(BIN)/python -m pip install --quiet --disable-pip-version-check
 
 .PHONY: setup test test-all lint typecheck pytest pytest-all docs demo proto bench clean
 
@@ -14,15 +20,21 @@ $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
 
 # Re-install only when a pyproject changes; a second `make test` is fast.
-$(STAMP): $(BIN)/python pyproject.toml proto/pyproject.toml sdk/pyproject.toml service/pyproject.toml \
-		service/testing/pyproject.toml
-	$(BIN)/python -m pip install --quiet --disable-pip-version-check --upgrade "pip>=25.1"
-	$(BIN)/python -m pip install --quiet --disable-pip-version-check --group dev \
-		-e ./proto -e ./sdk -e './service[ray]' -e './service/testing[pytest,bench]'
+$(STAMP): $(BIN)/python $(PYPROJECTS)
+	@echo "Installing stook with its dev tools into $(VENV) (first run only; a few minutes)"
+	$(PIP) --upgrade "pip>=25.1"
+	$(PIP) --group dev -e ./proto -e ./sdk -e './service[ray]' -e './service/testing[pytest,bench]'
 	# Byte-compiled once, as a wheel install is: under PYTHONDONTWRITEBYTECODE an editable
 	# checkout would otherwise compile every stook module in every process.
 	$(BIN)/python -m compileall -q proto/src sdk/src service/src service/testing/src
-	touch $(STAMP)
+	touch $(STAMP) $(DEMO_STAMP)
+
+# What a full install already has, the demo does not install again.
+$(DEMO_STAMP): $(BIN)/python $(PYPROJECTS)
+	@echo "Installing stook and its emulator into $(VENV) (first run only)"
+	$(PIP) -e ./proto -e ./sdk -e ./service -e ./service/testing
+	$(BIN)/python -m compileall -q proto/src sdk/src service/src service/testing/src
+	touch $(DEMO_STAMP)
 
 setup: $(STAMP)
 
@@ -52,7 +64,7 @@ test: lint typecheck pytest docs
 
 test-all: lint typecheck pytest-all docs
 
-demo: setup
+demo: $(DEMO_STAMP)
 	$(BIN)/stook demo
 
 proto: setup

@@ -113,9 +113,7 @@ def test_merge_laws_example(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setitem(sys.modules, module.__name__, module)
     namespace = module.__dict__
     exec(block("docs/library.md", "class MaxOfScalar"), namespace)
-    namespace["records"] = [
-        JobRecord(uuid.uuid4(), "PASSED", scalars={"speed": Scalar(float(v))}) for v in (3, 9, 1)
-    ]
+    # The block defines all it uses (a reader copies it whole): nothing is injected here.
     exec(block("docs/library.md", "check_merge_laws("), namespace)
     namespace["test_max_of_scalar_merges"]()
 

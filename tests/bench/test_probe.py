@@ -317,5 +317,9 @@ def test_ctrl_c_writes_and_prints_the_levels_measured_so_far(tmp_path: Path) -> 
     doc = json.loads((tmp_path / "out" / "probe.json").read_text())
     assert doc["interrupted"] is True
     assert [entry["concurrency"] for entry in doc["levels"]] == [1]
+    # What was measured is shown, but a climb cut short recommends nothing to paste.
+    assert doc["recommended_concurrency"] is None
     assert "interrupted" in out
-    assert "concurrency = 1" in out
+    assert "recommends no concurrency" in out
+    assert "paste into stook.toml" not in out
+    assert "concurrency = " not in out

@@ -12,7 +12,7 @@ from pathlib import Path
 import pytest
 
 from stook.emulator import EMISSIONS_CONFIG_YAML, Emulator, write_emissions_config
-from stook.sdk import PlotlyMetric, TextMetric
+from stook.sdk import MetricStatus, PlotlyMetric, TextMetric
 from stook.service.cli import run_cli
 from tests.e2e.support import (
     OUTPUT_NAME,
@@ -120,12 +120,31 @@ def test_a_query_that_fails_names_the_metric(
         1,
     )
     assert failing != EMISSIONS_CONFIG_YAML
-    code, lines, outputs = _run(capsys, tmp_path, emu, failing)
+    code, lines, outputs = _run(capsys, tmp_path, emu, failing, "strict = true\n")
     assert code in (2, 4)  # statically detectable or not, it is the query's fault
     assert len(lines) == 1
     assert "Total distance driven" in lines[0]
     assert outputs_left(outputs) == []
     assert json.dumps(lines)  # one plain line each
+
+
+def test_without_strict_a_failing_query_is_its_metric_marked_error(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path, emu: Emulator
+) -> None:
+    failing = EMISSIONS_CONFIG_YAML.replace(
+        "query_string: SELECT SUM(distance) AS value FROM run_summary",
+        "query_string: SELECT CAST(MAX(distance) AS VARCHAR) || 'x' / 2 AS value FROM run_summary",
+        1,
+    )
+    assert failing != EMISSIONS_CONFIG_YAML
+    code, _, outputs = _run(capsys, tmp_path, emu, failing)
+    assert code == 0
+    view = read_output(outputs / OUTPUT_NAME)
+    failed = view.metric("Total distance driven", TextMetric)
+    assert failed.status is MetricStatus.NOT_APPLICABLE
+    assert dict(failed.view.tags) == {"error": "ERROR"}
+    assert "its query failed" in failed.text
+    view.metric("Job outcomes", PlotlyMetric)  # the others are written as usual
 
 
 def test_each_jobs_metadata_row_is_filled_from_the_listings(

@@ -91,6 +91,9 @@ def assert_failed(err: str, outputs: Path, *named: str, traceback: bool = False)
         assert thing in lines[0], f"{thing!r} not named in {lines[0]!r}"
     assert ("Traceback (most recent call last)" in err) is traceback, err
     assert outputs_left(outputs) == []
+    # Not even the folder: these tests' outputs folders do not exist before the run, and a
+    # failed run removes the empty one it made.
+    assert not outputs.exists(), f"a failed run left {outputs}"
     return lines[0]
 
 

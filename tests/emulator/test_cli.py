@@ -43,7 +43,13 @@ def test_named_flags_then_every_set_in_order() -> None:
         ("=3", "--set '=3': expected KEY=VALUE"),
         ("nope=1", "emulator settings: unknown emulator settings: ['nope']"),
         ("fault_5xx=2", "emulator settings: fault fractions must lie in [0, 1]"),
-        ('outages=[{"origin": "moon", "duration_s": 1}]', "emulator settings: an outage's origin"),
+        (
+            'outages=[{"origin": "moon", "duration_s": 1}]',
+            "emulator settings: outages[0].origin: invalid enum value 'moon'",
+        ),
+        # A value of the wrong type: named with the type wanted, not a Python TypeError.
+        ("fault_5xx=abc", "emulator settings: fault_5xx: expected float, got str"),
+        ("broken_jobs=[1, true]", "emulator settings: broken_jobs[1]: expected int, got bool"),
     ],
 )
 def test_a_bad_setting_is_named(item: str, message: str) -> None:

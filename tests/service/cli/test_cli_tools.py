@@ -424,9 +424,15 @@ def test_emulate_prints_the_api_url_and_writes_the_batch_config(
     with urllib.request.urlopen(request, timeout=10) as answer:
         body = json.loads(answer.read())
     assert body["total"] == 5
-    # Ctrl-C stops it.
+    # Ctrl-C stops it: its normal end, said at level info, not as an error.
     proc.send_signal(signal.SIGINT)
     assert proc.wait(timeout=15) == 130
+    assert proc.stderr is not None
+    events = [json.loads(line) for line in proc.stderr.read().splitlines() if line.strip()]
+    assert [(e["event"], e["level"]) for e in events if e["event"] == "emulator stopped"] == [
+        ("emulator stopped", "info")
+    ]
+    assert not [e for e in events if e["level"] == "error"]
 
 
 @pytest.mark.parametrize("command", [["demo"], ["emulate"], ["bench", "--quick"]])

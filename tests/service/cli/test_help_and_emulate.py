@@ -74,18 +74,36 @@ def test_each_command_is_parsed_as_by_the_whole_command_line(
     assert capsys.readouterr().out == whole
 
 
-def test_a_command_line_without_a_command_or_with_an_unknown_one_is_refused(
+def test_a_bare_stook_shows_the_help(capsys: pytest.CaptureFixture[str]) -> None:
+    # As git, uv and ruff do: not an error, the list of commands.
+    assert run_cli([]) == 0
+    out, err = capsys.readouterr()
+    assert out.startswith("usage: stook")
+    assert "metrics-config" in out
+    assert err == ""
+
+
+def test_an_unknown_command_or_choice_is_refused_with_the_nearest_one(
     capsys: pytest.CaptureFixture[str],
 ) -> None:
     for argv, error in (
-        ([], "the following arguments are required: COMMAND"),
         (["valdiate", "x.binproto"], "invalid choice: 'valdiate'"),
+        (["runn"], "invalid choice: 'runn'"),
         (["--log-level", "info", "validate", "x.binproto"], "invalid choice: 'info'"),
+        (["metrics-config", "chek", "c.yml"], "invalid choice: 'chek'"),
+        (["run", "--log-format", "jsn"], "invalid choice: 'jsn'"),
     ):
         with pytest.raises(SystemExit) as done:
             run_cli(argv)
         assert done.value.code == 2
-        assert error in capsys.readouterr().err
+        err = capsys.readouterr().err
+        assert error in err
+        suggestion = {"valdiate": "validate", "runn": "run", "chek": "check", "jsn": "json"}
+        nearest = next((v for k, v in suggestion.items() if k in error), None)
+        if nearest:
+            assert f"did you mean {nearest!r}?" in err
+        else:
+            assert "did you mean" not in err  # 'info' is near no command
 
 
 def test_run_help_has_the_docs_exit_codes_and_mode_detection() -> None:

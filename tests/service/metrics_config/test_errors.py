@@ -153,7 +153,7 @@ def test_configs_resim_accepts_merge_to_the_same_topics(tmp_path: Path) -> None:
     } == theirs["topics"]
 
 
-def _eval(config: Path, emissions: Path, out: Path, level: str = "test") -> int:
+def _eval(config: Path, emissions: Path, out: Path, level: str = "test", *extra: str) -> int:
     return run_cli(
         [
             "metrics-config",
@@ -165,6 +165,7 @@ def _eval(config: Path, emissions: Path, out: Path, level: str = "test") -> int:
             level,
             "--outputs",
             str(out),
+            *extra,
         ]
     )
 
@@ -222,7 +223,7 @@ def test_a_bad_row_names_file_line_topic_and_column(
     assert not (out / "metrics.binproto").exists()
 
 
-def test_a_failing_query_names_the_metric_its_sql_and_the_engine(
+def test_strict_a_failing_query_names_the_metric_its_sql_and_the_engine(
     tmp_path: Path, one_job: tuple[Path, JobData], capsys: pytest.CaptureFixture[str]
 ) -> None:
     emissions, _ = one_job
@@ -234,7 +235,7 @@ def test_a_failing_query_names_the_metric_its_sql_and_the_engine(
     (tmp_path / "templates").mkdir()
     (tmp_path / "templates" / "speed_figure.liquid").write_text("{}", encoding="utf-8")
     out = tmp_path / "out"
-    assert _eval(config, emissions, out) == 4
+    assert _eval(config, emissions, out, "test", "--strict") == 4
     err = _stderr(capsys)
     assert "metric 'Max speed': its query failed" in err
     assert "SELECT MAX(CAST(lane AS INTEGER)) FROM speed" in err
@@ -242,7 +243,7 @@ def test_a_failing_query_names_the_metric_its_sql_and_the_engine(
     assert not out.exists()
 
 
-def test_a_template_that_prints_no_json_is_exit_4(
+def test_strict_a_template_that_prints_no_json_is_exit_4(
     tmp_path: Path, config: Path, one_job: tuple[Path, JobData], capsys: pytest.CaptureFixture[str]
 ) -> None:
     emissions, _ = one_job
@@ -250,7 +251,7 @@ def test_a_template_that_prints_no_json_is_exit_4(
         '{"data": [{{ t | first }},]}', encoding="utf-8"
     )
     out = tmp_path / "out"
-    assert _eval(config, emissions, out) == 4
+    assert _eval(config, emissions, out, "test", "--strict") == 4
     err = _stderr(capsys)
     assert "metric 'Speed figure': template 'speed_figure.liquid': did not print JSON" in err
     assert not out.exists()
@@ -290,13 +291,13 @@ def test_bytes_that_are_not_utf8_are_exit_4(
     assert not out.exists()
 
 
-def test_an_image_whose_file_is_missing_is_exit_4(
+def test_strict_an_image_whose_file_is_missing_is_exit_4(
     tmp_path: Path, config: Path, one_job: tuple[Path, JobData], capsys: pytest.CaptureFixture[str]
 ) -> None:
     emissions, job = one_job
     (emissions.parent / job.frame).unlink()
     out = tmp_path / "out"
-    assert _eval(config, emissions, out) == 4
+    assert _eval(config, emissions, out, "test", "--strict") == 4
     assert f"attached file {job.frame!r} is in no job's folder" in _stderr(capsys)
     assert not out.exists()
 

@@ -7,6 +7,9 @@ the page lists is in `stook run --help`, and that every option says what it does
 from __future__ import annotations
 
 import argparse
+import difflib
+import re
+from typing import NoReturn
 
 RUN_DESCRIPTION = """\
 The metrics-build entry point. It detects the mode from what the inputs folder holds
@@ -133,3 +136,23 @@ class HelpFormatter(argparse.HelpFormatter):
         ):
             return text
         return text + " (default: %(default)s)"
+
+
+# argparse's own words for a choice it does not know: "invalid choice: 'runn' (choose from
+# 'run', 'demo')" (the quotes differ between Python versions).
+_INVALID_CHOICE = re.compile(r"invalid choice: '?([^'\s]*)'? \(choose from (.*)\)")
+
+
+class ArgumentParser(argparse.ArgumentParser):
+    """argparse's parser, whose refusal of an unknown command or choice suggests the
+    nearest known one (``stook runn``: did you mean 'run'?), as git and pip do."""
+
+    def error(self, message: str) -> NoReturn:
+        found = _INVALID_CHOICE.search(message)
+        if found:
+            given = found.group(1)
+            choices = [c.strip(" '\"") for c in found.group(2).split(",")]
+            nearest = difflib.get_close_matches(given, choices, n=1, cutoff=0.6)
+            if nearest:
+                message = f"{message}; did you mean {nearest[0]!r}?"
+        super().error(message)

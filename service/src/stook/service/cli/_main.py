@@ -36,7 +36,8 @@ def _add_logging(parser: argparse.ArgumentParser, *, default_level: str = "info"
         "--log-format",
         default=os.environ.get("STOOK_LOG_FORMAT", "auto"),
         choices=["auto", "json", "console"],
-        help="JSON lines or console lines; auto picks JSON when stderr is not a terminal "
+        help="JSON lines or console lines; auto: `stook run` logs JSON lines when stderr is "
+        "not a terminal (the platform collects them), every other command console lines "
         "(env STOOK_LOG_FORMAT; default auto)",
     )
 
@@ -56,6 +57,15 @@ def version_text() -> str:
 
     main, *others = (of(d) for d in _DISTRIBUTIONS)
     return f"{main} ({', '.join(others)})"
+
+
+def _json_logs(command: str, chosen: str) -> bool | None:
+    """Whether `command` logs JSON lines for ``--log-format`` `chosen`; None: JSON when
+    stderr is not a terminal. Only `stook run` picks by the terminal: inside the platform
+    its lines are collected, while the offline commands are read by a person."""
+    if chosen in ("json", "console"):
+        return chosen == "json"
+    return None if command == "run" else False
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -88,7 +98,7 @@ def _build_parser(only: str | None) -> argparse.ArgumentParser:
             print(version_text())
             parser.exit()
 
-    parser = argparse.ArgumentParser(
+    parser = _help.ArgumentParser(
         prog="stook",
         description="Fast aggregation of ReSim test, batch and report metrics.",
         formatter_class=_help.HelpFormatter,
@@ -117,7 +127,10 @@ def _add_run_arguments(parser: argparse.ArgumentParser) -> None:
         help="inputs folder (env STOOK_INPUTS; default /tmp/resim/inputs)",
     )
     parser.add_argument(
+        "-o",
+        "--output",
         "--outputs",
+        dest="outputs",
         metavar="DIR",
         help="outputs folder (env STOOK_OUTPUTS; default /tmp/resim/outputs)",
     )
@@ -155,7 +168,13 @@ def _add_run_arguments(parser: argparse.ArgumentParser) -> None:
 def _add_demo_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--jobs", type=int, default=200, help="jobs in the emulated batch")
     parser.add_argument(
-        "--output", metavar="DIR", default="demo-output", help="where to write the outputs"
+        "-o",
+        "--output",
+        "--outputs",
+        dest="output",
+        metavar="DIR",
+        default="demo-output",
+        help="where to write the outputs",
     )
     parser.add_argument("--seed", type=int, default=7, help="the emulated data's random seed")
     _add_logging(parser, default_level="warning")
@@ -198,7 +217,10 @@ def _add_emulate_arguments(parser: argparse.ArgumentParser) -> None:
 def _add_bench_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--quick", action="store_true", help="small sizes; a smoke test")
     parser.add_argument(
+        "-o",
+        "--output",
         "--out",
+        dest="out",
         metavar="DIR",
         help="where results are written (default docs/benchmarks; --probe: probe-results)",
     )
@@ -244,6 +266,8 @@ def _add_preview_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "-o",
         "--output",
+        "--out",
+        dest="output",
         type=Path,
         metavar="OUT.html",
         help="where to write the page (default: FILE's name with .html beside one FILE, "
@@ -276,9 +300,25 @@ def main(argv: Sequence[str] | None = None) -> None:
     try:
         voice = Voice(argv)
         code = run_cli(argv, voice=voice)
+        sys.stdout.flush()  # here, where a closed pipe is caught, not at the exit
     except Interrupted as stop:  # before run_cli took over, or a second signal in its end
         code = (voice or Voice(argv)).interrupted(stop)
+    except BrokenPipeError:
+        code = _reader_went_away()
     sys.exit(code)
+
+
+# As a program killed by SIGPIPE ends, the shell's 128 + 13 (docs/cli.md).
+EXIT_BROKEN_PIPE = 141
+
+
+def _reader_went_away() -> int:
+    """`stook show FILE | head -1`: the reader has all it wanted. No error and no
+    traceback; stdout is pointed at /dev/null so that the interpreter's own flush at exit
+    does not fail again (the Python docs' recipe for SIGPIPE)."""
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    os.dup2(devnull, sys.stdout.fileno())
+    return EXIT_BROKEN_PIPE
 
 
 class Voice:
@@ -297,7 +337,8 @@ class Voice:
                 chosen = args[i + 1]
             elif arg.startswith("--log-format="):
                 chosen = arg.partition("=")[2]
-        self.json = chosen == "json" or (chosen != "console" and not _is_tty(sys.stderr))
+        wanted = _json_logs(_chosen_command(argv), chosen)
+        self.json = not _is_tty(sys.stderr) if wanted is None else wanted
         self.logging_ready = False
         self.configure_logging: Callable[[], None] | None = None
         """Set when logging is set up on first use (`show`, `validate`), not up front."""
@@ -386,6 +427,11 @@ def run_cli(argv: Sequence[str] | None = None, *, voice: Voice | None = None) ->
         except KeyboardInterrupt:  # only where no handler could be installed
             _signals.settle()
             return voice.interrupted(Interrupted(_signals.SIGNALS[0]))
+        except BrokenPipeError as error:
+            _signals.settle()
+            if _chosen_command(argv) == "run":  # `run` writes files, not stdout: a failure
+                return voice.failed(error)
+            return _reader_went_away()  # stdout's reader closed it: not a failure to report
         except Exception as error:
             _signals.settle()
             return voice.failed(error)
@@ -399,16 +445,20 @@ _QUIET_COMMANDS = ("show", "validate", "preview", "metrics-config")
 
 
 def _run_cli(argv: Sequence[str] | None, voice: Voice) -> int:
-    args = _build_parser(_chosen_command(argv)).parse_args(argv)
+    command = _chosen_command(argv)
+    if not command and not (sys.argv[1:] if argv is None else argv):
+        # Bare `stook`: what it can do, not an error.
+        _build_parser("").print_help()
+        return 0
+    args = _build_parser(command).parse_args(argv)
     if hasattr(args, "log_format"):
         from stook.service.modes import configure_logging
 
-        json_logs = None if args.log_format == "auto" else args.log_format == "json"
+        json_logs = _json_logs(args.command, args.log_format)
         configure_logging(json=json_logs, level=args.log_level)
     else:
         # Commands without logging flags still log to stderr, never onto their stdout.
-        chosen = os.environ.get("STOOK_LOG_FORMAT", "auto")
-        json_logs = None if chosen not in ("json", "console") else chosen == "json"
+        json_logs = _json_logs(args.command, os.environ.get("STOOK_LOG_FORMAT", "auto"))
 
         def set_up(json_logs: bool | None = json_logs) -> None:
             from stook.service.modes import configure_logging
@@ -479,7 +529,15 @@ def _dispatch(args: argparse.Namespace, voice: Voice) -> int:
             return int(demo.run_demo(jobs=args.jobs, output=Path(args.output), seed=args.seed))
         case "emulate":
             emulator_cli = _testing_tool("emulate", "stook.emulator._cli")
-            return int(_signals.run(emulator_cli.emulate(args)))
+            try:
+                return int(_signals.run(emulator_cli.emulate(args)))
+            except Interrupted as stop:  # Ctrl-C is how an emulator ends: no error
+                import structlog
+
+                structlog.get_logger("stook.emulate").info(
+                    "emulator stopped", signal=stop.signal_name
+                )
+                return stop.exit_code
         case "bench":
             from pathlib import Path
 

@@ -34,12 +34,17 @@ metadata table; absent IDs are generated from the folder names (stable), other k
 are null. Attached files (image, video metrics) are read from the job's folder and
 copied beside metrics.binproto.
 
+A metric whose query fails (ERROR) or whose template cannot draw its result
+(RENDER_ERROR: a Liquid error, a value the template cannot carry, a missing attached
+file) is written under its name as an error, said once on stderr; the others are
+written as usual. --strict makes it exit 4 instead, with nothing written.
+
 exit codes:
   0  check: the config is good; eval: metrics.binproto written
   2  a bad config (one line per problem), option or path
-  4  a bad emissions row (file, line, topic, column), a query the engine refused
-     (the metric, its SQL and the engine's message), a template that did not print
-     Plotly JSON, or an output that would not validate
+  4  a bad emissions row (file, line, topic, column), an output that would not
+     validate; with --strict, a failing metric (its query's SQL and the engine's
+     message, or what its template could not draw)
   5  the output could not be written
 Nothing is written unless everything succeeded."""
 
@@ -70,22 +75,28 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     run.add_argument(
         "--emissions",
         type=Path,
-        nargs="+",
+        action="append",
         required=True,
         metavar="PATH",
-        help="an emissions.resim.jsonl (one job) or a folder of per-job folders",
+        help="an emissions.resim.jsonl (one job) or a folder of per-job folders; "
+        "repeat the flag for more",
     )
     run.add_argument(
         "--level",
-        choices=("test", "batch", "dashboard"),
+        type=_level,
         required=True,
-        help="which metrics run: the test's, the batch's or the dashboard's (report)",
+        metavar="{test,batch,dashboard}",
+        help="which metrics run: the test's, the batch's or the dashboard's (report "
+        "mode's; 'report' is taken for 'dashboard')",
     )
     run.add_argument(
         "--metrics-set", metavar="NAME", help="only this metrics set's metrics (default: all)"
     )
     run.add_argument(
+        "-o",
+        "--output",
         "--outputs",
+        dest="outputs",
         type=Path,
         default=Path("outputs"),
         metavar="DIR",
@@ -94,6 +105,25 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     run.add_argument(
         "--preview", action="store_true", help="also write DIR/metrics.html (stook preview)"
     )
+    run.add_argument(
+        "--strict",
+        action="store_true",
+        help="a failing metric fails the run (exit 4, nothing written) instead of being "
+        "written as an error",
+    )
+
+
+_LEVELS = ("test", "batch", "dashboard")
+
+
+def _level(text: str) -> str:
+    """A level as --level names it; report mode's metrics are the dashboard's."""
+    level = "dashboard" if text == "report" else text
+    if level not in _LEVELS:
+        raise argparse.ArgumentTypeError(
+            f"invalid choice: {text!r} (choose from {', '.join(map(repr, _LEVELS))})"
+        )
+    return level
 
 
 def _add_common(parser: argparse.ArgumentParser) -> None:
@@ -118,6 +148,7 @@ def run(args: argparse.Namespace, *, out: TextIO | None = None) -> int:
         templates=args.templates,
         outputs=args.outputs,
         preview=args.preview,
+        strict=args.strict,
     )
     print(written, file=out)
     return 0
@@ -149,8 +180,10 @@ def evaluate_offline(
     templates: Path | None,
     outputs: Path,
     preview: bool = False,
+    strict: bool = False,
 ) -> Path:
-    """Load, evaluate and write; nothing is written unless all of it succeeded."""
+    """Load, evaluate and write; nothing is written unless all of it succeeded. A failing
+    metric is written as an error and said on stderr (with `strict`: raised)."""
     from stook.sdk import MetricsWriter, validate_job_metrics
     from stook.service.cli._usage import UsageError
     from stook.service.metrics_config import (
@@ -182,7 +215,17 @@ def evaluate_offline(
     else:
         output_id = stable_id("report", ",".join(sorted(j.meta.job_id for j in jobs)))
     writer = MetricsWriter(_as_uuid(output_id), deterministic=True)
-    result = evaluate(config, emission_set.tables(), writer, level=level, metrics_set=metrics_set)
+    result = evaluate(
+        config,
+        emission_set.tables(),
+        writer,
+        level=level,
+        metrics_set=metrics_set,
+        strict=strict,
+        attached=lambda name: any((j.folder / name).is_file() for j in jobs),
+    )
+    for failure in result.failed:
+        print(f"stook: {failure}", file=sys.stderr)
     attached = []
     for name in result.files:
         found = next((j.folder / name for j in jobs if (j.folder / name).is_file()), None)

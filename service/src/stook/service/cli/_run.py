@@ -19,6 +19,7 @@ Whatever the failure, metrics.binproto is written atomically or not at all.
 
 from __future__ import annotations
 
+import contextlib
 import enum
 import os
 import uuid
@@ -41,9 +42,11 @@ from stook.service.modes import (
     OUTPUT_NAME,
     BatchInputs,
     ConfigError,
+    EngineSettings,
     InputsError,
     OutputsError,
     Progress,
+    ReportInputs,
     RunResult,
     StookConfig,
     TestInputs,
@@ -139,7 +142,34 @@ async def run(options: RunOptions, *, progress: Progress | None = None) -> Path:
     config: StookConfig = load(options.config)
     engine = engine_for(config, options.engine)
     mode = detect(options.inputs, project_id=options.project_id)
+    created = _missing_folders(options.outputs)
     check_outputs_folder(options.outputs)  # before the first request, not after the fetch
+    try:
+        return await _run_mode(mode, config, engine, options, progress)
+    except BaseException:
+        # A failed run leaves nothing behind, not even the empty folder it made.
+        for folder in created:
+            with contextlib.suppress(OSError):  # not empty: something else wrote there
+                folder.rmdir()
+        raise
+
+
+def _missing_folders(folder: Path) -> list[Path]:
+    """`folder` and those of its parents that do not exist yet, deepest first."""
+    missing = []
+    while not folder.exists() and folder != folder.parent:
+        missing.append(folder)
+        folder = folder.parent
+    return missing
+
+
+async def _run_mode(
+    mode: BatchInputs | ReportInputs | TestInputs,
+    config: StookConfig,
+    engine: EngineSettings,
+    options: RunOptions,
+    progress: Progress | None,
+) -> Path:
     output = options.outputs / OUTPUT_NAME
     _remove_stale_temp_files(output)
     if isinstance(mode, TestInputs):

@@ -91,7 +91,9 @@ def config_metrics_step(
     )
 
     async def step(writer: MetricsWriter, fetch: FetchSettings, retry: RetryPolicy | None) -> None:
-        await _write(writer, loaded, settings.metrics_set, scope, access, fetch, retry)
+        await _write(
+            writer, loaded, settings.metrics_set, scope, access, fetch, retry, settings.strict
+        )
 
     return step
 
@@ -122,6 +124,7 @@ async def _write(
     access: ApiAccess,
     settings: FetchSettings,
     retry: RetryPolicy | None,
+    strict: bool,
 ) -> None:
     from stook.service.metrics_config import EmissionsSet, evaluate
 
@@ -134,8 +137,15 @@ async def _write(
         )
         traffic = Traffic.of(api)  # its own client's: not in the run's final counts
     result = evaluate(
-        loaded, emissions.tables(), writer, level=scope.level, metrics_set=metrics_set
+        loaded,
+        emissions.tables(),
+        writer,
+        level=scope.level,
+        metrics_set=metrics_set,
+        strict=strict,
     )
+    for failure in result.failed:
+        log.warning("config metric written as an error", metric=failure.metric, error=str(failure))
     log.info(
         "config metrics written",
         level=scope.level,

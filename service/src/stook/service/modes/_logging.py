@@ -5,6 +5,7 @@ the last processor before the renderer, after exceptions became text)."""
 from __future__ import annotations
 
 import logging
+import os
 import sys
 import uuid
 from collections.abc import Mapping
@@ -54,7 +55,7 @@ def configure_logging(
     *, json: bool | None = None, level: str = "info", stream: TextIO | None = None
 ) -> None:
     """Route structlog to ``stream`` (stderr by default); ``json=None`` picks JSON lines when
-    the stream is not a terminal (the platform collects them), coloured lines when it is."""
+    the stream is not a terminal (the platform collects them), readable lines when it is."""
     out = sys.stderr if stream is None else stream
     # By default each line goes to whatever sys.stderr is when it is written: while a
     # progress bar is drawn, rich puts a proxy there that prints lines above the bar.
@@ -64,15 +65,21 @@ def configure_logging(
     except KeyError:
         raise ValueError(f"unknown log level {level!r}") from None
     renderer: Processor
+    stamper: Processor
     if json if json is not None else not _is_tty(out):
         renderer = structlog.processors.JSONRenderer()
+        stamper = structlog.processors.TimeStamper(fmt="iso", utc=True)
     else:
-        renderer = structlog.dev.ConsoleRenderer(colors=_is_tty(out))
+        # A person reads these: the local time of day, so that a line fits 80 columns,
+        # and colours only on a terminal and without NO_COLOR (https://no-color.org).
+        colors = _is_tty(out) and not os.environ.get("NO_COLOR")
+        renderer = structlog.dev.ConsoleRenderer(colors=colors)
+        stamper = structlog.processors.TimeStamper(fmt="%H:%M:%S", utc=False)
     structlog.configure(
         processors=[
             structlog.contextvars.merge_contextvars,
             structlog.processors.add_log_level,
-            structlog.processors.TimeStamper(fmt="iso", utc=True),
+            stamper,
             structlog.processors.StackInfoRenderer(),
             structlog.processors.format_exc_info,  # text, so that redact_event sees it
             redact_event,

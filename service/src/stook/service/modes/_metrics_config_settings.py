@@ -6,6 +6,8 @@ metrics_set = "core"          # optional: only this set's metrics (default: all 
 templates = ".resim/metrics/templates"        # optional (default: beside the first path)
 emissions = "logs/emissions.resim.jsonl"      # test mode, optional (default: the inputs'
                                               # logs/emissions.resim.jsonl)
+strict = true                 # optional: a failing metric fails the run (exit 4) instead
+                              # of being written as an error (default: false)
 
 Relative paths are read from stook.toml's folder.
 """
@@ -17,7 +19,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-_KEYS = {"paths", "metrics_set", "templates", "emissions"}
+_KEYS = {"paths", "metrics_set", "templates", "emissions", "strict"}
 
 
 class MetricsConfigSettingsError(ValueError):
@@ -30,6 +32,7 @@ class MetricsConfigSettings:
     metrics_set: str | None = None
     templates: str | None = None
     emissions: str | None = None
+    strict: bool = False
 
     def config_paths(self, base: Path | None) -> list[Path]:
         return [_resolve(p, base) for p in self.paths]
@@ -59,9 +62,12 @@ def parse_metrics_config(table: Mapping[str, Any]) -> MetricsConfigSettings:
     for key in ("metrics_set", "templates", "emissions"):
         if key in table and not isinstance(table[key], str):
             raise MetricsConfigSettingsError(f"{key!r} must be a string")
+    if not isinstance(table.get("strict", False), bool):
+        raise MetricsConfigSettingsError("'strict' must be true or false")
     return MetricsConfigSettings(
         paths=tuple(paths),
         metrics_set=table.get("metrics_set"),
         templates=table.get("templates"),
         emissions=table.get("emissions"),
+        strict=table.get("strict", False),
     )

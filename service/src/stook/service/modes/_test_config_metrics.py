@@ -30,6 +30,7 @@ class TestConfigMetrics:
     config: MetricsConfig
     emissions: Path
     metrics_set: str | None
+    strict: bool = False
 
     @classmethod
     def load(
@@ -40,7 +41,7 @@ class TestConfigMetrics:
         config = load_config(settings.config_paths(base), settings.templates_path(base))
         config.metrics_for("test", settings.metrics_set)  # an unknown set: exit 2 now
         emissions = settings.emissions_path(base) or inputs.logs_dir / EMISSIONS_NAME
-        return cls(config, emissions, settings.metrics_set)
+        return cls(config, emissions, settings.metrics_set, settings.strict)
 
     def write_into(self, writer: MetricsWriter, outputs: Path) -> None:
         """Evaluate into `writer`; attached files (images) are copied into `outputs`."""
@@ -53,8 +54,18 @@ class TestConfigMetrics:
             log.warning("no emissions file; config metrics see no rows", path=str(self.emissions))
         emissions.add_job(JobMeta(job_id=str(writer.job_id)), self.emissions if found else None)
         result = evaluate(
-            self.config, emissions.tables(), writer, level="test", metrics_set=self.metrics_set
+            self.config,
+            emissions.tables(),
+            writer,
+            level="test",
+            metrics_set=self.metrics_set,
+            strict=self.strict,
+            attached=lambda name: (self.emissions.parent / name).is_file(),
         )
+        for failure in result.failed:
+            log.warning(
+                "config metric written as an error", metric=failure.metric, error=str(failure)
+            )
         for name in result.files:
             source = self.emissions.parent / name
             if not source.is_file():

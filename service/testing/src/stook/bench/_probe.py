@@ -99,7 +99,8 @@ def _conclude(
     result = ProbeResult(
         kind=plan.kind,
         levels=tuple(measured),
-        recommended_concurrency=recommend(measured),
+        # A climb cut short recommends nothing: the next level might have been the best.
+        recommended_concurrency=None if interrupted else recommend(measured),
         stopped=stopped,
         interrupted=interrupted,
     )
@@ -138,7 +139,12 @@ def print_result(result: ProbeResult, stream: TextIO) -> None:
     console = Console(file=stream, width=120)
     console.print(table)
     if result.interrupted:
-        console.print("interrupted: the levels above are all that was measured")
+        console.print(
+            "interrupted: the levels above are all that was measured; an unfinished climb "
+            "recommends no concurrency (run the probe to its end for one)"
+        )
+        stream.flush()
+        return
     if result.stopped:
         console.print(f"stopped climbing: {result.stopped}")
     recommended = result.recommended_concurrency

@@ -198,28 +198,24 @@ class EmulatorConfig:
 
     @classmethod
     def from_dict(cls, values: dict[str, Any]) -> EmulatorConfig:
+        """Settings by name (JSON-like values: lists for tuples, dicts for outages), each
+        checked against its field's type; ValueError naming the setting at fault."""
+        import msgspec
+
         known = {f.name for f in dataclasses.fields(cls)}
         unknown = set(values) - known
         if unknown:
             raise ValueError(f"unknown emulator settings: {sorted(unknown)}")
-        clean = dict(values)
-        if "outages" in clean:
-            clean["outages"] = tuple(
-                o if isinstance(o, Outage) else Outage(**o) for o in clean["outages"]
-            )
-        for name in (
-            "fault_origins",
-            "broken_jobs",
-            "corrupt_data_jobs",
-            "histogram_bucket_mismatch_jobs",
-            "report_batches_without_metrics",
-            "report_partial_metric_batches",
-            "future_status_jobs",
-            "unreported_status_jobs",
-            "report_unstable_experiences",
-            "baseline_regressed_experiences",
-            "report_batches_without_summary",
-        ):
-            if name in clean:
-                clean[name] = tuple(clean[name])
-        return cls(**clean)
+        plain = dict(values)
+        if "outages" in plain:
+            plain["outages"] = [
+                dataclasses.asdict(o) if isinstance(o, Outage) else o for o in plain["outages"]
+            ]
+        try:
+            return msgspec.convert(plain, cls)
+        except msgspec.ValidationError as exc:
+            # "Expected `float`, got `str` - at `$.fault_5xx`" -> "fault_5xx: expected ..."
+            text, _, where = str(exc).partition(" - at ")
+            name = where.strip("`").removeprefix("$.")
+            text = text.replace("`", "")
+            raise ValueError(f"{name}: {text[:1].lower()}{text[1:]}" if name else text) from None

@@ -190,7 +190,7 @@ def run_it_yourself(*, jobs: int, seed: int, output: Path, config: Path) -> list
         "--set", "report_unstable_experiences=[3]",
     ]  # fmt: skip
     runs = [
-        ["stook", "run", "--inputs", str(folder), "--outputs", str(output / "yours" / name),
+        ["stook", "run", "--inputs", str(folder), "--output", str(output / "yours" / name),
          "--config", str(config)]
         for folder, name in ((inputs, "batch"), (report_inputs, "report"))
     ]  # fmt: skip
