@@ -4,6 +4,9 @@
     python -m tools.screenshot_previews --demo /tmp/demo --out /tmp/shots
 
 Uses the system's Chromium (STOOK_CHROMIUM, default /usr/bin/chromium) through Playwright.
+Prints each page's header line beside its screenshot: docs/preview.md's captions quote
+its numbers, and tests/service/preview/test_screenshots.py checks them against the pages
+the demo writes today.
 """
 
 from __future__ import annotations
@@ -16,7 +19,10 @@ PAGES = {
     "test": Path("test-mode") / "metrics.html",
     "batch": Path("metrics.html"),
     "report": Path("report") / "metrics.html",
+    "comparison": Path("comparison") / "metrics.html",
+    "config": Path("metrics-config") / "metrics.html",
 }
+"""Each screenshot's name (docs/preview-NAME.png) and the demo's page it shows."""
 ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--no-first-run", "--hide-scrollbars"]
 
 
@@ -38,7 +44,8 @@ def main() -> None:
             page.wait_for_selector("body[data-figures]", timeout=60_000)
             target = args.out / f"preview-{name}.png"
             page.screenshot(path=str(target))
-            print(f"{target}: {target.stat().st_size / 1000:.0f} kB")
+            header = " ".join(page.locator(".card.file .meta").first.inner_text().split())
+            print(f"{target}: {target.stat().st_size / 1000:.0f} kB; {header}")
             page.close()
         browser.close()
 

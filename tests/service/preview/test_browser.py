@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import os
 import shutil
+import subprocess
+import sys
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -156,4 +158,58 @@ def test_several_files_side_by_side_in_a_narrow_window(browser: Any, tmp_path: P
     assert columns == 2
     files = page.locator(".card.file h3").all_inner_texts()
     assert files == [str(BATCH_OUTPUT), str(REPORT_OUTPUT)]
+    assert errors == []
+
+
+# What a reader would see go wrong at a width: the page wider than the window, a header
+# broken inside a word, tick labels cut off at the figure's edge, a figure not drawn.
+_LAYOUT_FAULTS = """() => {
+  const faults = [];
+  if (document.documentElement.scrollWidth > window.innerWidth + 1) {
+    faults.push(`page is ${document.documentElement.scrollWidth} px wide`);
+  }
+  for (const th of document.querySelectorAll('.text th')) {
+    const line = parseFloat(getComputedStyle(th).lineHeight) || 20;
+    const box = th.getBoundingClientRect();
+    if (box.height > 1.5 * line + 8) faults.push(`header "${th.innerText}" is broken`);
+  }
+  for (const plot of document.querySelectorAll('.plot')) {
+    const svg = plot.querySelector('svg.main-svg');
+    if (!svg) { faults.push(`${plot.dataset.metric}: not drawn`); continue; }
+    const frame = svg.getBoundingClientRect();
+    for (const tick of plot.querySelectorAll('.xtick text, .ytick text')) {
+      const box = tick.getBoundingClientRect();
+      if (box.width === 0) continue;
+      if (box.left < frame.left - 1 || box.right > frame.right + 1 ||
+          box.bottom > frame.bottom + 1) {
+        faults.push(`${plot.dataset.metric}: tick "${tick.textContent}" is cut off`);
+      }
+    }
+  }
+  return faults;
+}"""
+
+DEMO_PAGES = ["test-mode", ".", "report", "comparison", "metrics-config"]
+
+
+@pytest.fixture(scope="module")
+def demo_output(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    # `stook demo` itself, in its own process: Playwright's loop runs in this one.
+    output = tmp_path_factory.mktemp("demo")
+    stook = Path(sys.executable).with_name("stook")
+    command = [str(stook), "demo", "--jobs", "40", "--seed", "7", "--output", str(output)]
+    subprocess.run(command, check=True, capture_output=True, timeout=300)
+    return output
+
+
+@pytest.mark.parametrize("width", [1400, 700])
+@pytest.mark.parametrize("folder", DEMO_PAGES)
+def test_every_demo_page_reads_at_a_wide_and_a_narrow_width(
+    browser: Any, demo_output: Path, folder: str, width: int
+) -> None:
+    page, errors = open_page(browser, demo_output / folder / "metrics.html")
+    page.set_viewport_size({"width": width, "height": 900})
+    page.wait_for_timeout(300)  # plotly redraws on resize
+    assert page.evaluate(_LAYOUT_FAULTS) == []
+    assert page.locator(".placeholder").all_inner_texts() == []  # every image is shown
     assert errors == []

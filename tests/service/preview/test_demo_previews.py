@@ -28,3 +28,8 @@ def test_the_demo_writes_and_prints_a_preview_of_each_output(
     assert "Mean localization error (SELECT AVG(error) FROM localization): " in printed
     # The example's images are beside its output, so its preview embeds them.
     assert pages[0].read_text(encoding="utf-8").count('<img src="data:image/png') == 3
+    # The config-defined "Worst localization frame" names a camera frame the demo draws
+    # beside the output, so its preview shows an image, not a placeholder.
+    config_page = pages[2].read_text(encoding="utf-8")
+    assert config_page.count('<img src="data:image/png') == 1
+    assert "is not beside the file" not in config_page

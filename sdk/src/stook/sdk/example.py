@@ -63,8 +63,8 @@ def every_metric_type(experience_dir: Path, logs_dir: Path, writer: MetricsWrite
     # line plot: speed against acceleration, both plain double series
     writer.line_plot(
         "Speed vs acceleration",
-        data.doubles("Speed (x)", speed_values),
-        data.doubles("Acceleration (y)", [v / 10 for v in speed_values]),
+        data.doubles("Speed (x)", speed_values, unit="m/s"),
+        data.doubles("Acceleration (y)", [v / 10 for v in speed_values], unit="m/s^2"),
         x_axis_name="Speed",
         y_axis_name="Acceleration",
     )

@@ -10,19 +10,22 @@ from __future__ import annotations
 import base64
 import html
 import json
+import re
 import uuid
 from bisect import bisect_right
+from collections import Counter
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from datetime import datetime, timedelta
+from functools import cache
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from stook.proto import metrics_pb2 as pb
 from stook.sdk import MetricsDataView, MetricType, MetricView, SeriesKind
 from stook.service.preview._figures import Figures, bound_lines
-from stook.service.preview._markdown import markdown_html
 from stook.service.preview._sources import Source, human_size
-from stook.service.preview._style import PALETTE, status_color
+from stook.service.preview._style import PALETTE, category_colors, status_color
 from stook.service.preview._values import (
     MAX_DRAWN,
     categories,
@@ -32,10 +35,15 @@ from stook.service.preview._values import (
     number_text,
     pick,
     status_name,
+    tally,
     thin,
+    time_index,
     timestamp_text,
     values,
 )
+
+if TYPE_CHECKING:
+    from markdown_it import MarkdownIt
 
 # Larger image files are named, not embedded: a preview stays a file one can mail.
 MAX_IMAGE_BYTES = 8_000_000
@@ -71,13 +79,56 @@ def missing(what: str) -> str:
 
 
 def _with_unit(name: str, unit: str) -> str:
+    """An axis title with its unit once, in parentheses: "Distance [m]" as a writer may
+    put it reads "Distance (m)", beside the "(m/s)" of a chart whose unit is the data's."""
+    bracketed = _BRACKETED_UNIT.fullmatch(name)
+    if bracketed is not None:
+        name = f"{bracketed[1]} ({bracketed[2]})"
     return f"{name} ({unit})" if unit and unit.lower() not in name.lower() else name
+
+
+_BRACKETED_UNIT = re.compile(r"(.*\S)\s*\[([^\[\]]+)\]")
 
 
 def _thinned_note(longest: int) -> str | None:
     if longest <= MAX_DRAWN:
         return None
     return f"drawn thinned: ≤{MAX_DRAWN:,} of {longest:,} points per series (min/max kept)"
+
+
+def _own_status(metric: MetricView) -> str:
+    return status_name(int(metric.status or 0)) if isinstance(metric.status, int) else "NO_STATUS"
+
+
+def telling(statuses: Sequence[str] | None, metric: MetricView) -> Sequence[str] | None:
+    """Per-point statuses worth colouring by, or None when every point only repeats the
+    metric's own status (what a writer records when given none): colours then follow
+    what the chart shows, not a status its chip already says."""
+    if not statuses:
+        return None
+    own = _own_status(metric)
+    return statuses if set(tally(statuses)) - {own} else None
+
+
+_FAILING = ("FAIL_WARN", "FAIL_BLOCK")
+
+
+def _points_note(shown: Sequence[Sequence[str]], metric: MetricView, bounded: bool) -> str | None:
+    """Why points beyond a chart's failure bound can sit in a passing metric: the
+    points' statuses and the metric's are each as written, and only the metric's counts."""
+    own = _own_status(metric)
+    if not bounded or own in _FAILING:
+        return None
+    total = sum(len(s) for s in shown)
+    counts = sum((tally(s) for s in shown), Counter[str]())
+    failing = {f: counts[f] for f in _FAILING}
+    said = [f"{n:,} {name}" for name, n in failing.items() if n]
+    if not said:
+        return None
+    return (
+        f"Points failing by their own status, in its colour: {' and '.join(said)} of "
+        f"{total:,}. The metric's status, as written, is {own}, and the file's follows it."
+    )
 
 
 def _trace(
@@ -87,7 +138,8 @@ def _trace(
     statuses: Sequence[str] | None,
     color: str,
 ) -> dict[str, Any]:
-    """A line of (x, y) points, thinned for drawing, markers coloured by point status."""
+    """A line of (x, y) points, thinned for drawing; a failing point's marker in its
+    status's colour, the others in the line's, so that what fails stands out."""
     positions = thin(ys)
     y = pick(ys, positions) or []
     x = pick(xs, positions) if xs is not None else list(positions)
@@ -103,7 +155,8 @@ def _trace(
     }
     if statuses:
         shown = pick(statuses, positions) or []
-        trace["marker"] = {"color": [status_color(s) for s in shown], "size": 6}
+        colors = [status_color(s) if s in _FAILING else color for s in shown]
+        trace["marker"] = {"color": colors, "size": 6}
         trace["text"] = shown
         trace["hovertemplate"] = "%{x}<br>%{y}<br>%{text}<extra>" + esc(name) + "</extra>"
     return trace
@@ -157,17 +210,21 @@ def double_summary(metric: MetricView, ctx: Context) -> str:
         return missing("its values data is not in the file")
     statuses = ctx.data(mv.status_data_id) if mv.HasField("status_data_id") else None
     which = mv.WhichOneof("index")
+    index_values: Sequence[Any] | None = None
     if which is None or which == "series_index":
         wanted: Any = mv.series_index
         where = f"element {mv.series_index}"
-        index_values = None
-    else:
-        if which == "timestamp_index":
-            wanted = timestamp_text(mv.timestamp_index.seconds, mv.timestamp_index.nanos)
-        elif which == "uuid_index":
-            wanted = mv.uuid_index.data
+    elif which == "timestamp_index":
+        index_values, relative = time_index(ctx.source.view, data)
+        stamp = mv.timestamp_index
+        if relative:
+            wanted = stamp.seconds + stamp.nanos / 1e9
+            where = f"{number_text(wanted)} s"
         else:
-            wanted = mv.string_index
+            wanted = timestamp_text(stamp.seconds, stamp.nanos)
+            where = wanted.removesuffix(".000000") + " UTC"
+    else:
+        wanted = mv.uuid_index.data if which == "uuid_index" else mv.string_index
         where = f"index {wanted}"
         index_values = index_of(ctx.source.view, data)
 
@@ -221,12 +278,27 @@ def _double_categories(data: MetricsDataView) -> dict[str, list[float]]:
     return {c: list(by_category[c].doubles.series) for c in order if c in by_category}
 
 
+def _time_axis(relative: bool) -> dict[str, Any]:
+    if relative:
+        return {"title": {"text": "time from the start (s)"}}
+    return {"title": {"text": "time (UTC)"}, "type": "date"}
+
+
+def _time_text(at: Any, relative: bool) -> Any:
+    return at.seconds + at.nanos / 1e9 if relative else timestamp_text(at.seconds, at.nanos)
+
+
+def _notes(said: Sequence[str | None]) -> str:
+    return "".join(f'<p class="note">{esc(s)}</p>' for s in said if s)
+
+
 def double_over_time(metric: MetricView, ctx: Context) -> str:
     mv = metric.raw.metric_values.double_over_time_metric_values
     traces: list[dict[str, Any]] = []
     shapes: list[dict[str, Any]] = []
     labels: list[dict[str, Any]] = []
-    longest, unit, said = 0, "", []
+    points: list[Sequence[str]] = []
+    longest, unit, said, relative = 0, "", [], True
     for i, ref in enumerate(mv.doubles_over_time_data_id):
         data = ctx.data(ref)
         if data is None:
@@ -240,27 +312,21 @@ def double_over_time(metric: MetricView, ctx: Context) -> str:
             if i < len(mv.statuses_over_time_data_id)
             else None
         )
+        statuses = telling(values(status_data) if status_data is not None else None, metric)
+        points += [statuses] if statuses else []
+        times, series_relative = time_index(ctx.source.view, data)
+        relative = relative and series_relative
         name = _legend(mv.legend_series_names, i, data.name)
-        traces.append(
-            _trace(
-                name,
-                index_of(ctx.source.view, data),
-                ys,
-                values(status_data) if status_data is not None else None,
-                PALETTE[i % len(PALETTE)],
-            )
-        )
+        traces.append(_trace(name, times, ys, statuses, PALETTE[i % len(PALETTE)]))
         if i < len(mv.failure_definition):
             failure = mv.failure_definition[i]
             s, a = bound_lines(_opt(failure, "fails_above"), _opt(failure, "fails_below"))
             shapes += s
             labels += a
-    xaxis: dict[str, Any] = {"title": {"text": "time (UTC)"}, "type": "date"}
+    relative = relative and bool(traces)
+    xaxis = _time_axis(relative)
     if mv.HasField("start_time") and mv.HasField("end_time"):
-        xaxis["range"] = [
-            timestamp_text(mv.start_time.seconds, mv.start_time.nanos),
-            timestamp_text(mv.end_time.seconds, mv.end_time.nanos),
-        ]
+        xaxis["range"] = [_time_text(mv.start_time, relative), _time_text(mv.end_time, relative)]
     y_name = mv.y_axis_name if mv.HasField("y_axis_name") else (traces and traces[0]["name"])
     layout = {
         "xaxis": xaxis,
@@ -270,13 +336,33 @@ def double_over_time(metric: MetricView, ctx: Context) -> str:
         "showlegend": len(traces) > 1,
     }
     figure = ctx.figures.add(traces, layout, metric=metric.name, thinned=_thinned_note(longest))
-    return figure + "".join(f'<p class="note">{esc(s)}</p>' for s in said)
+    return figure + _notes([*said, _points_note(points, metric, bool(shapes))])
+
+
+# The report's line plots count days from its first batch; drawn as the batches' dates.
+_DAYS_SINCE = re.compile(r"Days since (\d{4}-\d{2}-\d{2} \d{2}:\d{2}) UTC")
+
+
+def _days_as_dates(x_name: str, xs: Sequence[Any]) -> list[Any] | None:
+    since = _DAYS_SINCE.fullmatch(x_name)
+    if since is None:
+        return None
+    origin = datetime.fromisoformat(since[1])
+    return [
+        (origin + timedelta(days=x)).isoformat(sep=" ", timespec="seconds")
+        if isinstance(x, float)
+        else None
+        for x in xs
+    ]
 
 
 def line_plot(metric: MetricView, ctx: Context) -> str:
     mv = metric.raw.metric_values.line_plot_metric_values
     traces: list[dict[str, Any]] = []
     longest, x_unit, y_unit, said = 0, "", "", []
+    x_name = mv.x_axis_name if mv.HasField("x_axis_name") else ""
+    y_name = mv.y_axis_name if mv.HasField("y_axis_name") else ""
+    dated = _DAYS_SINCE.fullmatch(x_name) is not None
     for i, (x_ref, y_ref) in enumerate(
         zip(mv.x_doubles_data_id, mv.y_doubles_data_id, strict=False)
     ):
@@ -288,29 +374,42 @@ def line_plot(metric: MetricView, ctx: Context) -> str:
         longest = max(longest, len(ys))
         x_unit, y_unit = x_unit or x_data.unit, y_unit or y_data.unit
         status_data = ctx.data(mv.statuses_data_id[i]) if i < len(mv.statuses_data_id) else None
+        statuses = telling(values(status_data) if status_data is not None else None, metric)
+        xs = values(x_data)
         traces.append(
             _trace(
                 _legend(mv.legend_series_names, i, y_data.name),
-                values(x_data),
+                _days_as_dates(x_name, xs) or xs,
                 ys,
-                values(status_data) if status_data is not None else None,
+                statuses,
                 PALETTE[i % len(PALETTE)],
             )
         )
-    x_name = mv.x_axis_name if mv.HasField("x_axis_name") else ""
-    y_name = mv.y_axis_name if mv.HasField("y_axis_name") else ""
+    xaxis = (
+        {"title": {"text": "batch time (UTC)"}, "type": "date"}
+        if dated
+        else {"title": {"text": _with_unit(x_name, x_unit)}}
+    )
     layout = {
-        "xaxis": {"title": {"text": _with_unit(x_name, x_unit)}},
+        "xaxis": xaxis,
         "yaxis": {"title": {"text": _with_unit(y_name, y_unit)}},
         "showlegend": len(traces) > 1,
     }
     figure = ctx.figures.add(traces, layout, metric=metric.name, thinned=_thinned_note(longest))
-    return figure + "".join(f'<p class="note">{esc(s)}</p>' for s in said)
+    return figure + _notes(said)
+
+
+@dataclass
+class _Bars:
+    name: str
+    labels: list[str]
+    ys: list[Any]
+    statuses: Sequence[str] | None
 
 
 def bar_chart(metric: MetricView, ctx: Context) -> str:
     mv = metric.raw.metric_values.bar_chart_metric_values
-    traces: list[dict[str, Any]] = []
+    series: list[_Bars] = []
     unit = ""
     for i, ref in enumerate(mv.values_data_id):
         data = ctx.data(ref)
@@ -321,19 +420,12 @@ def bar_chart(metric: MetricView, ctx: Context) -> str:
         labels = index_of(ctx.source.view, data) or [str(n) for n in range(len(ys))]
         status_data = ctx.data(mv.statuses_data_id[i]) if i < len(mv.statuses_data_id) else None
         statuses = values(status_data) if status_data is not None else None
-        color: Any = PALETTE[i % len(PALETTE)]
-        if statuses and len(mv.values_data_id) == 1:
-            color = [status_color(s) for s in statuses]
-        traces.append(
-            {
-                "type": "bar",
-                "name": _legend(mv.legend_series_names, i, data.name),
-                "x": [str(label) for label in labels],
-                "y": list(ys),
-                "marker": {"color": color},
-                **({"text": list(statuses), "textposition": "none"} if statuses else {}),
-            }
-        )
+        name = _legend(mv.legend_series_names, i, data.name)
+        series.append(_Bars(name, [str(label) for label in labels], list(ys), statuses))
+    interval = _interval_bars(series)
+    traces = (
+        [interval] if interval else [_bars(b, i, len(series), metric) for i, b in enumerate(series)]
+    )
     stacked = mv.stack_bars if mv.HasField("stack_bars") else False
     layout = {
         "barmode": "stack" if stacked else "group",
@@ -345,6 +437,75 @@ def bar_chart(metric: MetricView, ctx: Context) -> str:
         "showlegend": len(traces) > 1,
     }
     return ctx.figures.add(traces, layout, metric=metric.name)
+
+
+def _bars(bars: _Bars, i: int, count: int, metric: MetricView) -> dict[str, Any]:
+    """One series of bars. Alone, its bars take the colours of what they are (bars named
+    PASSED, BLOCKER...) or else of their own statuses where these say more than the
+    metric's; beside others, the series' colour."""
+    color: Any = PALETTE[i % len(PALETTE)]
+    statuses = telling(bars.statuses, metric)
+    if count == 1:
+        by_name = category_colors(bars.labels)
+        if by_name is not None:
+            color = by_name
+        elif statuses:
+            color = [status_color(s) for s in statuses]
+    trace: dict[str, Any] = {
+        "type": "bar",
+        "name": bars.name,
+        "x": bars.labels,
+        "y": bars.ys,
+        "marker": {"color": color},
+    }
+    if bars.statuses:
+        trace["text"] = list(bars.statuses)
+        trace["textposition"] = "none"
+    return trace
+
+
+_INTERVAL_PART = re.compile(r"(\d+(?:\.\d+)?) % (low|high)")
+
+
+def _interval_bars(series: Sequence[_Bars]) -> dict[str, Any] | None:
+    """A value and its interval written as three series ("Mean", "95 % low", "95 % high":
+    a baseline comparison's), drawn as one series of bars with error bars; None for any
+    other chart."""
+    if len(series) != 3:
+        return None
+    value, low, high = series
+    low_name, high_name = _INTERVAL_PART.fullmatch(low.name), _INTERVAL_PART.fullmatch(high.name)
+    if (
+        low_name is None
+        or high_name is None
+        or (low_name[2], high_name[2]) != ("low", "high")
+        or low_name[1] != high_name[1]
+        or not value.labels == low.labels == high.labels
+    ):
+        return None
+
+    def distance(a: Any, b: Any) -> float:
+        return a - b if isinstance(a, float) and isinstance(b, float) else 0.0
+
+    return {
+        "type": "bar",
+        "name": value.name,
+        "x": value.labels,
+        "y": value.ys,
+        "error_y": {
+            "type": "data",
+            "symmetric": False,
+            "array": [distance(h, y) for h, y in zip(high.ys, value.ys, strict=True)],
+            "arrayminus": [distance(y, lo) for y, lo in zip(value.ys, low.ys, strict=True)],
+            "color": "#202124",
+            "thickness": 1.5,
+            "width": 10,
+        },
+        "customdata": [[lo, h] for lo, h in zip(low.ys, high.ys, strict=True)],
+        "hovertemplate": f"%{{x}}: %{{y}}<br>{low_name[1]} % interval "
+        "[%{customdata[0]}, %{customdata[1]}]<extra></extra>",
+        "marker": {"color": PALETTE[0]},
+    }
 
 
 def histogram(metric: MetricView, ctx: Context) -> str:
@@ -416,8 +577,10 @@ def batchwise_bar_chart(metric: MetricView, ctx: Context) -> str:
         color = mv.colors[i] if i < len(mv.colors) and mv.colors[i] else None
         status_data = ctx.data(mv.statuses_data_id[i]) if i < len(mv.statuses_data_id) else None
         statuses = values(status_data) if status_data is not None else None
-        marker: Any = color or status_color(category)
-        if color is None and category not in _STATUS_NAMES:
+        by_name = category_colors([category])
+        statuses = telling(statuses, metric)
+        marker: Any = color or (by_name[0] if by_name else None)
+        if marker is None:
             marker = [status_color(s) for s in statuses] if statuses else PALETTE[i % 7]
         traces.append(
             {
@@ -436,7 +599,7 @@ def batchwise_bar_chart(metric: MetricView, ctx: Context) -> str:
     layout = {
         "barmode": "stack" if stacked else "group",
         "xaxis": {
-            "title": {"text": mv.x_axis_name if mv.HasField("x_axis_name") else "batch time"},
+            "title": {"text": mv.x_axis_name if mv.HasField("x_axis_name") else "batch time (UTC)"},
             "type": "date",
         },
         "yaxis": {"title": {"text": _with_unit(mv.y_axis_name, unit)}},
@@ -445,15 +608,12 @@ def batchwise_bar_chart(metric: MetricView, ctx: Context) -> str:
     return ctx.figures.add(traces, layout, metric=metric.name)
 
 
-_STATUS_NAMES = {"PASSED", "FAIL_WARN", "FAIL_BLOCK", "NOT_APPLICABLE", "RAW"}
-
-
 def states_over_time(metric: MetricView, ctx: Context) -> str:
     mv = metric.raw.metric_values.states_over_time_metric_values
     failing = set(mv.failure_states)
     traces: list[dict[str, Any]] = []
     seen: list[str] = list(mv.states_set)
-    longest = 0
+    longest, relative = 0, True
     for i, ref in enumerate(mv.states_over_time_data_id):
         data = ctx.data(ref)
         if data is None:
@@ -466,10 +626,12 @@ def states_over_time(metric: MetricView, ctx: Context) -> str:
             if i < len(mv.statuses_over_time_data_id)
             else None
         )
-        statuses = values(status_data) if status_data is not None else None
+        statuses = telling(values(status_data) if status_data is not None else None, metric)
+        times, series_relative = time_index(ctx.source.view, data)
+        relative = relative and series_relative
         trace = _trace(
             _legend(mv.legend_series_names, i, data.name),
-            index_of(ctx.source.view, data),
+            times,
             states,
             None,
             PALETTE[i % len(PALETTE)],
@@ -477,16 +639,21 @@ def states_over_time(metric: MetricView, ctx: Context) -> str:
         trace["line"]["shape"] = "hv"
         trace["mode"] = "lines+markers"
         shown = trace["y"]
+        # The statuses of the points drawn: the same positions as the states'. A failure
+        # state, or a failing point, stands out; the rest is in the line's colour.
+        shown_statuses = list(pick(statuses, thin(states)) or []) if statuses else []
+        shown_statuses += [""] * (len(shown) - len(shown_statuses))
+        line = PALETTE[i % len(PALETTE)]
         colors = [
             status_color("FAIL_BLOCK")
-            if s in failing
-            else (status_color(statuses[j]) if statuses and j < len(statuses) else PALETTE[0])
-            for j, s in enumerate(shown)
+            if state in failing
+            else (status_color(status) if status in _FAILING else line)
+            for state, status in zip(shown, shown_statuses, strict=False)
         ]
         trace["marker"] = {"color": colors, "size": 6}
         traces.append(trace)
     layout = {
-        "xaxis": {"title": {"text": "time (UTC)"}, "type": "date"},
+        "xaxis": _time_axis(relative and bool(traces)),
         "yaxis": {
             "title": {"text": "state"},
             "type": "category",
@@ -499,6 +666,25 @@ def states_over_time(metric: MetricView, ctx: Context) -> str:
     note = f"failure states: {', '.join(mv.failure_states)}" if mv.failure_states else ""
     figure = ctx.figures.add(traces, layout, metric=metric.name, thinned=_thinned_note(longest))
     return figure + (f'<p class="note">{esc(note)}</p>' if note else "")
+
+
+@cache
+def _markdown() -> MarkdownIt:
+    """CommonMark and tables, raw HTML escaped, never passed on: with ``html`` off,
+    markdown-it-py renders any HTML in the text as text, and its link check refuses
+    ``javascript:`` and other script URLs, so a metric's text cannot run code in the
+    page. ``breaks``: a line break as written stays one, as in the text a run printed
+    (a comparison's lines, one per finding), where CommonMark would join the lines."""
+    from markdown_it import MarkdownIt
+
+    return MarkdownIt("commonmark", {"html": False, "linkify": False, "breaks": True}).enable(
+        "table"
+    )
+
+
+def markdown_html(text: str) -> str:
+    rendered: str = _markdown().render(text)
+    return rendered
 
 
 def text(metric: MetricView, ctx: Context) -> str:

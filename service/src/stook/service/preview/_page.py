@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 from collections.abc import Sequence
 from functools import cache
 from pathlib import Path
@@ -18,7 +19,7 @@ from stook.sdk import EventView, MetricsDataView, MetricView
 from stook.service.preview._figures import Figures
 from stook.service.preview._metrics import Context, body, esc, kind_text, status_chip
 from stook.service.preview._sources import Source, human_size
-from stook.service.preview._style import CSS, status_color
+from stook.service.preview._style import CSS, ERROR_COLOR, status_color
 from stook.service.preview._values import status_name, timestamp_text
 
 _SCRIPT = """
@@ -86,8 +87,26 @@ def _enum_text(value: Any) -> str:
     return value.name if hasattr(value, "name") else str(value)
 
 
+# How `stook metrics-config` marks a config-defined metric that failed: the platform's
+# ERROR (its query) or RENDER_ERROR (its template), as a tag, JobMetrics having no such
+# status (the metric itself is NOT_APPLICABLE, its text the message).
+ERROR_TAG = "error"
+ERROR_MARKS = ("ERROR", "RENDER_ERROR")
+# A tag's value longer than this (a config metric's template_settings, as JSON) is folded.
+LONG_TAG = 48
+
+
+def _tag(key: str, value: str) -> str:
+    if len(value) <= LONG_TAG:
+        return f'<span class="tag">{esc(key)}: {esc(value)}</span>'
+    return f'<details class="tag"><summary>{esc(key)}</summary><code>{esc(value)}</code></details>'
+
+
 def metric_card(metric: MetricView, ctx: Context) -> str:
     meta = [status_chip(metric.status if isinstance(metric.status, int) else None)]
+    error = next((v for k, v in metric.tags if k == ERROR_TAG and v in ERROR_MARKS), None)
+    if error is not None:
+        meta.insert(0, f'<span class="chip" style="background:{ERROR_COLOR}">{esc(error)}</span>')
     meta.append(f"<span>{esc(_enum_text(metric.type))}</span>")
     if isinstance(metric.importance, int) and metric.importance:
         meta.append(f"<span>{esc(_enum_text(metric.importance).lower())} importance</span>")
@@ -95,14 +114,33 @@ def metric_card(metric: MetricView, ctx: Context) -> str:
         meta.append('<span class="blocking">blocking</span>')
     if metric.should_display is False:
         meta.append("<span>hidden on the dashboard</span>")
-    meta += [f'<span class="tag">{esc(k)}: {esc(v)}</span>' for k, v in metric.tags]
-    description = f'<p class="desc">{esc(metric.description)}</p>' if metric.description else ""
+    meta += [_tag(k, v) for k, v in metric.tags if not (k == ERROR_TAG and v == error)]
+    description = _description(metric.description) if metric.description else ""
     type_name = _enum_text(metric.type)
     return (
-        f'<article class="card metric" data-metric="{esc(metric.name)}" '
+        f'<article class="card metric{" failed" if error else ""}" '
+        f'data-metric="{esc(metric.name)}" '
         f'data-type="{esc(type_name)}"><h2>{esc(metric.name)}</h2>'
         f'<div class="meta">{"".join(meta)}</div>{description}{body(metric, ctx)}</article>'
     )
+
+
+# Longer descriptions fold to their lead: a report's every line plot explains itself in
+# a paragraph, and the charts are what a reader scans.
+FOLDED_DESCRIPTION = 160
+_LEAD = re.compile(r"(.{12,120}?[:.;])\s")
+
+
+def _description(text: str) -> str:
+    if len(text) <= FOLDED_DESCRIPTION:
+        return f'<p class="desc">{esc(text)}</p>'
+    lead = _LEAD.match(text)
+    if lead is not None:
+        summary, rest = lead[1], text[lead.end() :]
+    else:
+        summary = text[:100].rsplit(" ", 1)[0] + " …"
+        rest = text
+    return f'<details class="desc"><summary>{esc(summary)}</summary><p>{esc(rest)}</p></details>'
 
 
 def _count(n: int, noun: str) -> str:
@@ -185,7 +223,7 @@ def _events_card(ctx: Context) -> str:
         layout = {
             "height": 150 + 16 * len({e.name for e in timed}),
             "xaxis": {
-                "title": {"text": "seconds from the start" if relative else "time (UTC)"},
+                "title": {"text": "time from the start (s)" if relative else "time (UTC)"},
                 "range": _event_range(timed, relative),
                 **({} if relative else {"type": "date"}),
             },
@@ -249,7 +287,7 @@ def _length(data: MetricsDataView) -> str:
     for s in series:
         which = s.WhichOneof("series")
         total += len(getattr(s, which).series) if which else 0
-    return f"{total:,} values"
+    return _count(total, "value")
 
 
 def page(sources: Sequence[Source]) -> str:
@@ -278,7 +316,8 @@ def page(sources: Sequence[Source]) -> str:
         '<meta name="viewport" content="width=device-width, initial-scale=1">'
         f"<title>stook preview: {esc(names)}</title><style>{CSS}</style></head>"
         f'<body><header class="page"><h1>stook preview</h1><p>{esc(names)} '
-        "· charts with many points are drawn thinned; tables and values are exact</p></header>"
+        "· values to six significant digits, exact on hover; charts with many points drawn "
+        "thinned</p></header>"
         f'<main class="grid{" single" if len(sources) == 1 else ""}" '
         f'style="--columns:{len(sources)}">{"".join(cells)}</main>'
         f"<script>{plotly_js()}</script>"

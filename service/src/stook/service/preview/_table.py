@@ -19,7 +19,10 @@ def _value(metric: MetricView, view: JobMetricsView) -> str:
         if data is None or data.is_external or data.kind in (None, SeriesKind.STATUS):
             continue  # no values to count
         sizes.append(_length(data))
-    return f"{sum(sizes)} values" if sizes else ""
+    if not sizes:
+        return ""
+    total = sum(sizes)
+    return f"{total} value" if total == 1 else f"{total} values"
 
 
 def _length(data: MetricsDataView) -> int:

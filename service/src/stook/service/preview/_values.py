@@ -8,6 +8,7 @@ Values that JSON cannot hold (NaN, infinities) become None, which plotly draws a
 from __future__ import annotations
 
 import math
+from collections import Counter
 from collections.abc import Callable, Sequence
 from datetime import datetime, timedelta
 from typing import Any, overload
@@ -58,6 +59,18 @@ class Converted(Sequence[Any]):
         if isinstance(i, slice):
             return [self._convert(item) for item in self._items[i]]
         return self._convert(self._items[i])
+
+
+def tally(items: Sequence[Any]) -> Counter[Any]:
+    """How often each value occurs. A converted series of hashable elements (statuses:
+    enum numbers) is counted as written, and only its distinct elements converted: a
+    20,000-point series' statuses cost one C loop, not 20,000 conversions."""
+    if not isinstance(items, Converted):
+        return Counter(items)
+    counts: Counter[Any] = Counter()
+    for item, n in Counter(items._items).items():
+        counts[items._convert(item)] += n
+    return counts
 
 
 def _timestamp(t: Any) -> str:
@@ -116,6 +129,35 @@ def index_of(view: JobMetricsView, data: MetricsDataView) -> Sequence[Any] | Non
         return None
     index = view.data_by_id.get(data.index_id)
     return values(index) if index is not None else None
+
+
+RELATIVE_BEFORE_S = 365 * 86_400
+"""Timestamps before 1971 are time since a run's start (simulated time counted from 0),
+drawn as seconds: as dates they would all read "Jan 1, 1970"."""
+
+
+def is_relative(seconds: int) -> bool:
+    return seconds < RELATIVE_BEFORE_S
+
+
+def time_index(view: JobMetricsView, data: MetricsDataView) -> tuple[Sequence[Any] | None, bool]:
+    """The data's index for a time axis, and whether it is relative: seconds from the
+    start (floats) when every timestamp is before 1971, else UTC dates as plotly reads
+    them. Another kind of index is returned as it is."""
+    if data.index_id is None:
+        return None, False
+    index = view.data_by_id.get(data.index_id)
+    if index is None:
+        return None, False
+    if index.kind is SeriesKind.TIMESTAMP and not index.per_category:
+        stamps = index.raw.series.timestamps.series
+        if stamps and all(is_relative(t.seconds) for t in stamps):
+            return Converted(stamps, _seconds), True
+    return values(index), False
+
+
+def _seconds(t: Any) -> float:
+    return float(t.seconds + t.nanos / 1e9)
 
 
 def thin(ys: Sequence[Any], limit: int = MAX_DRAWN) -> Sequence[int]:

@@ -22,7 +22,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 from stook.emulator import EMISSIONS_FILE, write_emissions_config
-from stook.sdk import MetricStatus, read_job_metrics
+from stook.sdk import JobMetricsView, MetricStatus, read_job_metrics
 from stook.service.api import ApiClient, Job
 from stook.service.fetch import fetch_emissions
 from stook.service.modes import BatchInputs, detect, for_stream, load, run_batch, run_on_event_loop
@@ -43,6 +43,25 @@ paths = [".resim/metrics/config.resim.yml"]
 SHOWN = "Mean localization error"
 
 
+def write_attached_frames(view: JobMetricsView, folder: Path) -> list[Path]:
+    """The camera frames the output's image metrics name, beside it. The emulated tests
+    attach no real files, and batch mode names an attached file without downloading it
+    (the platform keeps the job's files): the demo draws one in its place, so that the
+    preview shows an image where a user's would show theirs."""
+    written: list[Path] = []
+    for data in view.data:
+        path = data.external_path
+        if path is None or not path.lower().endswith(".png"):
+            continue
+        target = (folder / path).resolve()
+        if not target.is_relative_to(folder.resolve()):
+            continue
+        target.parent.mkdir(parents=True, exist_ok=True)
+        target.write_bytes(camera_frame_png(hue=len(written) * 40))
+        written.append(target)
+    return written
+
+
 def run_config_metrics_demo(
     inputs: Path, output: Path, *, print_output: Callable[[Path], int]
 ) -> int:
@@ -60,8 +79,9 @@ def run_config_metrics_demo(
         run_batch(batch, load(toml), folder, progress=for_stream(label="jobs"))
     )
     seconds = time.perf_counter() - started
-    invalid = print_output(result.output)
     view = read_job_metrics(result.output.read_bytes(), source=str(result.output))
+    write_attached_frames(view, result.output.parent)
+    invalid = print_output(result.output)
     shown = next(m for m in view.metrics if m.name == SHOWN)
     status = shown.status.name if isinstance(shown.status, MetricStatus) else "?"
     print(
