@@ -18,7 +18,7 @@ import uuid
 from collections import deque
 from collections.abc import AsyncIterator, Awaitable, Callable, Sequence
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Generic, TypeVar
 
 import structlog
 
@@ -33,13 +33,14 @@ from stook.service.api import (
     OriginUnavailableError,
 )
 from stook.service.fetch._collector import fewer_collections
+from stook.service.fetch._emissions import JobEmissions, fetch_emissions_log
 from stook.service.fetch._job_extras import ExperienceTags, job_event
 from stook.service.fetch._scalars import is_scalar, read_scalars
 
 if TYPE_CHECKING:
     from stook.service.fetch._job_blobs import JobBlobs
 
-__all__ = ["BatchFetcher", "FetchOutcome", "MissingJob", "OnJob"]
+__all__ = ["BatchFetcher", "FetchOutcome", "MissingJob", "OnEmissions", "OnJob"]
 
 log = structlog.get_logger("stook.fetch")
 
@@ -71,8 +72,11 @@ class FetchOutcome:
 
 
 ProgressCallback = Callable[[FetchOutcome], None]
+_Listed = tuple[int, Job]  # a job and its place in the listing
 #: What receives each record: a function, or a coroutine function (awaited: back-pressure).
 OnJob = Callable[[JobRecord], None] | Callable[[JobRecord], Awaitable[None]]
+#: What receives each job's emissions log when the plan has config-defined metrics.
+OnEmissions = Callable[[JobEmissions], Awaitable[None]]
 
 
 class BatchFetcher:
@@ -88,8 +92,15 @@ class BatchFetcher:
         workers: int = 64,
         on_progress: ProgressCallback | None = None,
         jobs: Sequence[Job] | None = None,
+        on_emissions: OnEmissions | None = None,
     ) -> None:
-        """`jobs`: fetch these (a shard of the batch, listed elsewhere) instead of listing."""
+        """`jobs`: fetch these (a shard of the batch, listed elsewhere) instead of listing.
+
+        `on_emissions`: the plan has config-defined metrics, so each job's emissions log is
+        listed with its other listings and downloaded beside its metrics, on this client,
+        and handed (`JobEmissions`, with the job's place in the listing) to `on_emissions`
+        once the job's record is handed on. A job whose log fails for good is a missing
+        job, as one whose metrics do."""
         if workers < 1:
             raise ValueError(f"workers must be at least 1, got {workers}")
         self._api = api
@@ -100,6 +111,7 @@ class BatchFetcher:
         self._on_progress = on_progress
         self._tags = ExperienceTags(api, project_id)
         self._jobs = jobs
+        self._on_emissions = on_emissions
         self.outcome = FetchOutcome()
 
     async def run(self, on_job: OnJob) -> FetchOutcome:
@@ -108,7 +120,7 @@ class BatchFetcher:
         When `on_job` returns an awaitable it is awaited before that worker takes its next
         job: a slow consumer slows the fetch instead of piling records up.
         """
-        queue = _JobQueue(room=2 * self._workers, low=self._workers)
+        queue: _JobQueue[_Listed] = _JobQueue(room=2 * self._workers, low=self._workers)
         try:
             with fewer_collections():
                 await self._run(queue, on_job)
@@ -120,7 +132,7 @@ class BatchFetcher:
         self.outcome.seconds = time.monotonic() - self.outcome.started
         return self.outcome
 
-    async def _run(self, queue: _JobQueue, on_job: OnJob) -> None:
+    async def _run(self, queue: _JobQueue[_Listed], on_job: OnJob) -> None:
         async with asyncio.TaskGroup() as group:
             # The lister is one of the workers: `workers` tasks send requests, one at a time
             # each, so that none waits for a slot of the concurrency bound (as many as the
@@ -131,7 +143,7 @@ class BatchFetcher:
             for _ in range(self._workers - 1):
                 group.create_task(self._work(queue, on_job))
 
-    async def _list_jobs(self, queue: _JobQueue, on_job: OnJob) -> None:
+    async def _list_jobs(self, queue: _JobQueue[_Listed], on_job: OnJob) -> None:
         outcome = self.outcome
 
         def total_is(total: int) -> None:
@@ -146,7 +158,7 @@ class BatchFetcher:
             outcome.jobs_listed += 1
             if self._on_progress is not None:
                 self._on_progress(outcome)
-            if queue.put(job):
+            if queue.put((outcome.jobs_listed - 1, job)):
                 # Full: work as the others do until it is down to `low`, then list on.
                 await self._work(queue, on_job, while_plenty=True)
         outcome.jobs_total = outcome.jobs_listed  # what the complete listing proved
@@ -155,19 +167,25 @@ class BatchFetcher:
         queue.close()
         await self._work(queue, on_job)
 
-    async def _work(self, queue: _JobQueue, on_job: OnJob, *, while_plenty: bool = False) -> None:
+    async def _work(
+        self, queue: _JobQueue[_Listed], on_job: OnJob, *, while_plenty: bool = False
+    ) -> None:
         """Fetch jobs until the listing is complete and taken; with `while_plenty` (the
         lister), only while the queue holds more than its `low`."""
         while True:
             if while_plenty and not queue.plenty():
                 return
-            job = queue.take()
-            if job is None:
+            taken = queue.take()
+            if taken is None:
                 if await queue.more():
                     continue
                 return
+            index, job = taken
             try:
                 record = await self._fetch_job(job)
+                emitted = None
+                if self._on_emissions is not None:
+                    emitted = await self._fetch_emissions(index, job)
             except (AuthError, OriginUnavailableError):
                 raise
             except ApiError as exc:
@@ -179,6 +197,8 @@ class BatchFetcher:
                 handled = on_job(record)
                 if handled is not None and inspect.isawaitable(handled):
                     await handled
+                if emitted is not None and self._on_emissions is not None:
+                    await self._on_emissions(emitted)
                 self.outcome.jobs_done += 1
             if self._on_progress is not None:
                 self._on_progress(self.outcome)
@@ -245,6 +265,10 @@ class BatchFetcher:
             experience_tags=tags,
         )
 
+    async def _fetch_emissions(self, index: int, job: Job) -> JobEmissions:
+        payload = await fetch_emissions_log(self._api, self._project_id, self._batch_id, job.job_id)
+        return JobEmissions(index, self._batch_id, job, payload)
+
     def _list_metrics(self, job: Job) -> Awaitable[list[ApiMetric]]:
         return self._api.list_job_metrics(self._project_id, self._batch_id, job.job_id)
 
@@ -256,7 +280,10 @@ class BatchFetcher:
         return [job_event(e) for e in listed]
 
 
-class _JobQueue:
+_T = TypeVar("_T")
+
+
+class _JobQueue(Generic[_T]):
     """The jobs listed and not taken yet, from the lister to the workers, at most `room`.
 
     Not an asyncio.Queue: once that was full, each job a worker took woke the lister to
@@ -269,13 +296,13 @@ class _JobQueue:
     __slots__ = ("_closed", "_jobs", "_low", "_room", "_takers")
 
     def __init__(self, *, room: int, low: int) -> None:
-        self._jobs: deque[Job] = deque()
+        self._jobs: deque[_T] = deque()
         self._room = room
         self._low = low
         self._closed = False  # the listing is complete: no job will be added
         self._takers: deque[asyncio.Future[None]] = deque()  # workers waiting for a job
 
-    def put(self, job: Job) -> bool:
+    def put(self, job: _T) -> bool:
         """Add a job; whether the queue is full now (then list no more while `plenty`)."""
         self._jobs.append(job)
         if self._takers:
@@ -286,7 +313,7 @@ class _JobQueue:
         """Whether the queue holds more than `low` jobs."""
         return len(self._jobs) > self._low
 
-    def take(self) -> Job | None:
+    def take(self) -> _T | None:
         """The next job, or None when there is none now (see `more`)."""
         jobs = self._jobs
         return jobs.popleft() if jobs else None

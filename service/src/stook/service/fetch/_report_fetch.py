@@ -76,6 +76,8 @@ class ReportOutcome:
     job_scalar_names: set[str] = field(default_factory=set)
     first: datetime | None = None
     last: datetime | None = None
+    # The report's batches as found, oldest first (for what reads them after the fetch).
+    found_batches: list[Batch] = field(default_factory=list)
     started: float = field(default_factory=time.monotonic)
     seconds: float = 0.0
 
@@ -169,6 +171,7 @@ class ReportFetcher:
         report, batches = self._given or await self.find_batches()
         self.outcome.report = report
         self.outcome.batches = len(batches)
+        self.outcome.found_batches = batches
         totals = [b.total_jobs for b in batches]
         self.outcome.jobs_total = None if None in totals else sum(t or 0 for t in totals)
         self._announce()

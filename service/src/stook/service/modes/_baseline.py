@@ -17,7 +17,13 @@ from typing import TYPE_CHECKING
 import structlog
 
 from stook.service.api import ApiClient
-from stook.service.fetch import BatchFetcher, FetchOutcome, failure_directions, find_baseline
+from stook.service.fetch import (
+    BatchFetcher,
+    FetchOutcome,
+    OnEmissions,
+    failure_directions,
+    find_baseline,
+)
 from stook.service.modes._baseline_config import BaselineSettings
 
 if TYPE_CHECKING:
@@ -42,6 +48,7 @@ class ComparedFetcher:
         *,
         workers: int,
         on_progress: Callable[[FetchOutcome], None] | None = None,
+        on_emissions: OnEmissions | None = None,
     ) -> None:
         self._api = api
         self._project_id = project_id
@@ -50,7 +57,13 @@ class ComparedFetcher:
         self._settings = settings
         self._workers = workers
         self._candidate = BatchFetcher(
-            api, project_id, batch_id, needs, workers=workers, on_progress=on_progress
+            api,
+            project_id,
+            batch_id,
+            needs,
+            workers=workers,
+            on_progress=on_progress,
+            on_emissions=on_emissions,
         )
 
     @property

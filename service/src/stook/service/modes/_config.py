@@ -58,7 +58,7 @@ from stook.service.modes._user_code import add_import_folders
 if TYPE_CHECKING:
     # Imported by a config with a [batch.baseline] table, not by every run (~6 M).
     from stook.service.modes._baseline_config import BaselineSettings
-    from stook.service.modes._metrics_config_settings import MetricsConfigSettings
+    from stook.service.modes._config_metrics import MetricsConfigSettings
 
 log = structlog.get_logger("stook.config")
 
@@ -298,7 +298,7 @@ def _baseline(table: Any, source: str) -> BaselineSettings | None:
 def _metrics_config(table: Any, source: str) -> MetricsConfigSettings | None:
     if table is None:
         return None
-    from stook.service.modes._metrics_config_settings import (
+    from stook.service.modes._config_metrics import (
         MetricsConfigSettingsError,
         parse_metrics_config,
     )

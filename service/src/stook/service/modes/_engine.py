@@ -36,9 +36,17 @@ import structlog
 
 from stook.sdk.aggregations import Aggregation, Needs
 from stook.service.api import ApiClient, Batch, Job, Report, redact_text
-from stook.service.fetch import FetchOutcome, ReportFetcher, ReportOutcome, fetch_deadline
+from stook.service.fetch import (
+    FetchOutcome,
+    JobEmissions,
+    ReportFetcher,
+    ReportOutcome,
+    fetch_deadline,
+    fetch_emissions,
+)
 from stook.service.modes._baseline import fetch_baseline, set_directions
 from stook.service.modes._config import ConfigError, EngineConfigError, EngineSettings, StookConfig
+from stook.service.modes._config_metrics import ConfigMetrics, JobRows
 from stook.service.modes._inputs import BatchInputs, ReportInputs
 from stook.service.modes._open_api import Traffic, open_api
 from stook.service.modes._progress import Snapshot
@@ -174,6 +182,8 @@ class Shards:
                 try:
                     await self._run_shards(split(items, shard_count))
                     await plan.finish(api)
+                    if run.then is not None:
+                        await run.then(api, plan.outcome)
                 finally:
                     plan.abort()  # a no-op once finished
                 self.traffic = self._shards_traffic + Traffic.of(api)
@@ -284,13 +294,18 @@ class BatchPlan:
     """The batch's jobs are sharded; with `[batch.baseline]` the baseline's jobs are
     fetched here, on the driver, beside the shards: the comparison needs only their
     listed scalars (one request a job), and its candidate side comes from the shards'
-    states like every other aggregation's."""
+    states like every other aggregation's. With config-defined metrics the jobs'
+    emissions logs are fetched here too, beside the shards, over the jobs the driver
+    listed (`rows`)."""
 
     inputs: BatchInputs
     config: StookConfig
     comparison: BaselineComparison | None
+    config_metrics: ConfigMetrics | None = None
     outcome: FetchOutcome = field(default_factory=FetchOutcome)
+    rows: JobRows | None = None
     _baseline: asyncio.Task[None] | None = None
+    _emissions: asyncio.Task[int] | None = None
 
     async def listing(self, api: ApiClient, on_progress: Callable[[], None]) -> list[Job]:
         inputs, outcome = self.inputs, self.outcome
@@ -318,7 +333,30 @@ class BatchPlan:
             outcome.jobs_listed += 1
             on_progress()
         outcome.jobs_total = outcome.jobs_listed
+        if self.config_metrics is not None:
+            self._emissions = asyncio.create_task(
+                self._fetch_emissions(self.config_metrics, api, jobs)
+            )
         return jobs
+
+    async def _fetch_emissions(
+        self, config_metrics: ConfigMetrics, api: ApiClient, jobs: list[Job]
+    ) -> int:
+        project_id, batch_id = self.inputs.access.project_id, self.inputs.batch_id
+        rows = self.rows = config_metrics.rows(api, project_id)
+        try:
+            return await fetch_emissions(
+                api,
+                project_id,
+                list(enumerate(jobs)),
+                ids_of=lambda listed: (batch_id, listed[1].job_id),
+                on_job=lambda listed, payload: rows.add(
+                    JobEmissions(listed[0], batch_id, listed[1], payload)
+                ),
+                workers=self.config.fetch.concurrency,
+            )
+        finally:
+            await rows.aclose()
 
     def shard(
         self, run: FetchRun[Any], index: int, items: list[Job], states: list[Aggregation[Any]]
@@ -347,7 +385,10 @@ class BatchPlan:
         outcome.unnamed_data += part.unnamed_data
 
     async def finish(self, api: ApiClient) -> None:
-        """Every shard is merged: the baseline's side too, then the comparison's directions."""
+        """Every shard is merged: the emissions and the baseline's side too, then the
+        comparison's directions."""
+        if self._emissions is not None:
+            await self._emissions
         comparison, inputs = self.comparison, self.inputs
         if self._baseline is None or comparison is None:
             return
@@ -355,8 +396,9 @@ class BatchPlan:
         await set_directions(api, inputs.access.project_id, inputs.batch_id, comparison)
 
     def abort(self) -> None:
-        if self._baseline is not None:
-            self._baseline.cancel()
+        for task in (self._baseline, self._emissions):
+            if task is not None:
+                task.cancel()
 
     def complete(self) -> None:
         """Every shard is in (the listing already fixed the job count)."""
@@ -378,6 +420,7 @@ class ReportPlan:
         outcome = self.outcome
         outcome.report = report
         outcome.batches = len(batches)
+        outcome.found_batches = batches
         totals = [b.total_jobs for b in batches]
         outcome.jobs_total = None if None in totals else sum(t or 0 for t in totals)
         if batches:

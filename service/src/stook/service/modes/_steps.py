@@ -12,7 +12,7 @@ import asyncio
 import contextlib
 import dataclasses
 import uuid
-from collections.abc import Callable, Sequence
+from collections.abc import Awaitable, Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Generic, Protocol, TypeVar
@@ -94,6 +94,8 @@ class FetchRun(Generic[_O]):
     snapshot_of: Callable[[_O], Snapshot]  # jobs (and batches) done, listed and in all
     how_far: Callable[[_O, int], str]  # the line a deadline ends the run with
     started: float
+    # What the run fetches once the fold is done, on the same client, within the deadline.
+    then: Callable[[ApiClient, _O], Awaitable[None]] | None = None
 
 
 async def fold_here(
@@ -144,6 +146,8 @@ async def fold_here(
                 progress=lambda: run.how_far(fetcher.outcome, folded),
             ):
                 outcome = await fetcher.run(fold)
+                if run.then is not None:
+                    await run.then(api, outcome)
             report(outcome, final=True)  # the display ends on the complete counts
         finally:
             ticker.cancel()

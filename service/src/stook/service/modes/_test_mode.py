@@ -60,7 +60,7 @@ async def run_test_mode(inputs: TestInputs, config: StookConfig, output: Path) -
     writer = MetricsWriter(uuid.uuid4())
     config_metrics = None
     if config.metrics_config is not None:
-        from stook.service.modes._test_config_metrics import TestConfigMetrics
+        from stook.service.modes._config_metrics import TestConfigMetrics
 
         base = config.file.parent if config.file else None
         config_metrics = TestConfigMetrics.load(config.metrics_config, base, inputs)
