@@ -92,6 +92,7 @@ async def run_batch(
         snapshot_of=batch_snapshot,
         how_far=lambda outcome, _folded: batch_snapshot(outcome).of_total(),
         started=started,
+        check=_FirstJobsNames(needs, config.source),
     )
     engine = engine or config.engine
     rows: JobRows | None
@@ -200,8 +201,33 @@ def batch_snapshot(outcome: FetchOutcome) -> Snapshot:
     )
 
 
-def check_names(needs: Needs, outcome: FetchOutcome, source: str) -> None:
-    """A name in the config that no job has is a typo, not an empty result: say so."""
+#: How many jobs with metrics the early name check waits for (`_FirstJobsNames`).
+FIRST_JOBS = 100
+
+
+class _FirstJobsNames:
+    """A misspelt name found while the batch is fetched, not after it: once the first
+    `FIRST_JOBS` jobs with metrics are listed, a name the config wants that none of them
+    has, and that is close to one they have, ends the run with its suggestion. (A name
+    with no close match, or a rare one, is checked once the whole batch is in.)"""
+
+    def __init__(self, needs: Needs, source: str) -> None:
+        self._needs, self._source = needs, source
+        self._checked = False
+
+    def __call__(self, outcome: FetchOutcome) -> None:
+        if self._checked or outcome.jobs_with_metrics < FIRST_JOBS:
+            return
+        self._checked = True
+        check_names(self._needs, outcome, self._source, suggested_only=True)
+
+
+def check_names(
+    needs: Needs, outcome: FetchOutcome, source: str, *, suggested_only: bool = False
+) -> None:
+    """A name in the config that no job has is a typo, not an empty result: say so.
+
+    `suggested_only`: only a name close to one the jobs have (the early check)."""
     if outcome.jobs_with_metrics == 0:
         return  # an empty batch, or one whose jobs all failed, proves nothing about names
     for kind, wanted, seen in (
@@ -211,5 +237,12 @@ def check_names(needs: Needs, outcome: FetchOutcome, source: str) -> None:
     ):
         for name in sorted(wanted - seen):
             close = difflib.get_close_matches(name, sorted(seen), n=1)
+            if suggested_only and not close:
+                continue
             hint = f"; did you mean {close[0]!r}?" if close else ""
-            raise ConfigError(f"{source}: no job in the batch has a {kind} named {name!r}{hint}")
+            which = (
+                f"none of the first {outcome.jobs_with_metrics:,} jobs"
+                if suggested_only
+                else "no job in the batch"
+            )
+            raise ConfigError(f"{source}: {which} has a {kind} named {name!r}{hint}")

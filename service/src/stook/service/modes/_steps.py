@@ -96,6 +96,9 @@ class FetchRun(Generic[_O]):
     started: float
     # What the run fetches once the fold is done, on the same client, within the deadline.
     then: Callable[[ApiClient, _O], Awaitable[None]] | None = None
+    # Called with the outcome as each job is listed and done; raising ends the run (a
+    # misspelt name found by the first jobs' listings).
+    check: Callable[[_O], None] | None = None
 
 
 async def fold_here(
@@ -129,6 +132,8 @@ async def fold_here(
             # bar redraws 4 times a second, events come every 10 s), and a snapshot per
             # call cost ~1 % of the client's CPU at 0 ms latency.
             nonlocal last_shown
+            if run.check is not None:
+                run.check(outcome)
             now = clock()
             if now - last_shown < _SHOW_EVERY_S and not final:
                 return
