@@ -22,8 +22,7 @@ _JOBS = 400
             "scalar metric named 'Localisation error'; did you mean 'Localization error'?",
         ),
         (
-            '[[batch.histogram]]\nname = "h"\ndata = "sppeds"\nlower = 0\nupper = 1\n'
-            "buckets = 4\n",
+            '[[batch.histogram]]\nname = "h"\ndata = "sppeds"\nlower = 0\nupper = 1\nbuckets = 4\n',
             "metrics data named 'sppeds'; did you mean 'speeds'?",
         ),
     ],
