@@ -32,7 +32,7 @@ from stook.service.modes._config import (
     parse,
 )
 from stook.service.modes._inputs import ApiAccess, BatchInputs, InputsError, ReportInputs, detect
-from stook.service.modes._steps import MissingJobsError
+from stook.service.modes._pipeline import MissingJobsError
 from stook.service.modes._test_mode import UserFunctionError
 
 # ================================================================ stook.toml

@@ -25,8 +25,8 @@ from stook.service.fetch import MissingJob
 from stook.service.modes import ConfigError, EngineSettings, StookConfig, engine_for, parse
 from stook.service.modes._config import EngineConfigError, parse_engine, require_engine
 from stook.service.modes._engine import check_states_pickle
+from stook.service.modes._pipeline import write_missing_jobs
 from stook.service.modes._shards import RemoteError, ShardError, split
-from stook.service.modes._steps import write_missing_jobs
 
 
 def test_engine_defaults_to_local() -> None:

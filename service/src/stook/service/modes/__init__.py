@@ -26,8 +26,14 @@ from stook.service.modes._inputs import (
 )
 from stook.service.modes._library import fetch_batch, fetch_batch_frame, fetch_report
 from stook.service.modes._logging import configure_logging
-from stook.service.modes._open_api import Traffic, open_api
 from stook.service.modes._outputs import OutputsError, check_outputs_folder
+from stook.service.modes._pipeline import (
+    OUTPUT_NAME,
+    MissingJobsError,
+    RunResult,
+    Traffic,
+    open_api,
+)
 from stook.service.modes._progress import (
     LogProgress,
     NoProgress,
@@ -39,7 +45,6 @@ from stook.service.modes._progress import (
     human_bytes,
 )
 from stook.service.modes._report import ReportResult, report_aggregations, run_report
-from stook.service.modes._steps import OUTPUT_NAME, MissingJobsError, RunResult
 from stook.service.modes._test_mode import UserFunctionError, run_test_mode
 
 __all__ = [

@@ -22,8 +22,7 @@ from stook.service.modes._baseline import ComparedFetcher
 from stook.service.modes._config import ConfigError, EngineSettings, StookConfig
 from stook.service.modes._config_metrics import ConfigMetrics, JobRows
 from stook.service.modes._inputs import BatchInputs
-from stook.service.modes._progress import NoProgress, Progress, Snapshot
-from stook.service.modes._steps import (
+from stook.service.modes._pipeline import (
     FetchRun,
     RunResult,
     fold_here,
@@ -31,6 +30,7 @@ from stook.service.modes._steps import (
     write_missing_jobs,
     write_output,
 )
+from stook.service.modes._progress import NoProgress, Progress, Snapshot
 
 if TYPE_CHECKING:
     from stook.sdk.aggregations.baseline import BaselineComparison

@@ -41,14 +41,13 @@ from stook.service.fetch import (
     JobEmissions,
     ReportFetcher,
     ReportOutcome,
-    fetch_deadline,
     fetch_emissions,
 )
 from stook.service.modes._baseline import fetch_baseline, set_directions
 from stook.service.modes._config import ConfigError, EngineConfigError, EngineSettings, StookConfig
 from stook.service.modes._config_metrics import ConfigMetrics, JobRows
 from stook.service.modes._inputs import BatchInputs, ReportInputs
-from stook.service.modes._open_api import Traffic, open_api
+from stook.service.modes._pipeline import FetchRun, Traffic, fetch_records, show_progress, tick
 from stook.service.modes._progress import Snapshot
 from stook.service.modes._runners import ProcessRunner, RayRunner
 from stook.service.modes._shards import (
@@ -61,7 +60,6 @@ from stook.service.modes._shards import (
     ShardProgress,
     split,
 )
-from stook.service.modes._steps import FetchRun, show_progress, tick
 from stook.service.modes._user_code import import_folders
 
 if TYPE_CHECKING:
@@ -111,21 +109,31 @@ async def fold_sharded(
         concurrency_per_worker=run.settings.concurrency,
         data=sorted(run.needs.data),
     )
-    shards = Shards(run, plan, runner)
+    shards = Shards(run, plan, runner, engine.shards or _default_shards(engine, runner))
     aborted = True
     try:
-        async with fetch_deadline(
-            run.settings.deadline,
+        # The driver's client, open for the whole run: the listing it splits, and what it
+        # fetches beside the shards (a baseline, the emissions logs).
+        _, driver = await fetch_records(
+            run.access,
+            run.settings,
+            shards.on,
+            _no_records,
+            retry=run.retry,
             started=run.started,
-            progress=lambda: run.how_far(plan.outcome, shards.folded),
-        ):
-            await shards.run(engine.shards or _default_shards(engine, runner))
+            how_far=lambda outcome: run.how_far(outcome, shards.folded),
+            then=run.then,
+        )
         aborted = False
     finally:
         shards.stop_listening()  # reports still on their way would draw a closed display
         runner.close(abort=aborted)
         run.progress.close()
-    return plan.outcome, shards.traffic
+    return plan.outcome, shards.shards_traffic + driver
+
+
+def _no_records(_: object) -> None:
+    """The driver folds no record: the shards' states are merged (`Shards._merge`)."""
 
 
 def _start_runner(engine: EngineSettings, folders: tuple[str, ...]) -> ShardRunner:
@@ -143,12 +151,15 @@ def _start_runner(engine: EngineSettings, folders: tuple[str, ...]) -> ShardRunn
 class Shards:
     """One sharded run's driver: list, split, submit, and merge the results in shard order."""
 
-    def __init__(self, run: FetchRun[Any], plan: BatchPlan | ReportPlan, runner: ShardRunner):
-        self._run, self._plan, self._runner = run, plan, runner
+    def __init__(
+        self, run: FetchRun[Any], plan: BatchPlan | ReportPlan, runner: ShardRunner, count: int
+    ) -> None:
+        self._run, self._plan, self._runner, self._count = run, plan, runner, count
         self.folded = 0  # records (jobs, or batches) whose shard is merged
         self.traffic = Traffic()  # the whole run's: the shards' and the driver's
-        self._shards_traffic = Traffic()
+        self.shards_traffic = Traffic()
         self._driver_traffic: Callable[[], Traffic] = Traffic
+        self._api: ApiClient | None = None
         self._live = LiveShards()  # the running shards' last reports
         self._listening = True
         runner.listen(self._reported)
@@ -165,34 +176,43 @@ class Shards:
         snapshot = self._run.snapshot_of(self._plan.outcome)
         show_progress(self._run.progress, *self._live.add_to(snapshot, self.traffic))
 
-    async def run(self, shard_count: int) -> None:
-        run, plan = self._run, self._plan
+    def on(self, api: ApiClient) -> Shards:
+        """The driver as the pipeline's fetcher, on the run's client (`run`)."""
+        self._api = api
+        return self
+
+    @property
+    def outcome(self) -> Any:
+        return self._plan.outcome
+
+    async def run(self, _: Callable[[Any], None]) -> Any:
+        """List, split, submit, and merge the shards' results in shard order."""
+        api, plan = self._api, self._plan
+        if api is None:
+            raise RuntimeError("Shards.run needs the client: make it with Shards.on(api)")
         ticker = asyncio.create_task(tick(self._show))
         try:
-            # Open for the whole run: the driver may fetch beside the shards (a baseline).
-            async with open_api(run.access, run.settings, run.retry) as api:
 
-                def listed() -> None:
-                    self.traffic = self._shards_traffic + Traffic.of(api)
-                    self._show()
+            def listed() -> None:
+                self.traffic = self.shards_traffic + Traffic.of(api)
+                self._show()
 
-                self._driver_traffic = lambda: Traffic.of(api)
-                items = await plan.listing(api, listed)
-                self.traffic = self._shards_traffic + Traffic.of(api)
-                try:
-                    await self._run_shards(split(items, shard_count))
-                    await plan.finish(api)
-                    if run.then is not None:
-                        await run.then(api, plan.outcome)
-                finally:
-                    plan.abort()  # a no-op once finished
-                self.traffic = self._shards_traffic + Traffic.of(api)
+            self._driver_traffic = lambda: Traffic.of(api)
+            items = await plan.listing(api, listed)
+            self.traffic = self.shards_traffic + Traffic.of(api)
+            try:
+                await self._run_shards(split(items, self._count))
+                await plan.finish(api)
+            finally:
+                plan.abort()  # a no-op once finished
+            self.traffic = self.shards_traffic + Traffic.of(api)
         finally:
             ticker.cancel()
             with contextlib.suppress(asyncio.CancelledError):
                 await ticker
         plan.complete()
         self._show()
+        return plan.outcome
 
     async def _run_shards(self, pieces: list[list[Any]]) -> None:
         run, plan = self._run, self._plan
@@ -222,10 +242,10 @@ class Shards:
         self._plan.add(result.outcome)
         self._live.finished(result.index)  # its result counts now, not its reports
         sizes = [len(state) for state in result.states]
-        self._shards_traffic = self._shards_traffic + Traffic(
+        self.shards_traffic = self.shards_traffic + Traffic(
             requests=result.requests, retries=result.retries, bytes_received=result.bytes_received
         )
-        self.traffic = self._shards_traffic + self._driver_traffic()
+        self.traffic = self.shards_traffic + self._driver_traffic()
         log.info(
             "shard finished",
             shard=result.index,

@@ -18,8 +18,7 @@ from stook.service.fetch import ReportFetcher, ReportOutcome
 from stook.service.modes._config import ConfigError, EngineSettings, StookConfig
 from stook.service.modes._config_metrics import ConfigMetrics, JobRows
 from stook.service.modes._inputs import ReportInputs
-from stook.service.modes._progress import NoProgress, Progress, Snapshot
-from stook.service.modes._steps import (
+from stook.service.modes._pipeline import (
     FetchRun,
     RunResult,
     fold_here,
@@ -27,6 +26,7 @@ from stook.service.modes._steps import (
     write_missing_jobs,
     write_output,
 )
+from stook.service.modes._progress import NoProgress, Progress, Snapshot
 
 log = structlog.get_logger("stook.run")
 

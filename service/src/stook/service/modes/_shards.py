@@ -36,7 +36,7 @@ import traceback
 import uuid
 from collections.abc import AsyncIterator, Callable, Sequence
 from dataclasses import dataclass
-from typing import Any, Protocol, TypeVar
+from typing import Any, TypeVar
 
 from stook.sdk import StookError
 from stook.sdk.aggregations import Aggregation, Needs
@@ -53,7 +53,7 @@ from stook.service.modes._config import FetchSettings
 from stook.service.modes._event_loop import run_on_event_loop
 from stook.service.modes._inputs import ApiAccess
 from stook.service.modes._logging import configure_logging
-from stook.service.modes._open_api import Traffic, open_api
+from stook.service.modes._pipeline import Fetcher, Traffic, fetch_records
 
 #: Seconds between a shard's reports: the display redraws at most 4 times a second.
 EVERY_S = 0.25
@@ -176,15 +176,6 @@ def split(items: Sequence[_T], shards: int) -> list[list[_T]]:
     return pieces
 
 
-class _Fetcher(Protocol[_O_co]):
-    """BatchFetcher or ReportFetcher, as a shard drives them."""
-
-    @property
-    def outcome(self) -> _O_co: ...
-
-    async def run(self, on_record: Callable[[Any], None], /) -> _O_co: ...
-
-
 @dataclass(slots=True)
 class _Shard:
     index: int
@@ -200,16 +191,21 @@ class _Shard:
 
     async def _fetch(
         self,
-        fetcher_for: Callable[[ApiClient], _Fetcher[_O]],
+        fetcher_for: Callable[[ApiClient], Fetcher[Any, _O]],
         progress_of: Callable[[_O, Traffic], ShardProgress],
         send: Send | None,
     ) -> tuple[_O, Traffic]:
-        """The shard's piece fetched and folded, its progress sent while it runs."""
-        async with open_api(self.access, self.settings, self.retry) as api:
-            fetcher = fetcher_for(api)
-            async with reporting(lambda: progress_of(fetcher.outcome, Traffic.of(api)), send):
-                outcome = await fetcher.run(self.fold)
-            return outcome, Traffic.of(api)
+        """The shard's piece fetched and folded, its progress sent while it runs (the
+        deadline is the driver's)."""
+
+        def watch(
+            fetcher: Fetcher[Any, _O], api: ApiClient
+        ) -> contextlib.AbstractAsyncContextManager[None]:
+            return reporting(lambda: progress_of(fetcher.outcome, Traffic.of(api)), send)
+
+        return await fetch_records(
+            self.access, self.settings, fetcher_for, self.fold, retry=self.retry, watch=watch
+        )
 
 
 @dataclass(slots=True)
