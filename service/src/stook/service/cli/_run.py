@@ -37,6 +37,7 @@ from stook.sdk import (
 )
 from stook.service.api import ApiError, AuthError
 from stook.service.cli._usage import UsageError
+from stook.service.fetch import FetchError
 from stook.service.modes import (
     OUTPUT_NAME,
     BatchInputs,
@@ -229,7 +230,7 @@ def exit_code_for(error: BaseException) -> ExitCode:
         return ExitCode.USAGE
     if isinstance(error, EmissionsError | QueryError | TemplateError):
         return ExitCode.INVALID_DATA
-    if isinstance(error, ApiError):
+    if isinstance(error, ApiError | FetchError):
         return ExitCode.API
     if isinstance(error, ReadError | InvalidMetricsError):
         return ExitCode.INVALID_DATA

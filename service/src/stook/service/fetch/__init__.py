@@ -7,13 +7,18 @@ job (`JobRecord`) or batch (`BatchRecord`) on as soon as it is complete.
 
 from stook.service.fetch._baseline_find import BaselineFound, find_baseline
 from stook.service.fetch._batch_fetch import BatchFetcher, FetchOutcome, MissingJob, OnEmissions
-from stook.service.fetch._deadline import DeadlineReachedError, fetch_deadline
+from stook.service.fetch._deadline import fetch_deadline
 from stook.service.fetch._directions import failure_directions
 from stook.service.fetch._emissions import JobEmissions, fetch_emissions, fetch_emissions_log
-from stook.service.fetch._job_blobs import InvalidDataError, decode_values
+from stook.service.fetch._errors import (
+    DeadlineReachedError,
+    FetchError,
+    InvalidDataError,
+    ReportNotFoundError,
+)
+from stook.service.fetch._job_blobs import decode_values
 from stook.service.fetch._report_fetch import (
     ReportFetcher,
-    ReportNotFoundError,
     ReportOutcome,
     search_for,
 )
@@ -23,6 +28,7 @@ __all__ = [
     "BaselineFound",
     "BatchFetcher",
     "DeadlineReachedError",
+    "FetchError",
     "FetchOutcome",
     "InvalidDataError",
     "JobEmissions",

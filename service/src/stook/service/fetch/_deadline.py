@@ -11,13 +11,9 @@ import asyncio
 import contextlib
 from collections.abc import AsyncIterator, Callable
 
-from stook.service.api import ApiError
+from stook.service.fetch._errors import DeadlineReachedError
 
-__all__ = ["DeadlineReachedError", "fetch_deadline"]
-
-
-class DeadlineReachedError(ApiError):
-    """The fetch outlasted `[fetch] deadline` (exit code 3)."""
+__all__ = ["fetch_deadline"]
 
 
 @contextlib.asynccontextmanager

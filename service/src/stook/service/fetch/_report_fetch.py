@@ -44,6 +44,7 @@ from stook.service.api import (
 )
 from stook.service.fetch._batch_fetch import MissingJob
 from stook.service.fetch._collector import fewer_collections
+from stook.service.fetch._errors import ReportNotFoundError
 from stook.service.fetch._scalars import read_scalar_values, read_scalars
 from stook.service.fetch._summaries import read_summary
 
@@ -52,10 +53,6 @@ _T = TypeVar("_T")
 
 # Batches whose job and metric lists are fetched at once; their jobs share the workers.
 _BATCHES_IN_FLIGHT = 4
-
-
-class ReportNotFoundError(ApiError):
-    """The report ID of report_config.json does not exist in its project (exit code 3)."""
 
 
 @dataclass(slots=True)

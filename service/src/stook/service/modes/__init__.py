@@ -7,7 +7,6 @@ mode's run, the configured client of a run (`open_api`) and what its traffic was
 
 from stook.service.modes._batch import BatchAggregations, BatchResult, batch_aggregations, run_batch
 from stook.service.modes._config import (
-    ConfigError,
     EngineSettings,
     FetchSettings,
     StookConfig,
@@ -15,25 +14,19 @@ from stook.service.modes._config import (
     load,
     parse,
 )
-from stook.service.modes._event_loop import event_loop_factory, run_on_event_loop
-from stook.service.modes._inputs import (
-    ApiAccess,
-    BatchInputs,
+from stook.service.modes._errors import (
+    ConfigError,
     InputsError,
-    ReportInputs,
-    TestInputs,
-    detect,
+    MissingJobsError,
+    OutputsError,
+    UserFunctionError,
 )
+from stook.service.modes._event_loop import event_loop_factory, run_on_event_loop
+from stook.service.modes._inputs import ApiAccess, BatchInputs, ReportInputs, TestInputs, detect
 from stook.service.modes._library import fetch_batch, fetch_batch_frame, fetch_report
 from stook.service.modes._logging import configure_logging
-from stook.service.modes._outputs import OutputsError, check_outputs_folder
-from stook.service.modes._pipeline import (
-    OUTPUT_NAME,
-    MissingJobsError,
-    RunResult,
-    Traffic,
-    open_api,
-)
+from stook.service.modes._outputs import check_outputs_folder
+from stook.service.modes._pipeline import OUTPUT_NAME, RunResult, Traffic, open_api
 from stook.service.modes._progress import (
     LogProgress,
     NoProgress,
@@ -45,7 +38,7 @@ from stook.service.modes._progress import (
     human_bytes,
 )
 from stook.service.modes._report import ReportResult, report_aggregations, run_report
-from stook.service.modes._test_mode import UserFunctionError, run_test_mode
+from stook.service.modes._test_mode import run_test_mode
 
 __all__ = [
     "OUTPUT_NAME",

@@ -19,8 +19,9 @@ from stook.sdk.aggregations import (
 from stook.service.api import ApiClient, RetryPolicy
 from stook.service.fetch import BatchFetcher, FetchOutcome
 from stook.service.modes._baseline import ComparedFetcher
-from stook.service.modes._config import ConfigError, EngineSettings, StookConfig
+from stook.service.modes._config import EngineSettings, StookConfig
 from stook.service.modes._config_metrics import ConfigMetrics, JobRows
+from stook.service.modes._errors import ConfigError
 from stook.service.modes._inputs import BatchInputs
 from stook.service.modes._pipeline import (
     FetchRun,

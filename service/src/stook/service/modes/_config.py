@@ -45,7 +45,6 @@ from typing import TYPE_CHECKING, Any, Final
 
 import structlog
 
-from stook.sdk import StookError
 from stook.sdk.aggregations import (
     AggregationConfigError,
     BatchAggregation,
@@ -53,6 +52,7 @@ from stook.sdk.aggregations import (
     build_all,
 )
 from stook.service.modes._baseline_config import BaselineConfigError, parse_baseline
+from stook.service.modes._errors import ConfigError, EngineConfigError
 from stook.service.modes._user_code import add_import_folders
 
 if TYPE_CHECKING:
@@ -63,19 +63,11 @@ if TYPE_CHECKING:
 log = structlog.get_logger("stook.config")
 
 
-class ConfigError(StookError):
-    """stook.toml is missing, malformed or names something that does not exist (exit 2)."""
-
-
 # [engine]: where one run's fetch and fold happens (checked before the first request,
 # including that Ray is installed for kind = "ray", without importing it).
 ENGINE_KINDS: Final = ("local", "processes", "ray")
 _KEYS: Final = {"kind", "workers", "shards", "address"}
 RAY_INSTALL_HINT: Final = 'pip install "stook[ray]"'
-
-
-class EngineConfigError(StookError):
-    """An unusable `[engine]` setting (turned into ConfigError, exit code 2)."""
 
 
 @dataclass(frozen=True, slots=True)

@@ -49,7 +49,8 @@ import structlog
 
 from stook.service.api import ApiClient, Batch, Job
 from stook.service.fetch import JobEmissions, fetch_emissions
-from stook.service.modes._config import ConfigError, StookConfig
+from stook.service.modes._config import StookConfig
+from stook.service.modes._errors import ConfigError
 from stook.service.modes._inputs import TestInputs
 
 if TYPE_CHECKING:

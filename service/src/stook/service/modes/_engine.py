@@ -44,8 +44,9 @@ from stook.service.fetch import (
     fetch_emissions,
 )
 from stook.service.modes._baseline import fetch_baseline, set_directions
-from stook.service.modes._config import ConfigError, EngineConfigError, EngineSettings, StookConfig
+from stook.service.modes._config import EngineSettings, StookConfig
 from stook.service.modes._config_metrics import ConfigMetrics, JobRows
+from stook.service.modes._errors import ConfigError, EngineConfigError, ShardError
 from stook.service.modes._inputs import BatchInputs, ReportInputs
 from stook.service.modes._pipeline import FetchRun, Traffic, fetch_records, show_progress, tick
 from stook.service.modes._progress import Snapshot
@@ -55,7 +56,6 @@ from stook.service.modes._shards import (
     LogSettings,
     ReportShard,
     ShardDone,
-    ShardError,
     ShardFailed,
     ShardProgress,
     split,

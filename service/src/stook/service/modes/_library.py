@@ -29,13 +29,13 @@ from stook.service.fetch import (
     ReportFetcher,
 )
 from stook.service.modes._config import FetchSettings, parse
+from stook.service.modes._errors import InputsError
 from stook.service.modes._event_loop import run_on_event_loop
 from stook.service.modes._inputs import (
     BATCH_CONFIG,
     REPORT_CONFIG,
     ApiAccess,
     BatchInputs,
-    InputsError,
     ReportInputs,
     detect,
 )

@@ -12,14 +12,10 @@ import os
 import tempfile
 from pathlib import Path
 
-from stook.sdk import StookError
+from stook.service.modes._errors import OutputsError
 
 # Not the output's own temporary-file prefix, so a clean-up of those never meets a probe.
 _PROBE_PREFIX = ".stook-write-probe-"
-
-
-class OutputsError(StookError):
-    """The outputs folder cannot be created or written by this process (exit code 2)."""
 
 
 def check_outputs_folder(folder: Path) -> None:

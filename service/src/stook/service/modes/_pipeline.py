@@ -40,7 +40,6 @@ from stook.sdk import MetricStatus, MetricsWriter
 from stook.sdk.aggregations import Aggregation, Needs
 from stook.service.api import (
     ApiClient,
-    ApiError,
     ConcurrencyLimit,
     LimitStats,
     RetryPolicy,
@@ -48,6 +47,7 @@ from stook.service.api import (
 )
 from stook.service.fetch import MissingJob, fetch_deadline
 from stook.service.modes._config import FetchSettings
+from stook.service.modes._errors import MissingJobsError
 from stook.service.modes._inputs import ApiAccess
 from stook.service.modes._progress import Progress, Snapshot
 
@@ -77,10 +77,6 @@ _R = TypeVar("_R")  # what the fetcher hands over: a job's record, or a batch's
 _O = TypeVar("_O")  # what the fetcher saw: counts, names, missing jobs
 _R_co = TypeVar("_R_co", covariant=True)
 _O_co = TypeVar("_O_co", covariant=True)
-
-
-class MissingJobsError(ApiError):
-    """More jobs stayed unavailable than --allow-missing-jobs allows (exit code 3)."""
 
 
 # --- the client and its traffic ------------------------------------------------------------

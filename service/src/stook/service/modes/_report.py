@@ -15,8 +15,9 @@ from stook.sdk import MetricStatus, MetricsWriter
 from stook.sdk.aggregations import Aggregation
 from stook.service.api import ApiClient, RetryPolicy
 from stook.service.fetch import ReportFetcher, ReportOutcome
-from stook.service.modes._config import ConfigError, EngineSettings, StookConfig
+from stook.service.modes._config import EngineSettings, StookConfig
 from stook.service.modes._config_metrics import ConfigMetrics, JobRows
+from stook.service.modes._errors import ConfigError
 from stook.service.modes._inputs import ReportInputs
 from stook.service.modes._pipeline import (
     FetchRun,

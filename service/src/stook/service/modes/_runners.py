@@ -44,7 +44,8 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
-from stook.service.modes._config import RAY_INSTALL_HINT, EngineConfigError, EngineSettings
+from stook.service.modes._config import RAY_INSTALL_HINT, EngineSettings
+from stook.service.modes._errors import EngineConfigError
 from stook.service.modes._shards import EVERY_S, LogSettings, ShardProgress, init_worker, run_shard
 
 if TYPE_CHECKING:

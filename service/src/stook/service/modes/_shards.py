@@ -50,6 +50,7 @@ from stook.service.api import (
 )
 from stook.service.fetch import BatchFetcher, FetchOutcome, ReportFetcher, ReportOutcome
 from stook.service.modes._config import FetchSettings
+from stook.service.modes._errors import ShardError
 from stook.service.modes._event_loop import run_on_event_loop
 from stook.service.modes._inputs import ApiAccess
 from stook.service.modes._logging import configure_logging
@@ -105,10 +106,6 @@ async def reporting(
         task.cancel()
         with contextlib.suppress(asyncio.CancelledError):
             await task
-
-
-class ShardError(StookError):
-    """A shard failed in a way that names no error type of its own (exit code 1)."""
 
 
 @dataclass(frozen=True, slots=True)

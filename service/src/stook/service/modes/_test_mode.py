@@ -12,7 +12,8 @@ from typing import TYPE_CHECKING, Any
 import structlog
 
 from stook.sdk import MetricsWriter
-from stook.service.modes._config import ConfigError, StookConfig
+from stook.service.modes._config import StookConfig
+from stook.service.modes._errors import ConfigError, UserFunctionError
 from stook.service.modes._inputs import TestInputs
 from stook.service.modes._user_code import add_import_folders, describe_search
 
@@ -24,10 +25,6 @@ if TYPE_CHECKING:
 log = structlog.get_logger("stook.test")
 
 TestMetricsFunction = Callable[[Path, Path, "MetricsWriter"], Any]
-
-
-class UserFunctionError(Exception):
-    """The user's own metrics function raised; its traceback is theirs to read (exit 1)."""
 
 
 def load_function(
