@@ -5,10 +5,9 @@ pools of workers list and download only what the aggregations' `Needs` name, and
 job (`JobRecord`) or batch (`BatchRecord`) on as soon as it is complete.
 """
 
-from stook.service.fetch._baseline_find import BaselineFound, find_baseline
+from stook.service.fetch._baseline_find import BaselineFound, failure_directions, find_baseline
 from stook.service.fetch._batch_fetch import BatchFetcher, FetchOutcome, MissingJob, OnEmissions
 from stook.service.fetch._deadline import fetch_deadline
-from stook.service.fetch._directions import failure_directions
 from stook.service.fetch._emissions import JobEmissions, fetch_emissions, fetch_emissions_log
 from stook.service.fetch._errors import (
     DeadlineReachedError,

@@ -6,6 +6,9 @@ metrics, every job of a listed batch goes into one bounded queue that a fixed po
 of workers drains, so requests stay within the client's bound and memory within
 `workers + queue size` jobs, however long the report. A batch is handed to
 `on_batch` as a `BatchRecord` once all of its jobs are in.
+
+A batch's stook summary (`read_summary`, at the end) replaces its job listings where
+the batch has one.
 """
 
 from __future__ import annotations
@@ -22,7 +25,9 @@ from typing import TypeVar
 
 import structlog
 
+from stook.sdk import ReadError, read_metrics_data
 from stook.sdk.aggregations import (
+    SUMMARY_DATA_NAME,
     UNKNOWN_STATUS,
     BatchRecord,
     ColumnarSummary,
@@ -30,11 +35,15 @@ from stook.sdk.aggregations import (
     JobSummary,
     Needs,
     Scalar,
+    SummaryError,
+    SummaryVersionError,
+    summary_columns_from_data,
 )
 from stook.service.api import (
     ApiClient,
     ApiError,
     ApiMetric,
+    ApiMetricsData,
     AuthError,
     Batch,
     Job,
@@ -45,8 +54,8 @@ from stook.service.api import (
 from stook.service.fetch._batch_fetch import MissingJob
 from stook.service.fetch._collector import fewer_collections
 from stook.service.fetch._errors import ReportNotFoundError
+from stook.service.fetch._presigned import fetch_listed
 from stook.service.fetch._scalars import read_scalar_values, read_scalars
-from stook.service.fetch._summaries import read_summary
 
 log = structlog.get_logger("stook.report")
 _T = TypeVar("_T")
@@ -390,3 +399,56 @@ class ReportFetcher:
 
 async def _collect(items: AsyncIterator[_T]) -> list[_T]:
     return [item async for item in items]
+
+
+# --- a batch's stook summary -----------------------------------------------------------------
+
+# A batch's stook summary, when its batch metrics build wrote one: one listing, one download.
+#
+# Batch mode writes the summary (`BatchSummaryWriter`) as batch metrics data named
+# `SUMMARY_DATA_NAME`. Report mode reads it instead of listing the batch's jobs and every
+# job's metrics. Anything short of a summary this code can read in full (none listed, no
+# URL, a newer layout, bytes that are not a summary) returns None with the reason logged,
+# and the report lists that batch's jobs as before: a wrong number is never an option.
+
+
+async def read_summary(
+    api: ApiClient, project_id: uuid.UUID, batch_id: uuid.UUID
+) -> ColumnarSummary | None:
+    """The batch's summary, as columns, or None when it has none that this code can read."""
+    listed = await _list(api, project_id, batch_id)
+    found = [d for d in listed if d.name == SUMMARY_DATA_NAME and d.is_standard]
+    if not found:
+        log.debug("batch has no stook summary; listing its jobs", batch_id=str(batch_id))
+        return None
+    source = f"batch {batch_id} / {SUMMARY_DATA_NAME}"
+    payload, _ = await fetch_listed(
+        api.storage,
+        found[0],
+        url_of=lambda d: d.metrics_data_url,
+        id_of=lambda d: d.data_id,
+        relist=lambda: _list(api, project_id, batch_id),
+        source=source,
+    )
+    if payload is None:
+        log.warning("batch summary has no URL; listing the batch's jobs", batch_id=str(batch_id))
+        return None
+    try:
+        return summary_columns_from_data(read_metrics_data(payload, source=source))
+    except SummaryVersionError as exc:
+        log.warning(
+            "batch summary written by a newer stook; listing the batch's jobs",
+            batch_id=str(batch_id),
+            reason=str(exc),
+        )
+    except (SummaryError, ReadError) as exc:
+        log.warning(
+            "batch summary unreadable; listing the batch's jobs",
+            batch_id=str(batch_id),
+            reason=str(exc),
+        )
+    return None
+
+
+async def _list(api: ApiClient, project_id: uuid.UUID, batch_id: uuid.UUID) -> list[ApiMetricsData]:
+    return [d async for d in api.list_batch_metrics_data(project_id, batch_id)]

@@ -25,8 +25,13 @@ from stook.service.modes._event_loop import event_loop_factory, run_on_event_loo
 from stook.service.modes._inputs import ApiAccess, BatchInputs, ReportInputs, TestInputs, detect
 from stook.service.modes._library import fetch_batch, fetch_batch_frame, fetch_report
 from stook.service.modes._logging import configure_logging
-from stook.service.modes._outputs import check_outputs_folder
-from stook.service.modes._pipeline import OUTPUT_NAME, RunResult, Traffic, open_api
+from stook.service.modes._pipeline import (
+    OUTPUT_NAME,
+    RunResult,
+    Traffic,
+    check_outputs_folder,
+    open_api,
+)
 from stook.service.modes._progress import (
     LogProgress,
     NoProgress,

@@ -44,23 +44,23 @@ from stook.service.fetch import (
     fetch_emissions,
 )
 from stook.service.modes._baseline import fetch_baseline, set_directions
-from stook.service.modes._config import EngineSettings, StookConfig
+from stook.service.modes._config import EngineSettings, StookConfig, import_folders
 from stook.service.modes._config_metrics import ConfigMetrics, JobRows
 from stook.service.modes._errors import ConfigError, EngineConfigError, ShardError
 from stook.service.modes._inputs import BatchInputs, ReportInputs
 from stook.service.modes._pipeline import FetchRun, Traffic, fetch_records, show_progress, tick
 from stook.service.modes._progress import Snapshot
-from stook.service.modes._runners import ProcessRunner, RayRunner
 from stook.service.modes._shards import (
     BatchShard,
     LogSettings,
+    ProcessRunner,
+    RayRunner,
     ReportShard,
     ShardDone,
     ShardFailed,
     ShardProgress,
     split,
 )
-from stook.service.modes._user_code import import_folders
 
 if TYPE_CHECKING:
     from stook.sdk.aggregations.baseline import BaselineComparison

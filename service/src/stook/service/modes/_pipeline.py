@@ -21,6 +21,9 @@ and what it fetches beside the shards.
 The rest is what both modes do around the fetch: what to fetch (`needs_of`), the
 missing-jobs rule (`check_missing`, one rule whether the allowance is a share of the jobs
 or a number of them), and the write (`write_output`).
+
+The outputs folder is checked before the first request (`check_outputs_folder`, at the
+end), so that a run that cannot write says so before it fetches.
 """
 
 from __future__ import annotations
@@ -28,6 +31,8 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import dataclasses
+import os
+import tempfile
 import uuid
 from collections.abc import AsyncIterator, Awaitable, Callable, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -47,7 +52,7 @@ from stook.service.api import (
 )
 from stook.service.fetch import MissingJob, fetch_deadline
 from stook.service.modes._config import FetchSettings
-from stook.service.modes._errors import MissingJobsError
+from stook.service.modes._errors import MissingJobsError, OutputsError
 from stook.service.modes._inputs import ApiAccess
 from stook.service.modes._progress import Progress, Snapshot
 
@@ -412,3 +417,45 @@ def write_output(
     for aggregation in aggregations:
         aggregation.finish(writer)
     return writer.write(outputs_dir / OUTPUT_NAME)
+
+
+# --- the outputs folder, checked before the first request ------------------------------------
+
+# The outputs folder, checked before the first request.
+#
+# A run that cannot write its output should say so at once, not after an hour of fetching.
+# The check is a real write: permission bits, ownership, ACLs, read-only mounts and
+# container user mappings all have their say, which reading the mode bits would not.
+
+# Not the output's own temporary-file prefix, so a clean-up of those never meets a probe.
+_PROBE_PREFIX = ".stook-write-probe-"
+
+
+def check_outputs_folder(folder: Path) -> None:
+    """Create `folder` if need be, then create and remove a file in it; else OutputsError."""
+    who = f"user id {os.geteuid()}"
+    shown = str(folder)
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except FileExistsError:
+        raise OutputsError(f"outputs folder {shown!r} exists but is not a folder") from None
+    except OSError as exc:
+        raise OutputsError(
+            f"outputs folder {shown!r} cannot be created by {who} ({_reason(exc)}): "
+            f"create it writable for {who}, or run as a user who may (see deploy/README.md)"
+        ) from None
+    try:
+        fd, probe = tempfile.mkstemp(prefix=_PROBE_PREFIX, dir=folder)
+    except OSError as exc:
+        raise OutputsError(
+            f"outputs folder {shown!r} is not writable by {who} ({_reason(exc)}): "
+            f"give {who} write access to it, or run as a user who has it "
+            "(see deploy/README.md)"
+        ) from None
+    os.close(fd)
+    with contextlib.suppress(FileNotFoundError):
+        os.unlink(probe)
+
+
+def _reason(exc: OSError) -> str:
+    return exc.strerror or type(exc).__name__

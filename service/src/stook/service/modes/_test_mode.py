@@ -12,10 +12,9 @@ from typing import TYPE_CHECKING, Any
 import structlog
 
 from stook.sdk import MetricsWriter
-from stook.service.modes._config import StookConfig
+from stook.service.modes._config import StookConfig, add_import_folders, describe_search
 from stook.service.modes._errors import ConfigError, UserFunctionError
 from stook.service.modes._inputs import TestInputs
-from stook.service.modes._user_code import add_import_folders, describe_search
 
 if TYPE_CHECKING:
     # The writer only for a test-mode run: `stook run` imports this module for
