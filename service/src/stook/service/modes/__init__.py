@@ -1,11 +1,24 @@
 """The modes: test, batch and report mode, and the settings and inputs they run on.
 
 On top of the fetch layer (it imports `stook.service.fetch` and `stook.service.api`, never
-the CLI): stook.toml (`parse`, `load`), the platform's inputs folder (`detect`), each
-mode's run, the configured client of a run (`open_api`) and what its traffic was.
+the CLI). What other layers and users need, and nothing else:
+
+- settings: `parse`, `load` (stook.toml), `StookConfig`, `FetchSettings`, `EngineSettings`,
+  `engine_for` (the `--engine` override);
+- inputs and outputs: `detect` (the platform's inputs folder) with `TestInputs`,
+  `BatchInputs`, `ReportInputs`, `ApiAccess`; `check_outputs_folder`, `OUTPUT_NAME`;
+- the runs: `run_test_mode`, `run_batch`, `run_report` (their `RunResult`, `BatchResult`,
+  `ReportResult`, with the run's `Traffic`), `batch_aggregations`, `report_aggregations`;
+- the library: `fetch_batch`, `fetch_batch_frame`, `fetch_report`;
+- a run's client as the probe opens it: `open_api` (the pipeline's, modes/_pipeline.py);
+- the process around a run: `configure_logging`, `event_loop_factory`,
+  `run_on_event_loop`, and the progress shown (`Progress`, `for_stream`; `Tally`, the
+  CLI's sum of a run; `human_bytes`);
+- the errors (their tree in modes/_errors.py): `ConfigError`, `InputsError`,
+  `OutputsError`, `MissingJobsError`, `UserFunctionError`.
 """
 
-from stook.service.modes._batch import BatchAggregations, BatchResult, batch_aggregations, run_batch
+from stook.service.modes._batch import BatchResult, batch_aggregations, run_batch
 from stook.service.modes._config import (
     EngineSettings,
     FetchSettings,
@@ -33,12 +46,8 @@ from stook.service.modes._pipeline import (
     open_api,
 )
 from stook.service.modes._progress import (
-    LogProgress,
-    NoProgress,
     Progress,
-    Snapshot,
     Tally,
-    TerminalProgress,
     for_stream,
     human_bytes,
 )
@@ -48,25 +57,20 @@ from stook.service.modes._test_mode import run_test_mode
 __all__ = [
     "OUTPUT_NAME",
     "ApiAccess",
-    "BatchAggregations",
     "BatchInputs",
     "BatchResult",
     "ConfigError",
     "EngineSettings",
     "FetchSettings",
     "InputsError",
-    "LogProgress",
     "MissingJobsError",
-    "NoProgress",
     "OutputsError",
     "Progress",
     "ReportInputs",
     "ReportResult",
     "RunResult",
-    "Snapshot",
     "StookConfig",
     "Tally",
-    "TerminalProgress",
     "TestInputs",
     "Traffic",
     "UserFunctionError",
