@@ -122,7 +122,6 @@ PUBLIC_API: dict[str, list[str]] = {
         "ReportOutcome",
         "decode_values",
         "failure_directions",
-        "fetch_deadline",
         "fetch_emissions",
         "fetch_emissions_log",
         "find_baseline",

@@ -7,7 +7,6 @@ job (`JobRecord`) or batch (`BatchRecord`) on as soon as it is complete.
 
 from stook.service.fetch._baseline_find import BaselineFound, failure_directions, find_baseline
 from stook.service.fetch._batch_fetch import BatchFetcher, FetchOutcome, MissingJob, OnEmissions
-from stook.service.fetch._deadline import fetch_deadline
 from stook.service.fetch._emissions import JobEmissions, fetch_emissions, fetch_emissions_log
 from stook.service.fetch._errors import (
     DeadlineReachedError,
@@ -38,7 +37,6 @@ __all__ = [
     "ReportOutcome",
     "decode_values",
     "failure_directions",
-    "fetch_deadline",
     "fetch_emissions",
     "fetch_emissions_log",
     "find_baseline",

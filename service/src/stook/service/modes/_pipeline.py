@@ -50,7 +50,7 @@ from stook.service.api import (
     RetryPolicy,
     body_cap_mb,
 )
-from stook.service.fetch import MissingJob, fetch_deadline
+from stook.service.fetch import DeadlineReachedError, MissingJob
 from stook.service.modes._config import FetchSettings
 from stook.service.modes._errors import MissingJobsError, OutputsError
 from stook.service.modes._inputs import ApiAccess
@@ -154,6 +154,31 @@ class Traffic:
 
 
 # --- the fetch ------------------------------------------------------------------------------
+
+
+@contextlib.asynccontextmanager
+async def fetch_deadline(
+    seconds: float | None, *, started: float, progress: Callable[[], str]
+) -> AsyncIterator[None]:
+    """`[fetch] deadline`: cancel the body `seconds` after `started` (the event loop's
+    clock); None: no limit. For platforms that kill a job after a while: without it a run
+    facing a slow or failing API takes as long as the retry budgets allow; with it, the
+    fetch stops at the deadline and the run exits 3 with one line saying how far it got
+    (``progress()``, e.g. "1,204 of 5,000 jobs"), before the platform's own timeout kills
+    it without a word."""
+    if seconds is None:
+        yield
+        return
+    timeout = asyncio.timeout_at(started + seconds)
+    try:
+        async with timeout:
+            yield
+    except TimeoutError:
+        if not timeout.expired():
+            raise  # a timeout of something inside, not ours
+        raise DeadlineReachedError(
+            f"deadline of {seconds:g} s ([fetch] deadline) reached after {progress()}"
+        ) from None
 
 
 class Fetcher(Protocol[_R_co, _O_co]):
