@@ -32,15 +32,15 @@ from stook.service.api import (
     ApiMetricsData,
     AuthError,
     Job,
+    JobEventListing,
     OriginUnavailableError,
 )
 from stook.service.fetch._collector import fewer_collections
-from stook.service.fetch._emissions import JobEmissions, fetch_emissions_log
+from stook.service.fetch._emissions import JobEmissions, fetch_emissions_log, workers_for
 from stook.service.fetch._scalars import is_scalar, read_scalars
 
 if TYPE_CHECKING:
     from stook.service.fetch._job_blobs import JobBlobs
-from stook.service.api import JobEventListing
 
 __all__ = ["BatchFetcher", "FetchOutcome", "MissingJob", "OnEmissions", "OnJob"]
 
@@ -91,7 +91,7 @@ class BatchFetcher:
         batch_id: uuid.UUID,
         needs: Needs,
         *,
-        workers: int = 64,
+        workers: int | None = None,
         on_progress: ProgressCallback | None = None,
         jobs: Sequence[Job] | None = None,
         on_emissions: OnEmissions | None = None,
@@ -103,6 +103,7 @@ class BatchFetcher:
         and handed (`JobEmissions`, with the job's place in the listing) to `on_emissions`
         once the job's record is handed on. A job whose log fails for good is a missing
         job, as one whose metrics do."""
+        workers = workers_for(api, workers)
         if workers < 1:
             raise ValueError(f"workers must be at least 1, got {workers}")
         self._api = api

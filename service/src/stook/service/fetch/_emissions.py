@@ -26,11 +26,18 @@ import structlog
 from stook.service.api import ApiClient, Job, JobLog, LogType
 from stook.service.fetch._presigned import fetch_listed
 
-__all__ = ["JobEmissions", "fetch_emissions", "fetch_emissions_log"]
+__all__ = ["JobEmissions", "fetch_emissions", "fetch_emissions_log", "workers_for"]
 
 log = structlog.get_logger("stook.fetch")
 
 _Job = TypeVar("_Job")
+
+
+def workers_for(api: ApiClient, workers: int | None) -> int:
+    """How many workers a fetch on `api` runs: as given, else as many as the client lets
+    requests out at once (its concurrency), so that each worker has one request in flight
+    and none waits for a slot. The fetchers' one default: `[fetch] concurrency` sets both."""
+    return int(api.limiter.stats.ceiling) if workers is None else workers
 
 
 @dataclass(frozen=True, slots=True)
@@ -94,7 +101,7 @@ async def fetch_emissions(
     *,
     ids_of: Callable[[_Job], tuple[uuid.UUID, uuid.UUID]],
     on_job: Callable[[_Job, bytes | None], Awaitable[None] | None],
-    workers: int = 64,
+    workers: int | None = None,
 ) -> int:
     """Every job's emissions (see `fetch_emissions_log`), `workers` jobs at a time, each
     handed to `on_job` (awaited when it returns an awaitable) as soon as it is complete.
@@ -103,6 +110,7 @@ async def fetch_emissions(
     The first job that fails for good fails the whole fetch: its error is raised once the
     other workers are stopped.
     """
+    workers = workers_for(api, workers)
     if workers < 1:
         raise ValueError(f"workers must be at least 1, got {workers}")
     queue: Iterator[_Job] = iter(jobs)

@@ -53,6 +53,7 @@ from stook.service.api import (
 )
 from stook.service.fetch._batch_fetch import MissingJob
 from stook.service.fetch._collector import fewer_collections
+from stook.service.fetch._emissions import workers_for
 from stook.service.fetch._errors import ReportNotFoundError
 from stook.service.fetch._presigned import fetch_listed
 from stook.service.fetch._scalars import read_scalar_values, read_scalars
@@ -139,7 +140,7 @@ class ReportFetcher:
         report_id: uuid.UUID,
         needs: Needs,
         *,
-        workers: int = 64,
+        workers: int | None = None,
         on_progress: Callable[[ReportOutcome], None] | None = None,
         use_summaries: bool = True,
         batches: tuple[Report, list[Batch]] | None = None,
@@ -150,7 +151,7 @@ class ReportFetcher:
         self._project_id = project_id
         self._report_id = report_id
         self._needs = needs
-        self._workers = workers
+        self._workers = workers  # None: the client's concurrency, found when the run starts
         self._on_progress = on_progress
         self.outcome = ReportOutcome()
 
@@ -186,11 +187,10 @@ class ReportFetcher:
             self.outcome.last = batches[-1].creation_timestamp
         log.info("report batches found", report_id=str(self._report_id), batches=len(batches))
 
-        queue: asyncio.Queue[tuple[_PendingBatch, Job] | None] = asyncio.Queue(
-            maxsize=2 * self._workers
-        )
+        pool = workers_for(self._api, self._workers)
+        queue: asyncio.Queue[tuple[_PendingBatch, Job] | None] = asyncio.Queue(maxsize=2 * pool)
         gate = asyncio.Semaphore(_BATCHES_IN_FLIGHT)
-        workers = self._workers if self._needs.job_metrics else 0
+        workers = pool if self._needs.job_metrics else 0
         try:
             async with asyncio.TaskGroup() as group:
                 for _ in range(workers):

@@ -14,8 +14,9 @@ from __future__ import annotations
 
 import asyncio
 import uuid
-from collections.abc import Callable
-from typing import TYPE_CHECKING
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
 
 import structlog
 
@@ -31,12 +32,6 @@ from stook.service.fetch import (
 if TYPE_CHECKING:
     # The comparison's module (and its statistics) is imported by the run that has one.
     from stook.sdk.aggregations import JobRecord, Needs
-    from stook.sdk.aggregations.baseline import BaselineComparison
-from collections.abc import Mapping
-from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
-
-if TYPE_CHECKING:
     from stook.sdk.aggregations.baseline import BaselineComparison
     from stook.sdk.stats import Better
 
@@ -55,16 +50,17 @@ class ComparedFetcher:
         comparison: BaselineComparison,
         settings: BaselineSettings,
         *,
-        workers: int,
+        workers: int | None = None,
         on_progress: Callable[[FetchOutcome], None] | None = None,
         on_emissions: OnEmissions | None = None,
     ) -> None:
+        """`workers`: each fetch's (default: the client's concurrency)."""
         self._api = api
+        self._workers = workers
         self._project_id = project_id
         self._batch_id = batch_id
         self._comparison = comparison
         self._settings = settings
-        self._workers = workers
         self._candidate = BatchFetcher(
             api,
             project_id,
@@ -107,7 +103,7 @@ async def fetch_baseline(
     comparison: BaselineComparison,
     settings: BaselineSettings,
     *,
-    workers: int,
+    workers: int | None = None,
 ) -> None:
     """Find the baseline of `batch_id` and fold its jobs into the comparison's baseline side
     (or say there is none). A sharded run does this on its driver, beside the shards."""

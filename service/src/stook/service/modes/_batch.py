@@ -160,7 +160,6 @@ class _LocalFetch:
         self, api: ApiClient, on_progress: Callable[[FetchOutcome], None]
     ) -> BatchFetcher | ComparedFetcher:
         project_id, batch_id = self._inputs.access.project_id, self._inputs.batch_id
-        workers = self._config.fetch.concurrency
         if self._config_metrics is not None:
             self.rows = self._config_metrics.rows(api, project_id)
         on_emissions = None if self.rows is None else self.rows.add
@@ -173,7 +172,6 @@ class _LocalFetch:
                 self._needs,
                 comparison,
                 baseline,
-                workers=workers,
                 on_progress=on_progress,
                 on_emissions=on_emissions,
             )
@@ -182,7 +180,6 @@ class _LocalFetch:
             project_id,
             batch_id,
             self._needs,
-            workers=workers,
             on_progress=on_progress,
             on_emissions=on_emissions,
         )

@@ -1,4 +1,4 @@
-"""stook.toml: how to fetch, and what to compute in each mode.
+"""stook.toml: how to fetch, and what to compute in each mode; the user's modules it names.
 
 [fetch]
 concurrency = 64       # requests in flight, API and storage together
@@ -32,15 +32,13 @@ defaults = true        # the default batch metrics (means, distributions, status
 name = "Distance-weighted localization error"
 metric = "Localization error"
 weight = "Distance driven"
-
-The user's modules (`[test] metrics`, `[[batch.custom]]`) are imported from stook.toml's
-folder, the working directory, then the Python path (`add_import_folders`, at the end).
 """
 
 from __future__ import annotations
 
 import dataclasses
 import importlib.util
+import sys
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -61,7 +59,6 @@ if TYPE_CHECKING:
     # Imported by a config with a [batch.baseline] table, not by every run (~6 M).
     from stook.service.modes._baseline import BaselineSettings
     from stook.service.modes._config_metrics import MetricsConfigSettings
-import sys
 
 log = structlog.get_logger("stook.config")
 

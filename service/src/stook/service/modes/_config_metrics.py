@@ -239,7 +239,7 @@ class ConfigMetrics:
         )
 
     async def fetch_report_rows(
-        self, api: ApiClient, project_id: uuid.UUID, batches: Sequence[Batch], workers: int
+        self, api: ApiClient, project_id: uuid.UUID, batches: Sequence[Batch]
     ) -> JobRows:
         """Report mode: every job of the report's `batches` (as its fetch found them) with
         its emissions, listed and downloaded on `api`."""
@@ -260,7 +260,6 @@ class ConfigMetrics:
                     JobEmissions(item[0], item[1][0].batch_id, item[1][1], payload),
                     batch=item[1][0],
                 ),
-                workers=workers,
             )
         finally:
             await rows.aclose()

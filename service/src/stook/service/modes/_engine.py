@@ -338,7 +338,6 @@ class BatchPlan:
                     inputs.batch_id,
                     comparison,
                     settings,
-                    workers=self.config.fetch.concurrency,
                 )
             )
 
@@ -373,7 +372,6 @@ class BatchPlan:
                 on_job=lambda listed, payload: rows.add(
                     JobEmissions(listed[0], batch_id, listed[1], payload)
                 ),
-                workers=self.config.fetch.concurrency,
             )
         finally:
             await rows.aclose()

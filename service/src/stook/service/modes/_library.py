@@ -274,9 +274,7 @@ def fetch_batch(
         outcome, _ = await fetch_records(
             access,
             settings,
-            lambda api: BatchFetcher(
-                api, access.project_id, batch, needs, workers=settings.concurrency
-            ),
+            lambda api: BatchFetcher(api, access.project_id, batch, needs),
             hand_over.put,
             started=asyncio.get_running_loop().time(),
             how_far=lambda o: f"{o.jobs_done:,} of {o.jobs_listed:,} jobs",
@@ -322,9 +320,7 @@ def fetch_report(
         outcome, _ = await fetch_records(
             access,
             settings,
-            lambda api: ReportFetcher(
-                api, access.project_id, report, needs, workers=settings.concurrency
-            ),
+            lambda api: ReportFetcher(api, access.project_id, report, needs),
             hand_over.put_nowait,
             started=asyncio.get_running_loop().time(),
             how_far=lambda o: f"{o.jobs:,} jobs of {o.batches:,} batches",

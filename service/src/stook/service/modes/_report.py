@@ -99,7 +99,7 @@ async def run_report(
     config_metrics = ConfigMetrics.load(config, "dashboard")
     dashboard = None
     if config_metrics is not None and config_metrics.wanted:
-        dashboard = _DashboardRows(config_metrics, inputs, config.fetch.concurrency)
+        dashboard = _DashboardRows(config_metrics, inputs)
     needs = needs_of(aggregations)
     run = FetchRun(
         kind="report",
@@ -126,7 +126,6 @@ async def run_report(
                 inputs.access.project_id,
                 inputs.report_id,
                 needs,
-                workers=config.fetch.concurrency,
                 on_progress=on_progress,
                 use_summaries=config.report.use_summaries,
             )
@@ -169,14 +168,14 @@ class _DashboardRows:
     """The dashboard metrics' rows: every job of the report's batches with its emissions,
     fetched once the report's fetch is done, on its client (modes/_config_metrics.py)."""
 
-    def __init__(self, config_metrics: ConfigMetrics, inputs: ReportInputs, workers: int):
-        self._config_metrics, self._inputs, self._workers = config_metrics, inputs, workers
+    def __init__(self, config_metrics: ConfigMetrics, inputs: ReportInputs):
+        self._config_metrics, self._inputs = config_metrics, inputs
         self.rows: JobRows | None = None
 
     async def fetch(self, api: ApiClient, outcome: ReportOutcome) -> None:
         log.info("config metrics: fetching the report's jobs' emissions logs")
         self.rows = await self._config_metrics.fetch_report_rows(
-            api, self._inputs.access.project_id, outcome.found_batches, self._workers
+            api, self._inputs.access.project_id, outcome.found_batches
         )
 
 

@@ -231,7 +231,6 @@ class BatchShard(_Shard):
                 self.access.project_id,
                 self.batch_id,
                 self.needs,
-                workers=self.settings.concurrency,
                 jobs=self.jobs,
             )
 
@@ -265,7 +264,6 @@ class ReportShard(_Shard):
                 self.access.project_id,
                 self.report_id,
                 self.needs,
-                workers=self.settings.concurrency,
                 use_summaries=self.use_summaries,
                 batches=(self.report, self.batches),
             )
