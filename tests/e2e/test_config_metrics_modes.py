@@ -234,3 +234,71 @@ async def test_failing_storage_downloads_are_retried(tmp_path: Path) -> None:
     assert by_name(view)["Mean localization error"].value == pytest.approx(
         statistics.fmean(errors), rel=1e-12
     )
+
+
+async def test_the_emissions_logs_are_part_of_the_batch_fetch(tmp_path: Path) -> None:
+    # Listed with each job's other listings, on the run's client: each job listed once,
+    # every request counted in the run's traffic.
+    inputs, outputs = tmp_path / "inputs", tmp_path / "outputs"
+    toml = _toml(tmp_path)
+    async with emulated_batch(inputs, jobs_per_batch=_JOBS, seed=3) as emu:
+        batch = detect(inputs)
+        assert isinstance(batch, BatchInputs)
+        # Without [metrics_config] first: the pages of the batch's listing.
+        plain = tmp_path / "plain.toml"
+        plain.write_text(toml.read_text().split("[metrics_config]")[0])
+        await run_batch(batch, load(plain), outputs)
+        pages = emu.stats.endpoints["api:list_jobs"]
+        before = emu.stats.requests["api"] + emu.stats.requests["storage"]
+        result = await run_batch(batch, load(toml), outputs)
+        endpoints = emu.stats.endpoints
+        served = emu.stats.requests["api"] + emu.stats.requests["storage"] - before
+    assert endpoints["api:list_jobs"] == 2 * pages
+    assert endpoints["api:get_batch"] == 1  # for the metadata rows
+    assert endpoints["api:list_job_logs"] == _JOBS
+    assert result.requests == served
+
+
+@pytest.mark.slow
+async def test_a_sharded_batch_gives_the_local_runs_bytes(tmp_path: Path) -> None:
+    from stook.service.modes import EngineSettings
+
+    written: list[bytes] = []
+    for engine in (EngineSettings(), EngineSettings("processes", workers=2, shards=3)):
+        run_dir = tmp_path / engine.kind
+        run_dir.mkdir()
+        toml = _toml(run_dir)
+        async with emulated_batch(run_dir / "inputs", jobs_per_batch=_JOBS, seed=3) as emu:
+            batch = detect(run_dir / "inputs")
+            assert isinstance(batch, BatchInputs)
+            result = await run_batch(batch, load(toml), run_dir / "out", engine=engine)
+            assert emu.stats.endpoints["api:list_jobs"] == 3  # the listing's pages, once
+            assert emu.stats.endpoints["api:list_job_logs"] == _JOBS
+        written.append(result.output.read_bytes())
+    assert written[0] == written[1]
+
+
+async def test_a_level_without_metrics_downloads_no_log(tmp_path: Path) -> None:
+    # "trends" holds dashboard metrics only, "nightly" batch metrics only.
+    batch_toml = _toml(tmp_path / "batch", 'metrics_set = "trends"\n')
+    async with emulated_batch(tmp_path / "batch" / "inputs", jobs_per_batch=8, seed=3) as emu:
+        await run(
+            RunOptions(
+                inputs=tmp_path / "batch" / "inputs",
+                outputs=tmp_path / "batch" / "out",
+                config=batch_toml,
+            )
+        )
+        assert emu.stats.endpoints["api:list_job_logs"] == 0
+    report_toml = _toml(tmp_path / "report", 'metrics_set = "nightly"\n')
+    async with emulated_report(
+        tmp_path / "report" / "inputs", report_batches=2, report_jobs_per_batch=4, seed=5
+    ) as emu:
+        await run(
+            RunOptions(
+                inputs=tmp_path / "report" / "inputs",
+                outputs=tmp_path / "report" / "out",
+                config=report_toml,
+            )
+        )
+        assert emu.stats.endpoints["api:list_job_logs"] == 0

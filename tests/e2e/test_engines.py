@@ -29,8 +29,8 @@ from stook.sdk.aggregations import default_batch_aggregations
 from stook.service.api import AuthError, Job
 from stook.service.fetch import FetchOutcome
 from stook.service.modes import ApiAccess, FetchSettings, open_api
+from stook.service.modes._pipeline import needs_of
 from stook.service.modes._shards import BatchShard, ShardDone, ShardFailed, run_shard
-from stook.service.modes._steps import needs_of
 from tests.e2e.engines import (
     ENGINE_BATCH_TOML,
     assert_progress_moved_inside_the_shards,

@@ -124,6 +124,6 @@ async def test_a_probe_that_fails_leaves_the_metric_two_sided(emu: Emulator) -> 
 def test_a_direction_from_each_kind_of_failure_definition(
     above: bool, below: bool, expected: str | None
 ) -> None:
-    from stook.service.fetch._directions import direction_of
+    from stook.service.fetch._baseline_find import direction_of
 
     assert direction_of(above, below) == expected

@@ -17,7 +17,7 @@ def jobs(n: int) -> list[Job]:
 
 
 async def test_every_job_is_taken_once_in_order_and_the_workers_stop() -> None:
-    queue = _JobQueue(room=4, low=2)
+    queue: _JobQueue[Job] = _JobQueue(room=4, low=2)
     taken: list[Any] = []
     put = most_queued = 0
 
@@ -56,7 +56,7 @@ async def test_every_job_is_taken_once_in_order_and_the_workers_stop() -> None:
 
 
 async def test_workers_of_an_empty_queue_stop_once_it_is_closed() -> None:
-    queue = _JobQueue(room=4, low=2)
+    queue: _JobQueue[Job] = _JobQueue(room=4, low=2)
     waiting = [asyncio.ensure_future(queue.more()) for _ in range(3)]
     await asyncio.sleep(0)
     queue.put(jobs(1)[0])
@@ -72,7 +72,7 @@ async def test_workers_of_an_empty_queue_stop_once_it_is_closed() -> None:
 
 
 async def test_a_worker_cancelled_once_woken_passes_the_job_on() -> None:
-    queue = _JobQueue(room=4, low=2)
+    queue: _JobQueue[Job] = _JobQueue(room=4, low=2)
     first = asyncio.ensure_future(queue.more())
     second = asyncio.ensure_future(queue.more())
     await asyncio.sleep(0)

@@ -8,8 +8,9 @@ from typing import Any
 import pytest
 
 from stook.sdk.aggregations.baseline import BaselineComparison
+from stook.service.modes import ConfigError
 from stook.service.modes._batch import batch_aggregations
-from stook.service.modes._config import ConfigError, parse
+from stook.service.modes._config import parse
 
 BATCH = "0b0b0b0b-1111-4222-8333-444444444444"
 

@@ -8,8 +8,7 @@ import uuid
 from stook.emulator import BatchKind, Emulator
 from stook.sdk.aggregations import JobRecord, Needs
 from stook.service.api import ApiClient
-from stook.service.modes._baseline import ComparedFetcher
-from stook.service.modes._baseline_config import BaselineSettings
+from stook.service.modes._baseline import BaselineSettings, ComparedFetcher
 from stook.testing import emulator_config
 
 

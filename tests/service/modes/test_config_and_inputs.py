@@ -22,18 +22,16 @@ from stook.service.cli._run import (
     resolve_options,
 )
 from stook.service.cli._usage import UsageError
-from stook.service.modes import _config, _inputs
-from stook.service.modes._config import (
+from stook.service.modes import (
     ConfigError,
-    FetchSettings,
-    ReportSettings,
-    StookConfig,
-    load,
-    parse,
+    InputsError,
+    MissingJobsError,
+    UserFunctionError,
+    _config,
+    _inputs,
 )
-from stook.service.modes._inputs import ApiAccess, BatchInputs, InputsError, ReportInputs, detect
-from stook.service.modes._steps import MissingJobsError
-from stook.service.modes._test_mode import UserFunctionError
+from stook.service.modes._config import FetchSettings, ReportSettings, StookConfig, load, parse
+from stook.service.modes._inputs import ApiAccess, BatchInputs, ReportInputs, detect
 
 # ================================================================ stook.toml
 

@@ -23,10 +23,11 @@ from stook.sdk.aggregations.report import default_report_aggregations
 from stook.service.api import AuthError, NotFoundError
 from stook.service.fetch import MissingJob
 from stook.service.modes import ConfigError, EngineSettings, StookConfig, engine_for, parse
-from stook.service.modes._config import EngineConfigError, parse_engine, require_engine
+from stook.service.modes._config import parse_engine, require_engine
 from stook.service.modes._engine import check_states_pickle
-from stook.service.modes._shards import RemoteError, ShardError, split
-from stook.service.modes._steps import write_missing_jobs
+from stook.service.modes._errors import EngineConfigError, ShardError
+from stook.service.modes._pipeline import write_missing_jobs
+from stook.service.modes._shards import RemoteError, split
 
 
 def test_engine_defaults_to_local() -> None:

@@ -8,16 +8,8 @@ import re
 import pytest
 from structlog.testing import capture_logs
 
-from stook.service.modes import (
-    ConfigError,
-    LogProgress,
-    NoProgress,
-    Snapshot,
-    Tally,
-    TerminalProgress,
-    for_stream,
-    human_bytes,
-)
+from stook.service.modes import ConfigError, Tally, for_stream, human_bytes
+from stook.service.modes._progress import LogProgress, NoProgress, Snapshot, TerminalProgress
 
 
 class FakeClock:

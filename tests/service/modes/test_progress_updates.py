@@ -5,7 +5,8 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
-from stook.service.modes import BatchInputs, Snapshot, detect, parse, run_batch
+from stook.service.modes import BatchInputs, detect, parse, run_batch
+from stook.service.modes._progress import Snapshot
 from stook.testing import emulated_batch
 
 JOBS = 150

@@ -8,7 +8,8 @@ from typing import Any
 import pytest
 
 from stook.sdk.aggregations.report import ChangePoints, ScalarLines, UnstableExperiences
-from stook.service.modes._config import ConfigError, ReportSettings, parse
+from stook.service.modes import ConfigError
+from stook.service.modes._config import ReportSettings, parse
 from stook.service.modes._report import report_aggregations
 
 PROJECT = "5e5e5e5e-1111-4222-8333-444444444444"

@@ -6,7 +6,7 @@ from __future__ import annotations
 import asyncio
 
 from stook.service.modes._engine import LiveShards
-from stook.service.modes._open_api import Traffic
+from stook.service.modes._pipeline import Traffic
 from stook.service.modes._progress import Snapshot
 from stook.service.modes._shards import ShardProgress, reporting
 

@@ -5,8 +5,9 @@ from __future__ import annotations
 import pytest
 
 from stook.sdk.aggregations import BatchSummaryWriter
+from stook.service.modes import ConfigError
 from stook.service.modes._batch import batch_aggregations
-from stook.service.modes._config import ConfigError, StookConfig, parse
+from stook.service.modes._config import StookConfig, parse
 
 
 def test_on_by_default() -> None:

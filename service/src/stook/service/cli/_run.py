@@ -38,6 +38,7 @@ from stook.sdk import (
 )
 from stook.service.api import ApiError, AuthError
 from stook.service.cli._usage import UsageError
+from stook.service.fetch import FetchError
 from stook.service.modes import (
     OUTPUT_NAME,
     BatchInputs,
@@ -259,7 +260,7 @@ def exit_code_for(error: BaseException) -> ExitCode:
         return ExitCode.USAGE
     if isinstance(error, EmissionsError | QueryError | TemplateError):
         return ExitCode.INVALID_DATA
-    if isinstance(error, ApiError):
+    if isinstance(error, ApiError | FetchError):
         return ExitCode.API
     if isinstance(error, ReadError | InvalidMetricsError):
         return ExitCode.INVALID_DATA

@@ -5,15 +5,18 @@ pools of workers list and download only what the aggregations' `Needs` name, and
 job (`JobRecord`) or batch (`BatchRecord`) on as soon as it is complete.
 """
 
-from stook.service.fetch._baseline_find import BaselineFound, find_baseline
-from stook.service.fetch._batch_fetch import BatchFetcher, FetchOutcome, MissingJob
-from stook.service.fetch._deadline import DeadlineReachedError, fetch_deadline
-from stook.service.fetch._directions import failure_directions
-from stook.service.fetch._emissions import fetch_emissions, fetch_emissions_log
-from stook.service.fetch._job_blobs import InvalidDataError, decode_values
+from stook.service.fetch._baseline_find import BaselineFound, failure_directions, find_baseline
+from stook.service.fetch._batch_fetch import BatchFetcher, FetchOutcome, MissingJob, OnEmissions
+from stook.service.fetch._emissions import JobEmissions, fetch_emissions, fetch_emissions_log
+from stook.service.fetch._errors import (
+    DeadlineReachedError,
+    FetchError,
+    InvalidDataError,
+    ReportNotFoundError,
+)
+from stook.service.fetch._job_blobs import decode_values
 from stook.service.fetch._report_fetch import (
     ReportFetcher,
-    ReportNotFoundError,
     ReportOutcome,
     search_for,
 )
@@ -23,15 +26,17 @@ __all__ = [
     "BaselineFound",
     "BatchFetcher",
     "DeadlineReachedError",
+    "FetchError",
     "FetchOutcome",
     "InvalidDataError",
+    "JobEmissions",
     "MissingJob",
+    "OnEmissions",
     "ReportFetcher",
     "ReportNotFoundError",
     "ReportOutcome",
     "decode_values",
     "failure_directions",
-    "fetch_deadline",
     "fetch_emissions",
     "fetch_emissions_log",
     "find_baseline",

@@ -4,8 +4,10 @@ Jobs are listed page by page into a bounded queue, by one of the workers wheneve
 queue runs low; a fixed pool of workers takes each job as soon as its page arrives, lists
 its metrics (scalars come with the listing, so they cost no download), downloads only
 what the aggregations' `Needs` name (metrics data, job metrics with their data, events,
-experience tags; see _job_blobs and _job_extras), and hands the record to `on_job`. At
+experience tags; see _job_blobs and the end of this module), and hands the record to `on_job`. At
 most `workers + queue size` jobs are in memory at once, whatever the batch size.
+
+A job's events and its experience's tags (`job_event`, `ExperienceTags`) are at the end.
 """
 
 from __future__ import annotations
@@ -18,7 +20,7 @@ import uuid
 from collections import deque
 from collections.abc import AsyncIterator, Awaitable, Callable, Sequence
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Generic, TypeVar
 
 import structlog
 
@@ -30,16 +32,17 @@ from stook.service.api import (
     ApiMetricsData,
     AuthError,
     Job,
+    JobEventListing,
     OriginUnavailableError,
 )
 from stook.service.fetch._collector import fewer_collections
-from stook.service.fetch._job_extras import ExperienceTags, job_event
+from stook.service.fetch._emissions import JobEmissions, fetch_emissions_log, workers_for
 from stook.service.fetch._scalars import is_scalar, read_scalars
 
 if TYPE_CHECKING:
     from stook.service.fetch._job_blobs import JobBlobs
 
-__all__ = ["BatchFetcher", "FetchOutcome", "MissingJob", "OnJob"]
+__all__ = ["BatchFetcher", "FetchOutcome", "MissingJob", "OnEmissions", "OnJob"]
 
 log = structlog.get_logger("stook.fetch")
 
@@ -71,8 +74,11 @@ class FetchOutcome:
 
 
 ProgressCallback = Callable[[FetchOutcome], None]
+_Listed = tuple[int, Job]  # a job and its place in the listing
 #: What receives each record: a function, or a coroutine function (awaited: back-pressure).
 OnJob = Callable[[JobRecord], None] | Callable[[JobRecord], Awaitable[None]]
+#: What receives each job's emissions log when the plan has config-defined metrics.
+OnEmissions = Callable[[JobEmissions], Awaitable[None]]
 
 
 class BatchFetcher:
@@ -85,11 +91,19 @@ class BatchFetcher:
         batch_id: uuid.UUID,
         needs: Needs,
         *,
-        workers: int = 64,
+        workers: int | None = None,
         on_progress: ProgressCallback | None = None,
         jobs: Sequence[Job] | None = None,
+        on_emissions: OnEmissions | None = None,
     ) -> None:
-        """`jobs`: fetch these (a shard of the batch, listed elsewhere) instead of listing."""
+        """`jobs`: fetch these (a shard of the batch, listed elsewhere) instead of listing.
+
+        `on_emissions`: the plan has config-defined metrics, so each job's emissions log is
+        listed with its other listings and downloaded beside its metrics, on this client,
+        and handed (`JobEmissions`, with the job's place in the listing) to `on_emissions`
+        once the job's record is handed on. A job whose log fails for good is a missing
+        job, as one whose metrics do."""
+        workers = workers_for(api, workers)
         if workers < 1:
             raise ValueError(f"workers must be at least 1, got {workers}")
         self._api = api
@@ -100,6 +114,7 @@ class BatchFetcher:
         self._on_progress = on_progress
         self._tags = ExperienceTags(api, project_id)
         self._jobs = jobs
+        self._on_emissions = on_emissions
         self.outcome = FetchOutcome()
 
     async def run(self, on_job: OnJob) -> FetchOutcome:
@@ -108,7 +123,7 @@ class BatchFetcher:
         When `on_job` returns an awaitable it is awaited before that worker takes its next
         job: a slow consumer slows the fetch instead of piling records up.
         """
-        queue = _JobQueue(room=2 * self._workers, low=self._workers)
+        queue: _JobQueue[_Listed] = _JobQueue(room=2 * self._workers, low=self._workers)
         try:
             with fewer_collections():
                 await self._run(queue, on_job)
@@ -120,7 +135,7 @@ class BatchFetcher:
         self.outcome.seconds = time.monotonic() - self.outcome.started
         return self.outcome
 
-    async def _run(self, queue: _JobQueue, on_job: OnJob) -> None:
+    async def _run(self, queue: _JobQueue[_Listed], on_job: OnJob) -> None:
         async with asyncio.TaskGroup() as group:
             # The lister is one of the workers: `workers` tasks send requests, one at a time
             # each, so that none waits for a slot of the concurrency bound (as many as the
@@ -131,7 +146,7 @@ class BatchFetcher:
             for _ in range(self._workers - 1):
                 group.create_task(self._work(queue, on_job))
 
-    async def _list_jobs(self, queue: _JobQueue, on_job: OnJob) -> None:
+    async def _list_jobs(self, queue: _JobQueue[_Listed], on_job: OnJob) -> None:
         outcome = self.outcome
 
         def total_is(total: int) -> None:
@@ -146,7 +161,7 @@ class BatchFetcher:
             outcome.jobs_listed += 1
             if self._on_progress is not None:
                 self._on_progress(outcome)
-            if queue.put(job):
+            if queue.put((outcome.jobs_listed - 1, job)):
                 # Full: work as the others do until it is down to `low`, then list on.
                 await self._work(queue, on_job, while_plenty=True)
         outcome.jobs_total = outcome.jobs_listed  # what the complete listing proved
@@ -155,19 +170,25 @@ class BatchFetcher:
         queue.close()
         await self._work(queue, on_job)
 
-    async def _work(self, queue: _JobQueue, on_job: OnJob, *, while_plenty: bool = False) -> None:
+    async def _work(
+        self, queue: _JobQueue[_Listed], on_job: OnJob, *, while_plenty: bool = False
+    ) -> None:
         """Fetch jobs until the listing is complete and taken; with `while_plenty` (the
         lister), only while the queue holds more than its `low`."""
         while True:
             if while_plenty and not queue.plenty():
                 return
-            job = queue.take()
-            if job is None:
+            taken = queue.take()
+            if taken is None:
                 if await queue.more():
                     continue
                 return
+            index, job = taken
             try:
                 record = await self._fetch_job(job)
+                emitted = None
+                if self._on_emissions is not None:
+                    emitted = await self._fetch_emissions(index, job)
             except (AuthError, OriginUnavailableError):
                 raise
             except ApiError as exc:
@@ -179,6 +200,8 @@ class BatchFetcher:
                 handled = on_job(record)
                 if handled is not None and inspect.isawaitable(handled):
                     await handled
+                if emitted is not None and self._on_emissions is not None:
+                    await self._on_emissions(emitted)
                 self.outcome.jobs_done += 1
             if self._on_progress is not None:
                 self._on_progress(self.outcome)
@@ -245,6 +268,10 @@ class BatchFetcher:
             experience_tags=tags,
         )
 
+    async def _fetch_emissions(self, index: int, job: Job) -> JobEmissions:
+        payload = await fetch_emissions_log(self._api, self._project_id, self._batch_id, job.job_id)
+        return JobEmissions(index, self._batch_id, job, payload)
+
     def _list_metrics(self, job: Job) -> Awaitable[list[ApiMetric]]:
         return self._api.list_job_metrics(self._project_id, self._batch_id, job.job_id)
 
@@ -256,7 +283,10 @@ class BatchFetcher:
         return [job_event(e) for e in listed]
 
 
-class _JobQueue:
+_T = TypeVar("_T")
+
+
+class _JobQueue(Generic[_T]):
     """The jobs listed and not taken yet, from the lister to the workers, at most `room`.
 
     Not an asyncio.Queue: once that was full, each job a worker took woke the lister to
@@ -269,13 +299,13 @@ class _JobQueue:
     __slots__ = ("_closed", "_jobs", "_low", "_room", "_takers")
 
     def __init__(self, *, room: int, low: int) -> None:
-        self._jobs: deque[Job] = deque()
+        self._jobs: deque[_T] = deque()
         self._room = room
         self._low = low
         self._closed = False  # the listing is complete: no job will be added
         self._takers: deque[asyncio.Future[None]] = deque()  # workers waiting for a job
 
-    def put(self, job: Job) -> bool:
+    def put(self, job: _T) -> bool:
         """Add a job; whether the queue is full now (then list no more while `plenty`)."""
         self._jobs.append(job)
         if self._takers:
@@ -286,7 +316,7 @@ class _JobQueue:
         """Whether the queue holds more than `low` jobs."""
         return len(self._jobs) > self._low
 
-    def take(self) -> Job | None:
+    def take(self) -> _T | None:
         """The next job, or None when there is none now (see `more`)."""
         jobs = self._jobs
         return jobs.popleft() if jobs else None
@@ -339,3 +369,69 @@ def _job_blobs() -> type[JobBlobs]:
 async def _given(jobs: Sequence[Job]) -> AsyncIterator[Job]:
     for job in jobs:
         yield job
+
+
+# --- a job's events and its experience's tags ------------------------------------------------
+
+# A job's events and its experience's tags, for plans that ask for them.
+#
+# Events cost one listing per job (`Needs.events`). Tags belong to the experience, not the
+# job: they are listed once per experience (`Needs.experience_tags`), and every job of that
+# experience, running at the same time or later, shares that one request.
+
+
+def job_event(listed: JobEventListing) -> JobEvent:
+    """An event as aggregations read it: statuses and timestamp types as the API spells them."""
+    return JobEvent(
+        event_id=listed.event_id,
+        name=listed.name,
+        status=str(listed.status),
+        timestamp=listed.timestamp,
+        timestamp_type=str(listed.timestamp_type or ""),
+        description=listed.description,
+        tags=listed.tags,
+        metric_ids=listed.metric_ids,
+    )
+
+
+class ExperienceTags:
+    """The sorted tag names of each experience, listed once per experience.
+
+    Each experience's listing is a task of its own, shielded from the jobs waiting for it:
+    one job being cancelled must not cancel the listing the others wait on. A listing that
+    failed fails every job of that experience alike (no request storm). `aclose` cancels
+    listings nobody waits for any more.
+    """
+
+    def __init__(self, api: ApiClient, project_id: uuid.UUID) -> None:
+        self._api = api
+        self._project_id = project_id
+        self._listings: dict[uuid.UUID, asyncio.Task[tuple[str, ...]]] = {}
+
+    async def of(self, experience_id: uuid.UUID | None) -> tuple[str, ...]:
+        if experience_id is None:
+            return ()
+        listing = self._listings.get(experience_id)
+        if listing is None:
+            listing = asyncio.create_task(self._list(experience_id))
+            self._listings[experience_id] = listing
+        return await asyncio.shield(listing)
+
+    async def _list(self, experience_id: uuid.UUID) -> tuple[str, ...]:
+        names = [
+            tag.name
+            async for tag in self._api.list_experience_tags(self._project_id, experience_id)
+            if tag.name
+        ]
+        return tuple(sorted(names))
+
+    async def aclose(self) -> None:
+        pending = [task for task in self._listings.values() if not task.done()]
+        for task in pending:
+            task.cancel()
+        if pending:
+            await asyncio.gather(*pending, return_exceptions=True)
+        # A failed listing whose jobs all went away would be logged as never retrieved.
+        for task in self._listings.values():
+            if task.done() and not task.cancelled():
+                task.exception()

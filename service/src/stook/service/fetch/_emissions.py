@@ -6,9 +6,11 @@ storage client, through the same bounded, retrying path as the metrics-data blob
 (`fetch_listed`: listed again when the URL has expired). The API token stays on the API
 session: storage requests carry none.
 
-`fetch_emissions` does this for many jobs with a fixed pool of workers, handing each
-job's bytes on as soon as they are complete; a job without an emissions log hands on
-None (it emitted no rows).
+In batch mode the logs are part of the batch's fetch (`BatchFetcher(on_emissions=...)`
+hands on a `JobEmissions` per job). `fetch_emissions` does the same for jobs listed
+elsewhere (a sharded run's driver, a report's batches) with a fixed pool of workers,
+handing each job's bytes on as soon as they are complete; a job without an emissions log
+hands on None (it emitted no rows).
 """
 
 from __future__ import annotations
@@ -16,18 +18,38 @@ from __future__ import annotations
 import asyncio
 import uuid
 from collections.abc import Awaitable, Callable, Iterable, Iterator
+from dataclasses import dataclass
 from typing import TypeVar
 
 import structlog
 
-from stook.service.api import ApiClient, JobLog, LogType
+from stook.service.api import ApiClient, Job, JobLog, LogType
 from stook.service.fetch._presigned import fetch_listed
 
-__all__ = ["fetch_emissions", "fetch_emissions_log"]
+__all__ = ["JobEmissions", "fetch_emissions", "fetch_emissions_log", "workers_for"]
 
 log = structlog.get_logger("stook.fetch")
 
 _Job = TypeVar("_Job")
+
+
+def workers_for(api: ApiClient, workers: int | None) -> int:
+    """How many workers a fetch on `api` runs: as given, else as many as the client lets
+    requests out at once (its concurrency), so that each worker has one request in flight
+    and none waits for a slot. The fetchers' one default: `[fetch] concurrency` sets both."""
+    return int(api.limiter.stats.ceiling) if workers is None else workers
+
+
+@dataclass(frozen=True, slots=True)
+class JobEmissions:
+    """One job's emissions as a batch fetch hands them on: the job as listed, its place in
+    the listing (the order the config-defined metrics add jobs in, whatever order their
+    downloads finish in), and what it emitted (None: no emissions log)."""
+
+    index: int
+    batch_id: uuid.UUID
+    job: Job
+    payload: bytes | None
 
 
 async def _emission_logs(
@@ -79,7 +101,7 @@ async def fetch_emissions(
     *,
     ids_of: Callable[[_Job], tuple[uuid.UUID, uuid.UUID]],
     on_job: Callable[[_Job, bytes | None], Awaitable[None] | None],
-    workers: int = 64,
+    workers: int | None = None,
 ) -> int:
     """Every job's emissions (see `fetch_emissions_log`), `workers` jobs at a time, each
     handed to `on_job` (awaited when it returns an awaitable) as soon as it is complete.
@@ -88,6 +110,7 @@ async def fetch_emissions(
     The first job that fails for good fails the whole fetch: its error is raised once the
     other workers are stopped.
     """
+    workers = workers_for(api, workers)
     if workers < 1:
         raise ValueError(f"workers must be at least 1, got {workers}")
     queue: Iterator[_Job] = iter(jobs)

@@ -32,6 +32,7 @@ from stook.sdk import (
 )
 from stook.sdk.aggregations import Needs, SeriesByName
 from stook.service.api import ApiMetric, ApiMetricsData, PresignedUrlExpiredError, StorageClient
+from stook.service.fetch._errors import InvalidDataError
 from stook.service.fetch._presigned import fetch_listed, fetch_relisted
 
 if TYPE_CHECKING:
@@ -41,10 +42,6 @@ __all__ = ["InvalidDataError", "JobBlobs", "JobBlobsResult", "decode_values"]
 
 log = structlog.get_logger("stook.fetch")
 _T = TypeVar("_T")
-
-
-class InvalidDataError(ReadError):
-    """A job's metrics data could not be decoded (exit code 4)."""
 
 
 @dataclass(frozen=True, slots=True)

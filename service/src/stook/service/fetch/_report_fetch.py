@@ -6,6 +6,9 @@ metrics, every job of a listed batch goes into one bounded queue that a fixed po
 of workers drains, so requests stay within the client's bound and memory within
 `workers + queue size` jobs, however long the report. A batch is handed to
 `on_batch` as a `BatchRecord` once all of its jobs are in.
+
+A batch's stook summary (`read_summary`, at the end) replaces its job listings where
+the batch has one.
 """
 
 from __future__ import annotations
@@ -22,7 +25,9 @@ from typing import TypeVar
 
 import structlog
 
+from stook.sdk import ReadError, read_metrics_data
 from stook.sdk.aggregations import (
+    SUMMARY_DATA_NAME,
     UNKNOWN_STATUS,
     BatchRecord,
     ColumnarSummary,
@@ -30,11 +35,15 @@ from stook.sdk.aggregations import (
     JobSummary,
     Needs,
     Scalar,
+    SummaryError,
+    SummaryVersionError,
+    summary_columns_from_data,
 )
 from stook.service.api import (
     ApiClient,
     ApiError,
     ApiMetric,
+    ApiMetricsData,
     AuthError,
     Batch,
     Job,
@@ -44,18 +53,16 @@ from stook.service.api import (
 )
 from stook.service.fetch._batch_fetch import MissingJob
 from stook.service.fetch._collector import fewer_collections
+from stook.service.fetch._emissions import workers_for
+from stook.service.fetch._errors import ReportNotFoundError
+from stook.service.fetch._presigned import fetch_listed
 from stook.service.fetch._scalars import read_scalar_values, read_scalars
-from stook.service.fetch._summaries import read_summary
 
 log = structlog.get_logger("stook.report")
 _T = TypeVar("_T")
 
 # Batches whose job and metric lists are fetched at once; their jobs share the workers.
 _BATCHES_IN_FLIGHT = 4
-
-
-class ReportNotFoundError(ApiError):
-    """The report ID of report_config.json does not exist in its project (exit code 3)."""
 
 
 @dataclass(slots=True)
@@ -76,6 +83,8 @@ class ReportOutcome:
     job_scalar_names: set[str] = field(default_factory=set)
     first: datetime | None = None
     last: datetime | None = None
+    # The report's batches as found, oldest first (for what reads them after the fetch).
+    found_batches: list[Batch] = field(default_factory=list)
     started: float = field(default_factory=time.monotonic)
     seconds: float = 0.0
 
@@ -131,7 +140,7 @@ class ReportFetcher:
         report_id: uuid.UUID,
         needs: Needs,
         *,
-        workers: int = 64,
+        workers: int | None = None,
         on_progress: Callable[[ReportOutcome], None] | None = None,
         use_summaries: bool = True,
         batches: tuple[Report, list[Batch]] | None = None,
@@ -142,7 +151,7 @@ class ReportFetcher:
         self._project_id = project_id
         self._report_id = report_id
         self._needs = needs
-        self._workers = workers
+        self._workers = workers  # None: the client's concurrency, found when the run starts
         self._on_progress = on_progress
         self.outcome = ReportOutcome()
 
@@ -169,6 +178,7 @@ class ReportFetcher:
         report, batches = self._given or await self.find_batches()
         self.outcome.report = report
         self.outcome.batches = len(batches)
+        self.outcome.found_batches = batches
         totals = [b.total_jobs for b in batches]
         self.outcome.jobs_total = None if None in totals else sum(t or 0 for t in totals)
         self._announce()
@@ -177,11 +187,10 @@ class ReportFetcher:
             self.outcome.last = batches[-1].creation_timestamp
         log.info("report batches found", report_id=str(self._report_id), batches=len(batches))
 
-        queue: asyncio.Queue[tuple[_PendingBatch, Job] | None] = asyncio.Queue(
-            maxsize=2 * self._workers
-        )
+        pool = workers_for(self._api, self._workers)
+        queue: asyncio.Queue[tuple[_PendingBatch, Job] | None] = asyncio.Queue(maxsize=2 * pool)
         gate = asyncio.Semaphore(_BATCHES_IN_FLIGHT)
-        workers = self._workers if self._needs.job_metrics else 0
+        workers = pool if self._needs.job_metrics else 0
         try:
             async with asyncio.TaskGroup() as group:
                 for _ in range(workers):
@@ -390,3 +399,56 @@ class ReportFetcher:
 
 async def _collect(items: AsyncIterator[_T]) -> list[_T]:
     return [item async for item in items]
+
+
+# --- a batch's stook summary -----------------------------------------------------------------
+
+# A batch's stook summary, when its batch metrics build wrote one: one listing, one download.
+#
+# Batch mode writes the summary (`BatchSummaryWriter`) as batch metrics data named
+# `SUMMARY_DATA_NAME`. Report mode reads it instead of listing the batch's jobs and every
+# job's metrics. Anything short of a summary this code can read in full (none listed, no
+# URL, a newer layout, bytes that are not a summary) returns None with the reason logged,
+# and the report lists that batch's jobs as before: a wrong number is never an option.
+
+
+async def read_summary(
+    api: ApiClient, project_id: uuid.UUID, batch_id: uuid.UUID
+) -> ColumnarSummary | None:
+    """The batch's summary, as columns, or None when it has none that this code can read."""
+    listed = await _list(api, project_id, batch_id)
+    found = [d for d in listed if d.name == SUMMARY_DATA_NAME and d.is_standard]
+    if not found:
+        log.debug("batch has no stook summary; listing its jobs", batch_id=str(batch_id))
+        return None
+    source = f"batch {batch_id} / {SUMMARY_DATA_NAME}"
+    payload, _ = await fetch_listed(
+        api.storage,
+        found[0],
+        url_of=lambda d: d.metrics_data_url,
+        id_of=lambda d: d.data_id,
+        relist=lambda: _list(api, project_id, batch_id),
+        source=source,
+    )
+    if payload is None:
+        log.warning("batch summary has no URL; listing the batch's jobs", batch_id=str(batch_id))
+        return None
+    try:
+        return summary_columns_from_data(read_metrics_data(payload, source=source))
+    except SummaryVersionError as exc:
+        log.warning(
+            "batch summary written by a newer stook; listing the batch's jobs",
+            batch_id=str(batch_id),
+            reason=str(exc),
+        )
+    except (SummaryError, ReadError) as exc:
+        log.warning(
+            "batch summary unreadable; listing the batch's jobs",
+            batch_id=str(batch_id),
+            reason=str(exc),
+        )
+    return None
+
+
+async def _list(api: ApiClient, project_id: uuid.UUID, batch_id: uuid.UUID) -> list[ApiMetricsData]:
+    return [d async for d in api.list_batch_metrics_data(project_id, batch_id)]

@@ -1,13 +1,25 @@
 """The modes: test, batch and report mode, and the settings and inputs they run on.
 
 On top of the fetch layer (it imports `stook.service.fetch` and `stook.service.api`, never
-the CLI): stook.toml (`parse`, `load`), the platform's inputs folder (`detect`), each
-mode's run, the configured client of a run (`open_api`) and what its traffic was.
+the CLI). What other layers and users need, and nothing else:
+
+- settings: `parse`, `load` (stook.toml), `StookConfig`, `FetchSettings`, `EngineSettings`,
+  `engine_for` (the `--engine` override);
+- inputs and outputs: `detect` (the platform's inputs folder) with `TestInputs`,
+  `BatchInputs`, `ReportInputs`, `ApiAccess`; `check_outputs_folder`, `OUTPUT_NAME`;
+- the runs: `run_test_mode`, `run_batch`, `run_report` (their `RunResult`, `BatchResult`,
+  `ReportResult`, with the run's `Traffic`), `batch_aggregations`, `report_aggregations`;
+- the library: `fetch_batch`, `fetch_batch_frame`, `fetch_report`;
+- a run's client as the probe opens it: `open_api` (the pipeline's, modes/_pipeline.py);
+- the process around a run: `configure_logging`, `event_loop_factory`,
+  `run_on_event_loop`, and the progress shown (`Progress`, `for_stream`; `Tally`, the
+  CLI's sum of a run; `human_bytes`);
+- the errors (their tree in modes/_errors.py): `ConfigError`, `InputsError`,
+  `OutputsError`, `MissingJobsError`, `UserFunctionError`.
 """
 
-from stook.service.modes._batch import BatchAggregations, BatchResult, batch_aggregations, run_batch
+from stook.service.modes._batch import BatchResult, batch_aggregations, run_batch
 from stook.service.modes._config import (
-    ConfigError,
     EngineSettings,
     FetchSettings,
     StookConfig,
@@ -15,55 +27,50 @@ from stook.service.modes._config import (
     load,
     parse,
 )
-from stook.service.modes._event_loop import event_loop_factory, run_on_event_loop
-from stook.service.modes._inputs import (
-    ApiAccess,
-    BatchInputs,
+from stook.service.modes._errors import (
+    ConfigError,
     InputsError,
-    ReportInputs,
-    TestInputs,
-    detect,
+    MissingJobsError,
+    OutputsError,
+    UserFunctionError,
 )
+from stook.service.modes._event_loop import event_loop_factory, run_on_event_loop
+from stook.service.modes._inputs import ApiAccess, BatchInputs, ReportInputs, TestInputs, detect
 from stook.service.modes._library import fetch_batch, fetch_batch_frame, fetch_report
 from stook.service.modes._logging import configure_logging
-from stook.service.modes._open_api import Traffic, open_api
-from stook.service.modes._outputs import OutputsError, check_outputs_folder
+from stook.service.modes._pipeline import (
+    OUTPUT_NAME,
+    RunResult,
+    Traffic,
+    check_outputs_folder,
+    open_api,
+)
 from stook.service.modes._progress import (
-    LogProgress,
-    NoProgress,
     Progress,
-    Snapshot,
     Tally,
-    TerminalProgress,
     for_stream,
     human_bytes,
 )
 from stook.service.modes._report import ReportResult, report_aggregations, run_report
-from stook.service.modes._steps import OUTPUT_NAME, MissingJobsError, RunResult
-from stook.service.modes._test_mode import UserFunctionError, run_test_mode
+from stook.service.modes._test_mode import run_test_mode
 
 __all__ = [
     "OUTPUT_NAME",
     "ApiAccess",
-    "BatchAggregations",
     "BatchInputs",
     "BatchResult",
     "ConfigError",
     "EngineSettings",
     "FetchSettings",
     "InputsError",
-    "LogProgress",
     "MissingJobsError",
-    "NoProgress",
     "OutputsError",
     "Progress",
     "ReportInputs",
     "ReportResult",
     "RunResult",
-    "Snapshot",
     "StookConfig",
     "Tally",
-    "TerminalProgress",
     "TestInputs",
     "Traffic",
     "UserFunctionError",

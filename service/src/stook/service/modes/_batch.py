@@ -19,11 +19,11 @@ from stook.sdk.aggregations import (
 from stook.service.api import ApiClient, RetryPolicy
 from stook.service.fetch import BatchFetcher, FetchOutcome
 from stook.service.modes._baseline import ComparedFetcher
-from stook.service.modes._config import ConfigError, EngineSettings, StookConfig
-from stook.service.modes._config_metrics import config_metrics_step, write_config_metrics
+from stook.service.modes._config import EngineSettings, StookConfig
+from stook.service.modes._config_metrics import ConfigMetrics, JobRows
+from stook.service.modes._errors import ConfigError
 from stook.service.modes._inputs import BatchInputs
-from stook.service.modes._progress import NoProgress, Progress, Snapshot
-from stook.service.modes._steps import (
+from stook.service.modes._pipeline import (
     FetchRun,
     RunResult,
     fold_here,
@@ -31,6 +31,7 @@ from stook.service.modes._steps import (
     write_missing_jobs,
     write_output,
 )
+from stook.service.modes._progress import NoProgress, Progress, Snapshot
 
 if TYPE_CHECKING:
     from stook.sdk.aggregations.baseline import BaselineComparison
@@ -76,7 +77,9 @@ async def run_batch(
     started = asyncio.get_running_loop().time()
     aggregations = batch_aggregations(config)
     # [metrics_config]: its config loaded and checked now, before the first request.
-    config_metrics = config_metrics_step(config, inputs.access, batch_id=inputs.batch_id)
+    config_metrics = ConfigMetrics.load(config, "batch")
+    if config_metrics is not None and not config_metrics.wanted:
+        config_metrics = None  # no batch metrics: no emissions log is downloaded
     needs = needs_of(aggregations.all)
     run = FetchRun(
         kind="batch",
@@ -90,17 +93,24 @@ async def run_batch(
         snapshot_of=batch_snapshot,
         how_far=lambda outcome, _folded: batch_snapshot(outcome).of_total(),
         started=started,
+        check=_FirstJobsNames(needs, config.source),
     )
     engine = engine or config.engine
+    rows: JobRows | None
     if engine.kind == "local":
-        fetcher_for = _fetcher_for(inputs, config, needs, aggregations.comparison)
-        outcome, traffic = await fold_here(run, fetcher_for)
+        fetch = _LocalFetch(inputs, config, needs, aggregations.comparison, config_metrics)
+        try:
+            outcome, traffic = await fold_here(run, fetch.fetcher)
+        finally:
+            await fetch.aclose()
+        rows = fetch.rows
     else:
         # The sharded engine (worker processes or Ray) comes with the runs that use it.
         from stook.service.modes._engine import BatchPlan, fold_sharded
 
-        plan = BatchPlan(inputs, config, aggregations.comparison)
+        plan = BatchPlan(inputs, config, aggregations.comparison, config_metrics)
         outcome, traffic = await fold_sharded(run, plan, engine, config.file)
+        rows = plan.rows
 
     check_names(needs, outcome, config.source)
     writer = MetricsWriter(inputs.batch_id, deterministic=True)
@@ -115,7 +125,8 @@ async def run_batch(
             status=MetricStatus.NOT_APPLICABLE,
         )
         writer.override_status(MetricStatus.NOT_APPLICABLE)
-    await write_config_metrics(config_metrics, writer, config.fetch, retry, started=started)
+    if config_metrics is not None:
+        config_metrics.write(rows, writer)
     output = write_output(writer, aggregations.all, outputs_dir)
     return RunResult(
         kind="batch",
@@ -129,35 +140,54 @@ async def run_batch(
     )
 
 
-def _fetcher_for(
-    inputs: BatchInputs,
-    config: StookConfig,
-    needs: Needs,
-    comparison: BaselineComparison | None,
-) -> Callable[[ApiClient, Callable[[FetchOutcome], None]], BatchFetcher | ComparedFetcher]:
-    """The batch's fetcher, with the baseline's beside it when there is a comparison."""
-    project_id, batch_id = inputs.access.project_id, inputs.batch_id
-    workers = config.fetch.concurrency
+class _LocalFetch:
+    """The batch's fetcher on the run's client, with the baseline's beside it when there is
+    a comparison; with config-defined metrics, the jobs' emissions logs (`rows`) too."""
 
-    def fetcher_for(
-        api: ApiClient, on_progress: Callable[[FetchOutcome], None]
+    def __init__(
+        self,
+        inputs: BatchInputs,
+        config: StookConfig,
+        needs: Needs,
+        comparison: BaselineComparison | None,
+        config_metrics: ConfigMetrics | None,
+    ) -> None:
+        self._inputs, self._config, self._needs = inputs, config, needs
+        self._comparison, self._config_metrics = comparison, config_metrics
+        self.rows: JobRows | None = None
+
+    def fetcher(
+        self, api: ApiClient, on_progress: Callable[[FetchOutcome], None]
     ) -> BatchFetcher | ComparedFetcher:
-        if comparison is not None and config.baseline is not None:
+        project_id, batch_id = self._inputs.access.project_id, self._inputs.batch_id
+        if self._config_metrics is not None:
+            self.rows = self._config_metrics.rows(api, project_id)
+        on_emissions = None if self.rows is None else self.rows.add
+        comparison, baseline = self._comparison, self._config.baseline
+        if comparison is not None and baseline is not None:
             return ComparedFetcher(
                 api,
                 project_id,
                 batch_id,
-                needs,
+                self._needs,
                 comparison,
-                config.baseline,
-                workers=workers,
+                baseline,
                 on_progress=on_progress,
+                on_emissions=on_emissions,
             )
         return BatchFetcher(
-            api, project_id, batch_id, needs, workers=workers, on_progress=on_progress
+            api,
+            project_id,
+            batch_id,
+            self._needs,
+            on_progress=on_progress,
+            on_emissions=on_emissions,
         )
 
-    return fetcher_for
+    async def aclose(self) -> None:
+        """The rows still waiting added in order, their lookups stopped (fetch or not)."""
+        if self.rows is not None:
+            await self.rows.aclose()
 
 
 def batch_snapshot(outcome: FetchOutcome) -> Snapshot:
@@ -169,8 +199,33 @@ def batch_snapshot(outcome: FetchOutcome) -> Snapshot:
     )
 
 
-def check_names(needs: Needs, outcome: FetchOutcome, source: str) -> None:
-    """A name in the config that no job has is a typo, not an empty result: say so."""
+#: How many jobs with metrics the early name check waits for (`_FirstJobsNames`).
+FIRST_JOBS = 100
+
+
+class _FirstJobsNames:
+    """A misspelt name found while the batch is fetched, not after it: once the first
+    `FIRST_JOBS` jobs with metrics are listed, a name the config wants that none of them
+    has, and that is close to one they have, ends the run with its suggestion. (A name
+    with no close match, or a rare one, is checked once the whole batch is in.)"""
+
+    def __init__(self, needs: Needs, source: str) -> None:
+        self._needs, self._source = needs, source
+        self._checked = False
+
+    def __call__(self, outcome: FetchOutcome) -> None:
+        if self._checked or outcome.jobs_with_metrics < FIRST_JOBS:
+            return
+        self._checked = True
+        check_names(self._needs, outcome, self._source, suggested_only=True)
+
+
+def check_names(
+    needs: Needs, outcome: FetchOutcome, source: str, *, suggested_only: bool = False
+) -> None:
+    """A name in the config that no job has is a typo, not an empty result: say so.
+
+    `suggested_only`: only a name close to one the jobs have (the early check)."""
     if outcome.jobs_with_metrics == 0:
         return  # an empty batch, or one whose jobs all failed, proves nothing about names
     for kind, wanted, seen in (
@@ -180,5 +235,12 @@ def check_names(needs: Needs, outcome: FetchOutcome, source: str) -> None:
     ):
         for name in sorted(wanted - seen):
             close = difflib.get_close_matches(name, sorted(seen), n=1)
+            if suggested_only and not close:
+                continue
             hint = f"; did you mean {close[0]!r}?" if close else ""
-            raise ConfigError(f"{source}: no job in the batch has a {kind} named {name!r}{hint}")
+            which = (
+                f"none of the first {outcome.jobs_with_metrics:,} jobs"
+                if suggested_only
+                else "no job in the batch"
+            )
+            raise ConfigError(f"{source}: {which} has a {kind} named {name!r}{hint}")

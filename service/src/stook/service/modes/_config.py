@@ -1,4 +1,4 @@
-"""stook.toml: how to fetch, and what to compute in each mode.
+"""stook.toml: how to fetch, and what to compute in each mode; the user's modules it names.
 
 [fetch]
 concurrency = 64       # requests in flight, API and storage together
@@ -38,6 +38,7 @@ from __future__ import annotations
 
 import dataclasses
 import importlib.util
+import sys
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -45,26 +46,21 @@ from typing import TYPE_CHECKING, Any, Final
 
 import structlog
 
-from stook.sdk import StookError
 from stook.sdk.aggregations import (
     AggregationConfigError,
     BatchAggregation,
     ReportAggregation,
     build_all,
 )
-from stook.service.modes._baseline_config import BaselineConfigError, parse_baseline
-from stook.service.modes._user_code import add_import_folders
+from stook.service.modes._baseline import BaselineConfigError, parse_baseline
+from stook.service.modes._errors import ConfigError, EngineConfigError
 
 if TYPE_CHECKING:
     # Imported by a config with a [batch.baseline] table, not by every run (~6 M).
-    from stook.service.modes._baseline_config import BaselineSettings
-    from stook.service.modes._metrics_config_settings import MetricsConfigSettings
+    from stook.service.modes._baseline import BaselineSettings
+    from stook.service.modes._config_metrics import MetricsConfigSettings
 
 log = structlog.get_logger("stook.config")
-
-
-class ConfigError(StookError):
-    """stook.toml is missing, malformed or names something that does not exist (exit 2)."""
 
 
 # [engine]: where one run's fetch and fold happens (checked before the first request,
@@ -72,10 +68,6 @@ class ConfigError(StookError):
 ENGINE_KINDS: Final = ("local", "processes", "ray")
 _KEYS: Final = {"kind", "workers", "shards", "address"}
 RAY_INSTALL_HINT: Final = 'pip install "stook[ray]"'
-
-
-class EngineConfigError(StookError):
-    """An unusable `[engine]` setting (turned into ConfigError, exit code 2)."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -298,7 +290,7 @@ def _baseline(table: Any, source: str) -> BaselineSettings | None:
 def _metrics_config(table: Any, source: str) -> MetricsConfigSettings | None:
     if table is None:
         return None
-    from stook.service.modes._metrics_config_settings import (
+    from stook.service.modes._config_metrics import (
         MetricsConfigSettingsError,
         parse_metrics_config,
     )
@@ -453,3 +445,43 @@ def engine_for(config: StookConfig, kind: str | None = None) -> EngineSettings:
         source = "--engine" if kind is not None else config.source
         raise ConfigError(f"{source}: {exc}") from None
     return engine
+
+
+# --- the user's modules: where they are imported from ----------------------------------------
+
+# Where user code named in stook.toml is imported from.
+#
+# ``[test] metrics = "my_metrics.test:compute"`` and ``[[batch.custom]] class = ...`` name
+# modules that usually sit beside stook.toml or in the working directory, as the docs'
+# examples have it. The ``stook`` console script puts neither on Python's import path (its
+# own folder is what ``sys.path[0]`` holds), so both are put there, first, as ``python -m``
+# would: the config file's folder, then the working directory.
+
+
+def import_folders(config_file: Path | None) -> list[Path]:
+    """The folders user code is looked for in before the rest of the Python path."""
+    folders = [config_file.resolve().parent] if config_file is not None else []
+    cwd = Path.cwd()
+    if cwd not in folders:
+        folders.append(cwd)
+    return folders
+
+
+def add_import_folders(config_file: Path | None) -> None:
+    """Put :func:`import_folders` at the front of ``sys.path``, each once."""
+    for folder in reversed(import_folders(config_file)):
+        entry = str(folder)
+        if entry in sys.path:
+            sys.path.remove(entry)
+        sys.path.insert(0, entry)
+
+
+def describe_search(config_file: Path | None) -> str:
+    """What was searched, for an import error: the folders by role, then the Python path."""
+    folders = import_folders(config_file)
+    roles = []
+    if config_file is not None:
+        roles.append(f"the config file's folder {str(folders[0])!r}")
+    if len(folders) > len(roles):
+        roles.append(f"the working directory {str(folders[-1])!r}")
+    return "searched " + ", ".join(roles) + " and then the Python path (PYTHONPATH, site-packages)"

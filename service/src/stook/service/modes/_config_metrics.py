@@ -1,296 +1,411 @@
-"""Config-defined metrics in batch and report mode: each job's emissions, into the engine.
+"""Config-defined metrics in a mode: stook.toml's `[metrics_config]`, over what jobs emitted.
 
-With `[metrics_config] paths = [...]` in stook.toml, a batch run also evaluates the
-config's `type: batch` metrics, and a report run its `dashboard` metrics, over what the
-jobs emitted (their EMISSIONS_LOG, see stook.service.fetch). The config is loaded and
-checked before the first request (`config_metrics_step`); the step itself runs once the
-fetch is done, writing into the run's MetricsWriter beside the aggregations' metrics.
+[metrics_config]
+paths = [".resim/metrics/config.resim.yml"]   # merged by the platform's rules
+metrics_set = "core"          # optional: only this set's metrics (default: all of the level)
+templates = ".resim/metrics/templates"        # optional (default: beside the first path)
+emissions = "logs/emissions.resim.jsonl"      # test mode, optional (default: the inputs'
+                                              # logs/emissions.resim.jsonl)
+strict = true                 # optional: a failing metric fails the run (exit 4) instead
+                              # of being written as an error (default: false)
+
+Relative paths are read from stook.toml's folder. The config is loaded and checked before
+any work (a bad one is exit 2 before the first request, or before the user's function):
+`TestConfigMetrics.load` in test mode, `ConfigMetrics.load` in batch and report mode.
+
+Test mode evaluates the `type: test` metrics over the test's emissions file, beside what
+a `[test]` metrics function writes.
+
+Batch mode evaluates the `type: batch` metrics over the batch's jobs' emissions logs, and
+those logs are part of the batch's fetch: listed with each job's other listings and
+downloaded beside its metrics, on the run's one bounded client, counted in its traffic,
+under its deadline (`BatchFetcher(on_emissions=...)`; a sharded run's driver fetches
+them over the jobs it listed, beside the shards). Each job is listed once.
+
+Report mode evaluates the `dashboard` metrics. The platform's dashboard queries read the
+rows every job of the report's batches emitted, so there is no smaller input that gives
+the same numbers: a report whose config has dashboard metrics lists each of its batches'
+jobs and downloads their emissions logs after the report's fetch, on the same client,
+using the batches that fetch found. A config (or `metrics_set`) without dashboard metrics
+downloads no log at all, in either mode.
 
 Each job's metadata row is filled from what the mode knows: the job (IDs, experience,
 statuses), its batch (name, branch), the batch's build (`build_version`) and the
-experience's tags. Jobs are handed to the engine in listing order, whatever order their
-downloads finish in, so that the same inputs give the same bytes.
+experience's tags, each looked up once a run. Jobs are added in listing order (batches
+oldest first), whatever order their downloads finish in, so that the same inputs give
+the same bytes.
 """
 
 from __future__ import annotations
 
 import asyncio
+import shutil
+import time
 import uuid
-from collections.abc import Awaitable, Callable, Sequence
+from collections.abc import Awaitable, Callable, Hashable, Mapping, Sequence
 from dataclasses import dataclass
 from datetime import UTC, datetime
-from typing import TYPE_CHECKING, Literal
+from pathlib import Path
+from typing import TYPE_CHECKING, Any, Literal, TypeVar
 
 import structlog
 
-from stook.service.api import ApiClient, Batch, Job, RetryPolicy
-from stook.service.fetch import fetch_deadline, fetch_emissions
-from stook.service.modes._config import ConfigError, FetchSettings, StookConfig
-from stook.service.modes._inputs import ApiAccess
-from stook.service.modes._open_api import Traffic, open_api
+from stook.service.api import ApiClient, Batch, Job
+from stook.service.fetch import JobEmissions, fetch_emissions
+from stook.service.modes._config import StookConfig
+from stook.service.modes._errors import ConfigError
+from stook.service.modes._inputs import TestInputs
 
 if TYPE_CHECKING:
     from stook.sdk import MetricsWriter
-    from stook.service.metrics_config import EmissionsSet, JobMeta, MetricsConfig
+    from stook.service.metrics_config import EmissionsSet, Evaluation, JobMeta, MetricsConfig
 
-__all__ = ["ConfigMetricsStep", "config_metrics_step", "write_config_metrics"]
+__all__ = [
+    "ConfigMetrics",
+    "JobRows",
+    "MetricsConfigSettings",
+    "MetricsConfigSettingsError",
+    "TestConfigMetrics",
+    "parse_metrics_config",
+]
 
 log = structlog.get_logger("stook.metrics_config")
 
+EMISSIONS_NAME = "emissions.resim.jsonl"
 Level = Literal["batch", "dashboard"]
 _NEVER = datetime.min.replace(tzinfo=UTC)
-#: What the pipeline runs once the fetch is done, before it writes the output: the
-#: metrics into the writer, fetched with the run's `[fetch]` settings (and retry policy).
-ConfigMetricsStep = Callable[
-    ["MetricsWriter", FetchSettings, "RetryPolicy | None"], Awaitable[None]
-]
+_KEYS = {"paths", "metrics_set", "templates", "emissions", "strict"}
+
+
+# --- the [metrics_config] table ---------------------------------------------------------
+
+
+class MetricsConfigSettingsError(ValueError):
+    """The table is malformed; the caller names the file."""
 
 
 @dataclass(frozen=True, slots=True)
-class _Scope:
-    """Whose jobs a run evaluates: one batch (batch mode) or a report's (report mode)."""
+class MetricsConfigSettings:
+    paths: tuple[str, ...]
+    metrics_set: str | None = None
+    templates: str | None = None
+    emissions: str | None = None
+    strict: bool = False
 
-    level: Level
-    batch_id: uuid.UUID | None = None
-    report_id: uuid.UUID | None = None
+    def config_paths(self, base: Path | None) -> list[Path]:
+        return [_resolve(p, base) for p in self.paths]
+
+    def templates_path(self, base: Path | None) -> Path | None:
+        return None if self.templates is None else _resolve(self.templates, base)
+
+    def emissions_path(self, base: Path | None) -> Path | None:
+        return None if self.emissions is None else _resolve(self.emissions, base)
 
 
-def config_metrics_step(
-    config: StookConfig,
-    access: ApiAccess,
-    *,
-    batch_id: uuid.UUID | None = None,
-    report_id: uuid.UUID | None = None,
-) -> ConfigMetricsStep | None:
-    """The step that writes the config-defined metrics of one batch (`batch_id`: its
-    `batch` metrics) or one report (`report_id`: its `dashboard` metrics); None when
-    stook.toml has no `[metrics_config]`.
+def _resolve(path: str, base: Path | None) -> Path:
+    given = Path(path)
+    return given if given.is_absolute() or base is None else base / given
 
-    The config is loaded and checked here, before any request: a bad one raises
-    MetricsConfigError (exit 2) and the run sends nothing.
-    """
-    settings = config.metrics_config
-    if settings is None:
-        return None
-    # The engine (DuckDB, sqlglot, polars) only for the runs that use it.
-    from stook.service.metrics_config import load_config
 
-    # Relative paths are read from stook.toml's folder.
-    base = config.file.parent if config.file is not None else None
-    loaded = load_config(settings.config_paths(base), templates=settings.templates_path(base))
-    chosen = settings.metrics_set
-    if chosen is not None and chosen not in loaded.metrics_sets:
-        # Found now, not after the fetch: the set is only looked up by the evaluation.
-        known = ", ".join(sorted(loaded.metrics_sets)) or "none"
-        raise ConfigError(
-            f"{config.source}: [metrics_config] metrics_set {chosen!r} is not a metrics set "
-            f"of the config (known: {known})"
-        )
-    scope = (
-        _Scope("batch", batch_id=batch_id) if batch_id else _Scope("dashboard", report_id=report_id)
+def parse_metrics_config(table: Mapping[str, Any]) -> MetricsConfigSettings:
+    extra = set(table) - _KEYS
+    if extra:
+        known = ", ".join(sorted(_KEYS))
+        raise MetricsConfigSettingsError(f"unknown key {sorted(extra)[0]!r} (known: {known})")
+    paths = table.get("paths")
+    if isinstance(paths, str):
+        paths = [paths]
+    if not paths or not isinstance(paths, list) or not all(isinstance(p, str) for p in paths):
+        raise MetricsConfigSettingsError("'paths' must be a non-empty list of config files")
+    for key in ("metrics_set", "templates", "emissions"):
+        if key in table and not isinstance(table[key], str):
+            raise MetricsConfigSettingsError(f"{key!r} must be a string")
+    if not isinstance(table.get("strict", False), bool):
+        raise MetricsConfigSettingsError("'strict' must be true or false")
+    return MetricsConfigSettings(
+        paths=tuple(paths),
+        metrics_set=table.get("metrics_set"),
+        templates=table.get("templates"),
+        emissions=table.get("emissions"),
+        strict=table.get("strict", False),
     )
 
-    async def step(writer: MetricsWriter, fetch: FetchSettings, retry: RetryPolicy | None) -> None:
-        await _write(
-            writer, loaded, settings.metrics_set, scope, access, fetch, retry, settings.strict
+
+# --- test mode ----------------------------------------------------------------------------
+
+
+@dataclass(frozen=True, slots=True)
+class TestConfigMetrics:
+    """The loaded config and where the test's emissions are; built before any work, so
+    that a bad config is exit 2 before the user's function runs."""
+
+    config: MetricsConfig
+    emissions: Path
+    metrics_set: str | None
+    strict: bool = False
+
+    @classmethod
+    def load(
+        cls, settings: MetricsConfigSettings, base: Path | None, inputs: TestInputs
+    ) -> TestConfigMetrics:
+        from stook.service.metrics_config import load_config
+
+        config = load_config(settings.config_paths(base), settings.templates_path(base))
+        config.metrics_for("test", settings.metrics_set)  # an unknown set: exit 2 now
+        emissions = settings.emissions_path(base) or inputs.logs_dir / EMISSIONS_NAME
+        return cls(config, emissions, settings.metrics_set, settings.strict)
+
+    def write_into(self, writer: MetricsWriter, outputs: Path) -> None:
+        """Evaluate into `writer`; attached files (images) are copied into `outputs`."""
+        from stook.service.metrics_config import EmissionsError, EmissionsSet, JobMeta, evaluate
+
+        emissions = EmissionsSet(self.config)
+        found = self.emissions.is_file()
+        if not found:
+            # As on the platform: a test that emitted nothing has no rows.
+            log.warning("no emissions file; config metrics see no rows", path=str(self.emissions))
+        emissions.add_job(JobMeta(job_id=str(writer.job_id)), self.emissions if found else None)
+        result = evaluate(
+            self.config,
+            emissions.tables(),
+            writer,
+            level="test",
+            metrics_set=self.metrics_set,
+            strict=self.strict,
+            attached=lambda name: (self.emissions.parent / name).is_file(),
         )
-
-    return step
-
-
-async def write_config_metrics(
-    step: ConfigMetricsStep | None,
-    writer: MetricsWriter,
-    settings: FetchSettings,
-    retry: RetryPolicy | None,
-    *,
-    started: float,
-) -> None:
-    """Run `step` (when there is one) into `writer`: its downloads are part of the fetch,
-    under the run's `[fetch] deadline` (counted from `started`, the event loop's clock)."""
-    if step is None:
-        return
-    async with fetch_deadline(
-        settings.deadline, started=started, progress=lambda: "the jobs' emissions logs"
-    ):
-        await step(writer, settings, retry)
+        _say_failures(result)
+        for name in result.files:
+            source = self.emissions.parent / name
+            if not source.is_file():
+                raise EmissionsError(f"attached file {name!r} is not beside {self.emissions}")
+            shutil.copyfile(source, outputs / name)
+        log.info("config metrics evaluated", written=len(result.written), hidden=len(result.hidden))
 
 
-async def _write(
-    writer: MetricsWriter,
-    loaded: MetricsConfig,
-    metrics_set: str | None,
-    scope: _Scope,
-    access: ApiAccess,
-    settings: FetchSettings,
-    retry: RetryPolicy | None,
-    strict: bool,
-) -> None:
-    from stook.service.metrics_config import EmissionsSet, evaluate
-
-    emissions = EmissionsSet(loaded)
-    log.info("config metrics: fetching the jobs' emissions logs", level=scope.level)
-    async with open_api(access, settings, retry) as api:
-        jobs = await _jobs_of(api, access.project_id, scope)
-        with_log = await _add_in_order(
-            api, access.project_id, jobs, emissions, settings.concurrency
-        )
-        traffic = Traffic.of(api)  # its own client's: not in the run's final counts
-    result = evaluate(
-        loaded,
-        emissions.tables(),
-        writer,
-        level=scope.level,
-        metrics_set=metrics_set,
-        strict=strict,
-    )
+def _say_failures(result: Evaluation) -> None:
+    """Each metric written as an error, said once (with `strict`, the first one raised)."""
     for failure in result.failed:
         log.warning("config metric written as an error", metric=failure.metric, error=str(failure))
-    log.info(
-        "config metrics written",
-        level=scope.level,
-        jobs=len(jobs),
-        jobs_with_emissions=with_log,
-        metrics=len(result.written),
-        hidden=len(result.hidden),
-        requests=traffic.requests,
-        retries=traffic.retries,
-        received_bytes=traffic.bytes_received,
-    )
 
 
-async def _add_in_order(
-    api: ApiClient,
-    project_id: uuid.UUID,
-    jobs: Sequence[_ListedJob],
-    emissions: EmissionsSet,
-    workers: int,
-) -> int:
-    """Download every job's emissions, adding each to `emissions` in `jobs`' order: a job
-    whose download finished early waits for those listed before it (so that at most the
-    downloads in flight, and the ones waiting, are held at once)."""
-    waiting: dict[int, bytes | None] = {}
-    added = 0
-
-    def arrived(job: _ListedJob, body: bytes | None) -> None:
-        nonlocal added
-        waiting[job.index] = body
-        while added in waiting:
-            listed = jobs[added]
-            emissions.add_job(
-                listed.meta, waiting.pop(added), name=f"job {listed.job_id} emissions log"
-            )
-            added += 1
-
-    return await fetch_emissions(
-        api,
-        project_id,
-        jobs,
-        ids_of=lambda job: (job.batch_id, job.job_id),
-        on_job=arrived,
-        workers=workers,
-    )
+# --- batch and report mode ------------------------------------------------------------------
 
 
 @dataclass(frozen=True, slots=True)
-class _ListedJob:
-    index: int  # in listing order, across the scope's batches
-    batch_id: uuid.UUID
-    job_id: uuid.UUID
-    meta: JobMeta
+class ConfigMetrics:
+    """A batch run's `batch` metrics or a report run's `dashboard` metrics, loaded and
+    checked before the first request; `wanted` says whether the run needs any emissions."""
 
+    config: MetricsConfig
+    metrics_set: str | None
+    level: Level
+    strict: bool = False
 
-async def _jobs_of(api: ApiClient, project_id: uuid.UUID, scope: _Scope) -> list[_ListedJob]:
-    """Every job of the scope with its metadata row, batches oldest first, jobs in
-    listing order."""
-    if scope.batch_id is not None:
-        batches = [await api.get_batch(project_id, scope.batch_id)]
-    else:
-        assert scope.report_id is not None
-        # The report fetch's module, with report mode's search: not imported by batch runs.
-        from stook.service.fetch import search_for
+    @classmethod
+    def load(cls, config: StookConfig, level: Level) -> ConfigMetrics | None:
+        """None when stook.toml has no `[metrics_config]`; a bad config raises
+        MetricsConfigError (exit 2), an unknown `metrics_set` ConfigError (exit 2)."""
+        settings = config.metrics_config
+        if settings is None:
+            return None
+        # The engine (DuckDB, sqlglot, polars) only for the runs that use it.
+        from stook.service.metrics_config import load_config
 
-        report = await api.get_report(project_id, scope.report_id)
-        found = [b async for b in api.list_batches(project_id, search=search_for(report))]
+        # Relative paths are read from stook.toml's folder.
+        base = config.file.parent if config.file is not None else None
+        loaded = load_config(settings.config_paths(base), templates=settings.templates_path(base))
+        chosen = settings.metrics_set
+        if chosen is not None and chosen not in loaded.metrics_sets:
+            # Found now, not after the fetch: the set is only looked up by the evaluation.
+            known = ", ".join(sorted(loaded.metrics_sets)) or "none"
+            raise ConfigError(
+                f"{config.source}: [metrics_config] metrics_set {chosen!r} is not a metrics "
+                f"set of the config (known: {known})"
+            )
+        return cls(loaded, chosen, level, settings.strict)
+
+    @property
+    def wanted(self) -> bool:
+        """Whether the level has metrics to evaluate: without any, no log is downloaded."""
+        return bool(self.config.metrics_for(self.level, self.metrics_set))
+
+    def rows(self, api: ApiClient, project_id: uuid.UUID) -> JobRows:
+        """Where the run's jobs' emissions go, on the run's client (its lookups too)."""
+        return JobRows(self.config, api, project_id)
+
+    def write(self, rows: JobRows | None, writer: MetricsWriter) -> None:
+        """Evaluate the level's metrics over the rows into `writer` (none: nothing)."""
+        if rows is None:
+            return
+        from stook.service.metrics_config import evaluate
+
+        started = time.perf_counter()
+        result = evaluate(
+            self.config,
+            rows.emissions.tables(),
+            writer,
+            level=self.level,
+            metrics_set=self.metrics_set,
+            strict=self.strict,
+        )
+        _say_failures(result)
+        log.info(
+            "config metrics written",
+            level=self.level,
+            jobs=rows.jobs,
+            jobs_with_emissions=rows.with_log,
+            metrics=len(result.written),
+            hidden=len(result.hidden),
+            # The rows' check and load, and the queries: after the fetch, on this CPU.
+            seconds=round(time.perf_counter() - started, 3),
+        )
+
+    async def fetch_report_rows(
+        self, api: ApiClient, project_id: uuid.UUID, batches: Sequence[Batch]
+    ) -> JobRows:
+        """Report mode: every job of the report's `batches` (as its fetch found them) with
+        its emissions, listed and downloaded on `api`."""
         # Oldest first (the API lists newest first); by ID among equal times.
-        batches = sorted(found, key=lambda b: (b.creation_timestamp or _NEVER, str(b.batch_id)))
-    listings = await asyncio.gather(
-        *(_all_jobs(api, project_id, batch.batch_id) for batch in batches)
-    )
-    listed = [(batch, job) for batch, jobs in zip(batches, listings, strict=True) for job in jobs]
-    known = await _Known.ask(api, project_id, listed)
-    return [
-        _ListedJob(index, batch.batch_id, job.job_id, known.meta(project_id, batch, job))
-        for index, (batch, job) in enumerate(listed)
-    ]
+        ordered = sorted(batches, key=lambda b: (b.creation_timestamp or _NEVER, str(b.batch_id)))
+        listings = await asyncio.gather(
+            *(_all_jobs(api, project_id, batch.batch_id) for batch in ordered)
+        )
+        listed = [(b, job) for b, jobs in zip(ordered, listings, strict=True) for job in jobs]
+        rows = self.rows(api, project_id)
+        try:
+            await fetch_emissions(
+                api,
+                project_id,
+                list(enumerate(listed)),
+                ids_of=lambda item: (item[1][0].batch_id, item[1][1].job_id),
+                on_job=lambda item, payload: rows.add(
+                    JobEmissions(item[0], item[1][0].batch_id, item[1][1], payload),
+                    batch=item[1][0],
+                ),
+            )
+        finally:
+            await rows.aclose()
+        return rows
 
 
 async def _all_jobs(api: ApiClient, project_id: uuid.UUID, batch_id: uuid.UUID) -> list[Job]:
     return [job async for job in api.list_jobs(project_id, batch_id)]
 
 
-@dataclass(frozen=True, slots=True)
-class _Known:
-    """What the metadata rows take from beyond the jobs: builds' versions, branches' names
-    and experiences' tags, each asked for once a run, all at once."""
+_K = TypeVar("_K", bound=Hashable)
+_V = TypeVar("_V")
 
-    versions: dict[uuid.UUID, str | None]
-    branches: dict[uuid.UUID, str]
-    tags: dict[uuid.UUID, tuple[str, ...]]
 
-    @classmethod
-    async def ask(
-        cls, api: ApiClient, project_id: uuid.UUID, listed: Sequence[tuple[Batch, Job]]
-    ) -> _Known:
-        builds = sorted({b for batch, job in listed if (b := _build_of(batch, job)) is not None})
-        experiences = sorted({job.experience_id for _, job in listed if job.experience_id})
+class _Once:
+    """Each key's lookup run once, as a task of its own shielded from the jobs waiting for
+    it (one job cancelled must not cancel what the others wait on)."""
 
-        async def version(build_id: uuid.UUID) -> str | None:
-            return (await api.get_build(project_id, build_id)).version
+    def __init__(self) -> None:
+        self._tasks: dict[Hashable, asyncio.Task[Any]] = {}
 
-        async def tags(experience_id: uuid.UUID) -> tuple[str, ...]:
-            found = api.list_experience_tags(project_id, experience_id)
-            return tuple(sorted([tag.name async for tag in found]))
+    async def get(self, key: _K, look_up: Callable[[_K], Awaitable[_V]]) -> _V:
+        task = self._tasks.get(key)
+        if task is None:
 
-        async def branches() -> dict[uuid.UUID, str]:
-            if not listed:
-                return {}
-            return {b.branch_id: b.name async for b in api.list_branches(project_id)}
+            async def run() -> _V:
+                return await look_up(key)
 
-        # Gathered: the client's limiter bounds the requests in flight.
-        versions, tag_names, names = await asyncio.gather(
-            asyncio.gather(*map(version, builds)),
-            asyncio.gather(*map(tags, experiences)),
-            branches(),
-        )
-        return cls(
-            dict(zip(builds, versions, strict=True)),
-            names,
-            dict(zip(experiences, tag_names, strict=True)),
-        )
+            task = self._tasks[key] = asyncio.create_task(run())
+        result: _V = await asyncio.shield(task)
+        return result
 
-    def meta(self, project_id: uuid.UUID, batch: Batch, job: Job) -> JobMeta:
+    async def aclose(self) -> None:
+        pending = [task for task in self._tasks.values() if not task.done()]
+        for task in pending:
+            task.cancel()
+        await asyncio.gather(*pending, return_exceptions=True)
+        for task in self._tasks.values():  # a failure nobody awaited is no "never retrieved"
+            if task.done() and not task.cancelled():
+                task.exception()
+
+
+class JobRows:
+    """The emissions of a run's jobs with their metadata rows, added in listing order.
+
+    `add` takes each job's emissions as its download finishes; a job that finished early
+    waits (its bytes only) for those listed before it. What is still waiting at `aclose`
+    (after a job that could not be fetched: a missing job) is added in order then.
+    """
+
+    def __init__(self, config: MetricsConfig, api: ApiClient, project_id: uuid.UUID) -> None:
+        from stook.service.metrics_config import EmissionsSet
+
+        self.emissions: EmissionsSet = EmissionsSet(config)
+        self.jobs = 0
+        self.with_log = 0
+        self._api = api
+        self._project_id = project_id
+        self._waiting: dict[int, tuple[JobMeta, bytes | None, str]] = {}
+        self._next = 0
+        self._batches, self._versions, self._tags, self._branches = (_Once() for _ in range(4))
+
+    async def add(self, emitted: JobEmissions, *, batch: Batch | None = None) -> None:
+        """One job's emissions; `batch`: its batch as listed (else it is asked for once)."""
+        if batch is None:
+            batch = await self._batches.get(emitted.batch_id, self._get_batch)
+        meta = await self._meta(batch, emitted.job)
+        name = f"job {emitted.job.job_id} emissions log"
+        self._waiting[emitted.index] = (meta, emitted.payload, name)
+        while self._next in self._waiting:
+            self._add(*self._waiting.pop(self._next))
+            self._next += 1
+
+    async def aclose(self) -> None:
+        """Add what is still waiting, in listing order; stop the lookups still running."""
+        for index in sorted(self._waiting):
+            self._add(*self._waiting.pop(index))
+        for once in (self._batches, self._versions, self._tags, self._branches):
+            await once.aclose()
+
+    def _add(self, meta: JobMeta, payload: bytes | None, name: str) -> None:
+        self.emissions.add_job(meta, payload, name=name)
+        self.jobs += 1
+        self.with_log += payload is not None
+
+    async def _get_batch(self, batch_id: uuid.UUID) -> Batch:
+        return await self._api.get_batch(self._project_id, batch_id)
+
+    async def _version(self, build_id: uuid.UUID) -> str | None:
+        return (await self._api.get_build(self._project_id, build_id)).version
+
+    async def _tag_names(self, experience_id: uuid.UUID) -> tuple[str, ...]:
+        found = self._api.list_experience_tags(self._project_id, experience_id)
+        return tuple(sorted([tag.name async for tag in found]))
+
+    async def _branch_names(self, _: None) -> dict[uuid.UUID, str]:
+        return {b.branch_id: b.name async for b in self._api.list_branches(self._project_id)}
+
+    async def _meta(self, batch: Batch, job: Job) -> JobMeta:
         from stook.service.metrics_config import JobMeta
 
-        build_id = _build_of(batch, job)
+        build_id = job.build_id or batch.build_id
+        version = None if build_id is None else await self._versions.get(build_id, self._version)
+        branch = None
+        if batch.branch_id is not None:
+            branch = (await self._branches.get(None, self._branch_names)).get(batch.branch_id)
+        tags: tuple[str, ...] = ()
+        if job.experience_id:
+            tags = await self._tags.get(job.experience_id, self._tag_names)
         return JobMeta(
             job_id=str(job.job_id),
             batch_id=str(batch.batch_id),
-            project_id=str(project_id),
+            project_id=str(self._project_id),
             experience_id=_text(job.experience_id),
             experience_name=job.experience_name,
             build_id=_text(build_id),
-            build_version=None if build_id is None else self.versions[build_id],
+            build_version=version,
             batch_name=batch.friendly_name,
             job_status=_text(job.job_status),
             job_conflated_status=_text(job.conflated_status),
-            branch=None if batch.branch_id is None else self.branches.get(batch.branch_id),
-            tags=self.tags.get(job.experience_id, ()) if job.experience_id else (),
+            branch=branch,
+            tags=tags,
         )
-
-
-def _build_of(batch: Batch, job: Job) -> uuid.UUID | None:
-    return job.build_id or batch.build_id
 
 
 def _text(value: object) -> str | None:

@@ -36,25 +36,31 @@ import structlog
 
 from stook.sdk.aggregations import Aggregation, Needs
 from stook.service.api import ApiClient, Batch, Job, Report, redact_text
-from stook.service.fetch import FetchOutcome, ReportFetcher, ReportOutcome, fetch_deadline
+from stook.service.fetch import (
+    FetchOutcome,
+    JobEmissions,
+    ReportFetcher,
+    ReportOutcome,
+    fetch_emissions,
+)
 from stook.service.modes._baseline import fetch_baseline, set_directions
-from stook.service.modes._config import ConfigError, EngineConfigError, EngineSettings, StookConfig
+from stook.service.modes._config import EngineSettings, StookConfig, import_folders
+from stook.service.modes._config_metrics import ConfigMetrics, JobRows
+from stook.service.modes._errors import ConfigError, EngineConfigError, ShardError
 from stook.service.modes._inputs import BatchInputs, ReportInputs
-from stook.service.modes._open_api import Traffic, open_api
+from stook.service.modes._pipeline import FetchRun, Traffic, fetch_records, show_progress, tick
 from stook.service.modes._progress import Snapshot
-from stook.service.modes._runners import ProcessRunner, RayRunner
 from stook.service.modes._shards import (
     BatchShard,
     LogSettings,
+    ProcessRunner,
+    RayRunner,
     ReportShard,
     ShardDone,
-    ShardError,
     ShardFailed,
     ShardProgress,
     split,
 )
-from stook.service.modes._steps import FetchRun, show_progress, tick
-from stook.service.modes._user_code import import_folders
 
 if TYPE_CHECKING:
     from stook.sdk.aggregations.baseline import BaselineComparison
@@ -103,21 +109,31 @@ async def fold_sharded(
         concurrency_per_worker=run.settings.concurrency,
         data=sorted(run.needs.data),
     )
-    shards = Shards(run, plan, runner)
+    shards = Shards(run, plan, runner, engine.shards or _default_shards(engine, runner))
     aborted = True
     try:
-        async with fetch_deadline(
-            run.settings.deadline,
+        # The driver's client, open for the whole run: the listing it splits, and what it
+        # fetches beside the shards (a baseline, the emissions logs).
+        _, driver = await fetch_records(
+            run.access,
+            run.settings,
+            shards.on,
+            _no_records,
+            retry=run.retry,
             started=run.started,
-            progress=lambda: run.how_far(plan.outcome, shards.folded),
-        ):
-            await shards.run(engine.shards or _default_shards(engine, runner))
+            how_far=lambda outcome: run.how_far(outcome, shards.folded),
+            then=run.then,
+        )
         aborted = False
     finally:
         shards.stop_listening()  # reports still on their way would draw a closed display
         runner.close(abort=aborted)
         run.progress.close()
-    return plan.outcome, shards.traffic
+    return plan.outcome, shards.shards_traffic + driver
+
+
+def _no_records(_: object) -> None:
+    """The driver folds no record: the shards' states are merged (`Shards._merge`)."""
 
 
 def _start_runner(engine: EngineSettings, folders: tuple[str, ...]) -> ShardRunner:
@@ -135,12 +151,15 @@ def _start_runner(engine: EngineSettings, folders: tuple[str, ...]) -> ShardRunn
 class Shards:
     """One sharded run's driver: list, split, submit, and merge the results in shard order."""
 
-    def __init__(self, run: FetchRun[Any], plan: BatchPlan | ReportPlan, runner: ShardRunner):
-        self._run, self._plan, self._runner = run, plan, runner
+    def __init__(
+        self, run: FetchRun[Any], plan: BatchPlan | ReportPlan, runner: ShardRunner, count: int
+    ) -> None:
+        self._run, self._plan, self._runner, self._count = run, plan, runner, count
         self.folded = 0  # records (jobs, or batches) whose shard is merged
         self.traffic = Traffic()  # the whole run's: the shards' and the driver's
-        self._shards_traffic = Traffic()
+        self.shards_traffic = Traffic()
         self._driver_traffic: Callable[[], Traffic] = Traffic
+        self._api: ApiClient | None = None
         self._live = LiveShards()  # the running shards' last reports
         self._listening = True
         runner.listen(self._reported)
@@ -157,32 +176,43 @@ class Shards:
         snapshot = self._run.snapshot_of(self._plan.outcome)
         show_progress(self._run.progress, *self._live.add_to(snapshot, self.traffic))
 
-    async def run(self, shard_count: int) -> None:
-        run, plan = self._run, self._plan
+    def on(self, api: ApiClient) -> Shards:
+        """The driver as the pipeline's fetcher, on the run's client (`run`)."""
+        self._api = api
+        return self
+
+    @property
+    def outcome(self) -> Any:
+        return self._plan.outcome
+
+    async def run(self, _: Callable[[Any], None]) -> Any:
+        """List, split, submit, and merge the shards' results in shard order."""
+        api, plan = self._api, self._plan
+        if api is None:
+            raise RuntimeError("Shards.run needs the client: make it with Shards.on(api)")
         ticker = asyncio.create_task(tick(self._show))
         try:
-            # Open for the whole run: the driver may fetch beside the shards (a baseline).
-            async with open_api(run.access, run.settings, run.retry) as api:
 
-                def listed() -> None:
-                    self.traffic = self._shards_traffic + Traffic.of(api)
-                    self._show()
+            def listed() -> None:
+                self.traffic = self.shards_traffic + Traffic.of(api)
+                self._show()
 
-                self._driver_traffic = lambda: Traffic.of(api)
-                items = await plan.listing(api, listed)
-                self.traffic = self._shards_traffic + Traffic.of(api)
-                try:
-                    await self._run_shards(split(items, shard_count))
-                    await plan.finish(api)
-                finally:
-                    plan.abort()  # a no-op once finished
-                self.traffic = self._shards_traffic + Traffic.of(api)
+            self._driver_traffic = lambda: Traffic.of(api)
+            items = await plan.listing(api, listed)
+            self.traffic = self.shards_traffic + Traffic.of(api)
+            try:
+                await self._run_shards(split(items, self._count))
+                await plan.finish(api)
+            finally:
+                plan.abort()  # a no-op once finished
+            self.traffic = self.shards_traffic + Traffic.of(api)
         finally:
             ticker.cancel()
             with contextlib.suppress(asyncio.CancelledError):
                 await ticker
         plan.complete()
         self._show()
+        return plan.outcome
 
     async def _run_shards(self, pieces: list[list[Any]]) -> None:
         run, plan = self._run, self._plan
@@ -212,10 +242,10 @@ class Shards:
         self._plan.add(result.outcome)
         self._live.finished(result.index)  # its result counts now, not its reports
         sizes = [len(state) for state in result.states]
-        self._shards_traffic = self._shards_traffic + Traffic(
+        self.shards_traffic = self.shards_traffic + Traffic(
             requests=result.requests, retries=result.retries, bytes_received=result.bytes_received
         )
-        self.traffic = self._shards_traffic + self._driver_traffic()
+        self.traffic = self.shards_traffic + self._driver_traffic()
         log.info(
             "shard finished",
             shard=result.index,
@@ -284,13 +314,18 @@ class BatchPlan:
     """The batch's jobs are sharded; with `[batch.baseline]` the baseline's jobs are
     fetched here, on the driver, beside the shards: the comparison needs only their
     listed scalars (one request a job), and its candidate side comes from the shards'
-    states like every other aggregation's."""
+    states like every other aggregation's. With config-defined metrics the jobs'
+    emissions logs are fetched here too, beside the shards, over the jobs the driver
+    listed (`rows`)."""
 
     inputs: BatchInputs
     config: StookConfig
     comparison: BaselineComparison | None
+    config_metrics: ConfigMetrics | None = None
     outcome: FetchOutcome = field(default_factory=FetchOutcome)
+    rows: JobRows | None = None
     _baseline: asyncio.Task[None] | None = None
+    _emissions: asyncio.Task[int] | None = None
 
     async def listing(self, api: ApiClient, on_progress: Callable[[], None]) -> list[Job]:
         inputs, outcome = self.inputs, self.outcome
@@ -303,7 +338,6 @@ class BatchPlan:
                     inputs.batch_id,
                     comparison,
                     settings,
-                    workers=self.config.fetch.concurrency,
                 )
             )
 
@@ -318,7 +352,29 @@ class BatchPlan:
             outcome.jobs_listed += 1
             on_progress()
         outcome.jobs_total = outcome.jobs_listed
+        if self.config_metrics is not None:
+            self._emissions = asyncio.create_task(
+                self._fetch_emissions(self.config_metrics, api, jobs)
+            )
         return jobs
+
+    async def _fetch_emissions(
+        self, config_metrics: ConfigMetrics, api: ApiClient, jobs: list[Job]
+    ) -> int:
+        project_id, batch_id = self.inputs.access.project_id, self.inputs.batch_id
+        rows = self.rows = config_metrics.rows(api, project_id)
+        try:
+            return await fetch_emissions(
+                api,
+                project_id,
+                list(enumerate(jobs)),
+                ids_of=lambda listed: (batch_id, listed[1].job_id),
+                on_job=lambda listed, payload: rows.add(
+                    JobEmissions(listed[0], batch_id, listed[1], payload)
+                ),
+            )
+        finally:
+            await rows.aclose()
 
     def shard(
         self, run: FetchRun[Any], index: int, items: list[Job], states: list[Aggregation[Any]]
@@ -347,7 +403,10 @@ class BatchPlan:
         outcome.unnamed_data += part.unnamed_data
 
     async def finish(self, api: ApiClient) -> None:
-        """Every shard is merged: the baseline's side too, then the comparison's directions."""
+        """Every shard is merged: the emissions and the baseline's side too, then the
+        comparison's directions."""
+        if self._emissions is not None:
+            await self._emissions
         comparison, inputs = self.comparison, self.inputs
         if self._baseline is None or comparison is None:
             return
@@ -355,8 +414,9 @@ class BatchPlan:
         await set_directions(api, inputs.access.project_id, inputs.batch_id, comparison)
 
     def abort(self) -> None:
-        if self._baseline is not None:
-            self._baseline.cancel()
+        for task in (self._baseline, self._emissions):
+            if task is not None:
+                task.cancel()
 
     def complete(self) -> None:
         """Every shard is in (the listing already fixed the job count)."""
@@ -378,6 +438,7 @@ class ReportPlan:
         outcome = self.outcome
         outcome.report = report
         outcome.batches = len(batches)
+        outcome.found_batches = batches
         totals = [b.total_jobs for b in batches]
         outcome.jobs_total = None if None in totals else sum(t or 0 for t in totals)
         if batches:

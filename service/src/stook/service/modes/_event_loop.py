@@ -19,7 +19,7 @@ import os
 from collections.abc import Callable, Coroutine
 from typing import Any, Final, TypeVar
 
-from stook.service.modes._config import ConfigError
+from stook.service.modes._errors import ConfigError
 
 __all__ = ["EVENT_LOOP_ENV", "event_loop_factory", "run_on_event_loop"]
 

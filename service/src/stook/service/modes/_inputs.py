@@ -15,17 +15,13 @@ from pathlib import Path
 from typing import Any
 from urllib.parse import urlsplit
 
-from stook.sdk import StookError
+from stook.service.modes._errors import InputsError
 
 REPORT_CONFIG = "report_config.json"
 BATCH_CONFIG = "batch_metrics_config.json"
 # How alike a file name must be to a config's to count as a misspelling of it: enough for
 # "batch_metric_config.json" or "report-config.json", not for "config.json".
 _MISSPELT_CUTOFF = 0.8
-
-
-class InputsError(StookError):
-    """The inputs folder or a platform config file in it is unusable (exit code 2)."""
 
 
 @dataclass(frozen=True, slots=True)

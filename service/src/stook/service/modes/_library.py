@@ -18,34 +18,29 @@ import uuid
 from collections.abc import AsyncGenerator, Awaitable, Callable, Iterable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, TypeVar
+from typing import TYPE_CHECKING, Any
 
 import structlog
 
 from stook.sdk.aggregations import BatchRecord, JobRecord, Needs
-from stook.service.api import ApiClient
 from stook.service.fetch import (
     BatchFetcher,
-    FetchOutcome,
     MissingJob,
     ReportFetcher,
-    ReportOutcome,
-    fetch_deadline,
 )
 from stook.service.modes._config import FetchSettings, parse
+from stook.service.modes._errors import InputsError
 from stook.service.modes._event_loop import run_on_event_loop
 from stook.service.modes._inputs import (
     BATCH_CONFIG,
     REPORT_CONFIG,
     ApiAccess,
     BatchInputs,
-    InputsError,
     ReportInputs,
     detect,
 )
 from stook.service.modes._logging import configure_logging
-from stook.service.modes._open_api import open_api
-from stook.service.modes._steps import MissingJobsError
+from stook.service.modes._pipeline import check_missing, fetch_records
 
 if TYPE_CHECKING:
     import polars as pl
@@ -227,38 +222,10 @@ async def _stream(
                 await producer
 
 
-_O = TypeVar("_O")
-
-
-async def _fetch_within_deadline(
-    access: ApiAccess,
-    settings: FetchSettings,
-    start: Callable[[ApiClient], tuple[_O, Awaitable[_O]]],
-    how_far: Callable[[_O], str],
-) -> _O:
-    """Open the API, start a fetch on it (`start` gives its outcome, kept up to date, and
-    the run to await) and await it within `[fetch] deadline`; the outcome when it ends."""
-    started = asyncio.get_running_loop().time()
-    async with open_api(access, settings) as api:
-        outcome, running = start(api)
-        async with fetch_deadline(
-            settings.deadline, started=started, progress=lambda: how_far(outcome)
-        ):
-            await running
-    return outcome
-
-
-def _check_missing(missing: list[MissingJob], total: int, allowed: int, what: str) -> None:
-    if len(missing) <= allowed:
-        for job in missing:
-            log.warning("job left out", job_id=str(job.job_id), reason=job.reason)
-        return
-    first = missing[0]
-    more = f" and {len(missing) - 1} more" if len(missing) > 1 else ""
-    raise MissingJobsError(
-        f"job {first.job_id}{more} of {what} could not be fetched ({first.reason}); "
-        f"{len(missing)} of {total} jobs missing, allow_missing={allowed}"
-    )
+def _left_out(missing: list[MissingJob], total: int, allowed: int, what: str) -> None:
+    """The library's missing-jobs rule: at most `allowed` jobs, each said as left out."""
+    for job in check_missing(missing, total, allowed_jobs=allowed, what=what):
+        log.warning("job left out", job_id=str(job.job_id), reason=job.reason)
 
 
 def fetch_batch(
@@ -304,16 +271,15 @@ def fetch_batch(
     _default_logging()
 
     async def run(hand_over: _Handover) -> None:
-        def start(api: ApiClient) -> tuple[FetchOutcome, Awaitable[FetchOutcome]]:
-            fetcher = BatchFetcher(
-                api, access.project_id, batch, needs, workers=settings.concurrency
-            )
-            return fetcher.outcome, fetcher.run(hand_over.put)
-
-        outcome = await _fetch_within_deadline(
-            access, settings, start, lambda o: f"{o.jobs_done:,} of {o.jobs_listed:,} jobs"
+        outcome, _ = await fetch_records(
+            access,
+            settings,
+            lambda api: BatchFetcher(api, access.project_id, batch, needs),
+            hand_over.put,
+            started=asyncio.get_running_loop().time(),
+            how_far=lambda o: f"{o.jobs_done:,} of {o.jobs_listed:,} jobs",
         )
-        _check_missing(outcome.missing, outcome.jobs_listed, allow_missing, f"batch {batch}")
+        _left_out(outcome.missing, outcome.jobs_listed, allow_missing, f"batch {batch}")
 
     return _stream(run, settings.concurrency)
 
@@ -351,16 +317,15 @@ def fetch_report(
     _default_logging()
 
     async def run(hand_over: _Handover) -> None:
-        def start(api: ApiClient) -> tuple[ReportOutcome, Awaitable[ReportOutcome]]:
-            fetcher = ReportFetcher(
-                api, access.project_id, report, needs, workers=settings.concurrency
-            )
-            return fetcher.outcome, fetcher.run(hand_over.put_nowait)
-
-        outcome = await _fetch_within_deadline(
-            access, settings, start, lambda o: f"{o.jobs:,} jobs of {o.batches:,} batches"
+        outcome, _ = await fetch_records(
+            access,
+            settings,
+            lambda api: ReportFetcher(api, access.project_id, report, needs),
+            hand_over.put_nowait,
+            started=asyncio.get_running_loop().time(),
+            how_far=lambda o: f"{o.jobs:,} jobs of {o.batches:,} batches",
         )
-        _check_missing(outcome.missing, outcome.jobs, allow_missing, f"report {report}")
+        _left_out(outcome.missing, outcome.jobs, allow_missing, f"report {report}")
 
     return _stream(run, 0)
 

@@ -25,7 +25,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Protocol, TextIO
 
-from stook.service.modes._config import ConfigError
+from stook.service.modes._errors import ConfigError
 
 if TYPE_CHECKING:
     from rich.progress import Progress as RichProgress

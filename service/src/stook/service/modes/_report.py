@@ -9,15 +9,17 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+import structlog
+
 from stook.sdk import MetricStatus, MetricsWriter
 from stook.sdk.aggregations import Aggregation
 from stook.service.api import ApiClient, RetryPolicy
 from stook.service.fetch import ReportFetcher, ReportOutcome
-from stook.service.modes._config import ConfigError, EngineSettings, StookConfig
-from stook.service.modes._config_metrics import config_metrics_step, write_config_metrics
+from stook.service.modes._config import EngineSettings, StookConfig
+from stook.service.modes._config_metrics import ConfigMetrics, JobRows
+from stook.service.modes._errors import ConfigError
 from stook.service.modes._inputs import ReportInputs
-from stook.service.modes._progress import NoProgress, Progress, Snapshot
-from stook.service.modes._steps import (
+from stook.service.modes._pipeline import (
     FetchRun,
     RunResult,
     fold_here,
@@ -25,6 +27,9 @@ from stook.service.modes._steps import (
     write_missing_jobs,
     write_output,
 )
+from stook.service.modes._progress import NoProgress, Progress, Snapshot
+
+log = structlog.get_logger("stook.run")
 
 if TYPE_CHECKING:
     from stook.sdk.aggregations.report import RegressionSummary
@@ -91,7 +96,10 @@ async def run_report(
     started = asyncio.get_running_loop().time()
     aggregations = report_aggregations(config, str(inputs.access.project_id))
     # [metrics_config]: its config loaded and checked now, before the first request.
-    config_metrics = config_metrics_step(config, inputs.access, report_id=inputs.report_id)
+    config_metrics = ConfigMetrics.load(config, "dashboard")
+    dashboard = None
+    if config_metrics is not None and config_metrics.wanted:
+        dashboard = _DashboardRows(config_metrics, inputs)
     needs = needs_of(aggregations)
     run = FetchRun(
         kind="report",
@@ -105,6 +113,7 @@ async def run_report(
         snapshot_of=report_snapshot,
         how_far=lambda outcome, folded: f"{folded:,} of {outcome.batches:,} batches",
         started=started,
+        then=None if dashboard is None else dashboard.fetch,
     )
     engine = engine or config.engine
     if engine.kind == "local":
@@ -117,7 +126,6 @@ async def run_report(
                 inputs.access.project_id,
                 inputs.report_id,
                 needs,
-                workers=config.fetch.concurrency,
                 on_progress=on_progress,
                 use_summaries=config.report.use_summaries,
             )
@@ -133,7 +141,8 @@ async def run_report(
     writer = MetricsWriter(inputs.report_id, deterministic=True)
     write_missing_jobs(writer, outcome.missing, outcome.jobs, allow_missing_jobs)
     write_summary(writer, outcome)
-    await write_config_metrics(config_metrics, writer, config.fetch, retry, started=started)
+    if config_metrics is not None and dashboard is not None:
+        config_metrics.write(dashboard.rows, writer)
     output = write_output(writer, aggregations, outputs_dir)
     lines = [a for a in aggregations if isinstance(a, ScalarLines)]
     return ReportResult(
@@ -153,6 +162,21 @@ async def run_report(
         # What the default regression check found, read from the aggregation itself.
         regressions=lines[0].regressions() if lines else None,
     )
+
+
+class _DashboardRows:
+    """The dashboard metrics' rows: every job of the report's batches with its emissions,
+    fetched once the report's fetch is done, on its client (modes/_config_metrics.py)."""
+
+    def __init__(self, config_metrics: ConfigMetrics, inputs: ReportInputs):
+        self._config_metrics, self._inputs = config_metrics, inputs
+        self.rows: JobRows | None = None
+
+    async def fetch(self, api: ApiClient, outcome: ReportOutcome) -> None:
+        log.info("config metrics: fetching the report's jobs' emissions logs")
+        self.rows = await self._config_metrics.fetch_report_rows(
+            api, self._inputs.access.project_id, outcome.found_batches
+        )
 
 
 def report_snapshot(outcome: ReportOutcome) -> Snapshot:

@@ -12,9 +12,9 @@ from typing import TYPE_CHECKING, Any
 import structlog
 
 from stook.sdk import MetricsWriter
-from stook.service.modes._config import ConfigError, StookConfig
+from stook.service.modes._config import StookConfig, add_import_folders, describe_search
+from stook.service.modes._errors import ConfigError, UserFunctionError
 from stook.service.modes._inputs import TestInputs
-from stook.service.modes._user_code import add_import_folders, describe_search
 
 if TYPE_CHECKING:
     # The writer only for a test-mode run: `stook run` imports this module for
@@ -24,10 +24,6 @@ if TYPE_CHECKING:
 log = structlog.get_logger("stook.test")
 
 TestMetricsFunction = Callable[[Path, Path, "MetricsWriter"], Any]
-
-
-class UserFunctionError(Exception):
-    """The user's own metrics function raised; its traceback is theirs to read (exit 1)."""
 
 
 def load_function(
@@ -60,7 +56,7 @@ async def run_test_mode(inputs: TestInputs, config: StookConfig, output: Path) -
     writer = MetricsWriter(uuid.uuid4())
     config_metrics = None
     if config.metrics_config is not None:
-        from stook.service.modes._test_config_metrics import TestConfigMetrics
+        from stook.service.modes._config_metrics import TestConfigMetrics
 
         base = config.file.parent if config.file else None
         config_metrics = TestConfigMetrics.load(config.metrics_config, base, inputs)
