@@ -487,12 +487,14 @@ def _metadata_frame(jobs: list[JobMeta]) -> pl.DataFrame:
     import polars as pl
 
     schema: dict[str, pl.DataType] = {c: pl.String() for c in METADATA_COLUMNS}
-    schema["tags"] = pl.List(pl.String())
+    for column in ("tags", "custom_field_keys", "custom_field_values"):
+        schema[column] = pl.List(pl.String())
+    schema["build_creation_timestamp"] = pl.Datetime("us")  # UTC, as the platform's
     columns: dict[str, list[Any]] = {c: [] for c in METADATA_COLUMNS}
     for job in jobs:  # one step per job, not per row
         for column in METADATA_COLUMNS:
             value = getattr(job, column)
-            columns[column].append(list(value) if column == "tags" else value)
+            columns[column].append(list(value) if isinstance(value, tuple) else value)
     return pl.DataFrame(columns, schema=schema)
 
 
