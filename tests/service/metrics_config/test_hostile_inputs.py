@@ -8,7 +8,9 @@ import datetime as dt
 import json
 import os
 import uuid
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -155,38 +157,57 @@ def _batch_of_two(tmp_path: Path, config: Path) -> Path:
     return batch
 
 
+def _folder(path: Path) -> None:
+    path.unlink()
+    path.mkdir()
+
+
 def _loop(path: Path) -> None:
+    path.unlink()
     path.symlink_to(path.name)  # itself: "Too many levels of symbolic links"
+
+
+def _fifo(path: Path) -> None:
+    path.unlink()
+    os.mkfifo(path)  # reading it would wait for ever
+
+
+def _dangling(path: Path) -> None:
+    path.unlink()
+    path.symlink_to("gone")
+
+
+def _text(text: str) -> Callable[[Path], None]:
+    def write(path: Path) -> None:
+        path.write_text(text, encoding="utf-8")
+
+    return write
 
 
 @pytest.mark.parametrize(
     ("spoil", "at", "problem"),
     [
-        (lambda p: (p.unlink(), p.mkdir()), "emissions.resim.jsonl", "a folder, not a file"),
-        (lambda p: (p.unlink(), _loop(p)), "emissions.resim.jsonl", "cannot be read"),
-        (lambda p: (p.unlink(), p.mkdir()), "job.json", "a folder, not a file"),
-        (lambda p: (p.unlink(), _loop(p)), "job.json", "cannot be read"),
-        (lambda p: (p.unlink(), os.mkfifo(p)), "job.json", "neither a file nor a folder"),
-        (lambda p: (p.unlink(), p.symlink_to("gone")), "job.json", "no such file or folder"),
-        (lambda p: p.write_text(DEEP), "job.json", "nested deeper than 64 levels"),
+        (_folder, "emissions.resim.jsonl", "a folder, not a file"),
+        (_loop, "emissions.resim.jsonl", "cannot be read (Too many levels of symbolic links)"),
+        (_folder, "job.json", "a folder, not a file"),
+        (_loop, "job.json", "cannot be read"),
+        (_fifo, "job.json", "neither a file nor a folder"),
+        (_dangling, "job.json", "no such file or folder"),
+        (_text(DEEP), "job.json", "nested deeper than 64 levels"),
         (
-            lambda p: p.write_text('{\n  "job_id": "a",\n  "tags": ["x",]\n}'),
+            _text('{\n  "job_id": "a",\n  "tags": ["x",]\n}'),
             "job.json",
             "a trailing comma (line 3, column 16)",
         ),
+        (_text('{"job_id": "a", "job_id": "b"}'), "job.json", "the key 'job_id' is given twice"),
+        (_text('["job_id"]'), "job.json", "must be a JSON object"),
         (
-            lambda p: p.write_text('{"job_id": "a", "job_id": "b"}'),
-            "job.json",
-            "the key 'job_id' is given twice",
-        ),
-        (lambda p: p.write_text('["job_id"]'), "job.json", "must be a JSON object"),
-        (
-            lambda p: p.write_text('{"job_id": "a", "custom_field_keys": ["k"]}'),
+            _text('{"job_id": "a", "custom_field_keys": ["k"]}'),
             "job.json",
             "1 custom_field_keys but 0 custom_field_values",
         ),
         (
-            lambda p: p.write_text('{"job_id": "a", "build_creation_timestamp": "soon"}'),
+            _text('{"job_id": "a", "build_creation_timestamp": "soon"}'),
             "job.json",
             "'build_creation_timestamp' must be an RFC 3339 time",
         ),
@@ -196,18 +217,17 @@ def test_a_job_folder_that_cannot_be_read_is_named(
     tmp_path: Path,
     config: Path,
     capsys: pytest.CaptureFixture[str],
-    spoil: object,
+    spoil: Callable[[Path], None],
     at: str,
     problem: str,
 ) -> None:
     batch = _batch_of_two(tmp_path, config)
     path = batch / "job-1" / at
-    spoil(path)  # type: ignore[operator]
+    spoil(path)
     out = tmp_path / "out"
     assert _eval(config, batch, out, "batch") == 2
     (said,) = _stderr(capsys).splitlines()
-    assert f"{path}: {problem}" in said or f"{path} line" in said
-    assert problem in said
+    assert f"{path}: {problem}" in said
     assert not out.exists()
 
 
@@ -286,7 +306,7 @@ def test_job_json_custom_fields_and_build_time_reach_metadata(tmp_path: Path) ->
     config = tmp_path / "config.resim.yml"
     config.write_text(METADATA_CONFIG)
     batch = tmp_path / "batch"
-    metas = [
+    metas: list[dict[str, Any]] = [
         {
             "job_id": "a",
             "custom_field_keys": ["Weather", "Lighting"],
