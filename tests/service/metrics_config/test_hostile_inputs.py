@@ -338,3 +338,26 @@ def test_job_json_custom_fields_and_build_time_reach_metadata(tmp_path: Path) ->
     assert rows[0] == "|a|dusk|2025|"
     assert rows[1].startswith("|b|")  # no Lighting: NULL, as the table draws it
     assert rows[1].endswith("|2025|")
+
+
+def test_timestamps_at_the_ends_of_int64_load_and_tables_can_be_built_twice(
+    tmp_path: Path,
+) -> None:
+    config = tmp_path / "c.yml"
+    config.write_text("version: 1\ntopics:\n  t:\n    schema: {n: int}\n")
+    stamps = [-(2**63), 2**63 - 1, None]
+    lines = [
+        json.dumps(
+            {
+                "$metadata": {"topic": "t", **({} if s is None else {"timestamp": s})},
+                "$data": {"n": 2**63 - 1},
+            }
+        )
+        for s in stamps
+    ]
+    emissions = EmissionsSet(load_config([config]))
+    emissions.add_job(JobMeta(job_id="j"), "\n".join(lines).encode())
+    for _ in range(2):
+        frame = emissions.tables()["t"]
+        assert frame["timestamp"].to_list() == stamps
+        assert frame["n"].to_list() == [2**63 - 1] * 3

@@ -79,8 +79,6 @@ class EmissionsSet:
         self._texts: list[str] = []  # of the jobs with emissions
         self._with_text: list[int] = []  # their indexes
         self._ids: dict[str, str] = {}  # job ID: the name of its source
-        # Per topic, how many rows give a timestamp (from the shapes' check).
-        self._timed: dict[str, int] = {}
 
     def add_job(
         self, meta: JobMeta, source: Path | bytes | None, *, name: str | None = None
@@ -137,17 +135,19 @@ class EmissionsSet:
             con.register("texts", texts)
             self._split(con)
             con.unregister("texts")
-            self._check(con)
+            timed = self._check(con)
             frames = {
-                name: self._topic_frame(con, topic, metadata) for name, topic in topics.items()
+                name: self._topic_frame(con, topic, metadata, timed.get(name, 0))
+                for name, topic in topics.items()
             }
         finally:
             con.close()
         return {**frames, METADATA_TABLE: metadata}
 
     def _topic_frame(
-        self, con: duckdb.DuckDBPyConnection, topic: Topic, metadata: pl.DataFrame
+        self, con: duckdb.DuckDBPyConnection, topic: Topic, metadata: pl.DataFrame, timed: int
     ) -> pl.DataFrame:
+        """The topic's frame; `timed` rows of it gave an integer timestamp."""
         import polars as pl
 
         frame = _topic_frame(con, topic, metadata)
@@ -171,8 +171,7 @@ class EmissionsSet:
                     frame.filter(pl.col(column).list.eval(pl.element().is_null()).list.any()),
                     f", column {column!r}: null is not a string (in a list of strings)",
                 )
-        timed = frame.height - frame["timestamp"].null_count()
-        if timed < self._timed.get(topic.name, 0):
+        if frame.height - frame["timestamp"].null_count() < timed:
             found.append(self._unconverted_timestamp(con, topic, frame))
         if topic.event:
             first(
@@ -227,14 +226,16 @@ class EmissionsSet:
             why = _why_not_json(con, line)
             raise EmissionsError(f"{self._where(job, line_no)}: not a JSON object{why}") from None
 
-    def _check(self, con: duckdb.DuckDBPyConnection) -> None:
-        """Raise EmissionsError for the first bad row (by job, then line)."""
+    def _check(self, con: duckdb.DuckDBPyConnection) -> dict[str, int]:
+        """Raise EmissionsError for the first bad row (by job, then line). Per topic, how
+        many rows give an integer timestamp (what the frame must then hold)."""
         groups = con.execute(
             "SELECT topic, json_structure(line) AS structure, keys, suspect, count(*) "
             "FROM lines GROUP BY ALL"
         ).fetchall()
         bad: dict[tuple[str | None, str], str] = {}
         strict: set[tuple[str | None, str, int, bool]] = set()
+        timed: dict[str, int] = {}
         for topic, text, keys, suspect, rows in groups:
             if (topic, text) in bad:
                 continue
@@ -245,7 +246,7 @@ class EmissionsSet:
             if suspect or keys != _key_count(structure) or self._has_metric_lists(topic):
                 strict.add((topic, text, keys, suspect))
             if structure["$metadata"].get("timestamp") in ("BIGINT", "UBIGINT"):
-                self._timed[topic] = self._timed.get(topic, 0) + rows
+                timed[topic] = timed.get(topic, 0) + rows
         found = [self._first_of(con, bad)] if bad else []
         if strict:
             before = found[0][:2] if found else None
@@ -253,6 +254,7 @@ class EmissionsSet:
         if found:
             job, line_no, problem = min(found)
             raise EmissionsError(f"{self._where(job, line_no)}: {problem}")
+        return timed
 
     def _first_of(
         self, con: duckdb.DuckDBPyConnection, bad: dict[tuple[str | None, str], str]
