@@ -233,31 +233,34 @@ class EmissionsSet:
         each job's count of `_MARKS`. Per topic, how many rows give an integer timestamp
         (what the frame must then hold)."""
         groups = con.execute(
-            "SELECT job, topic, json_structure(line) AS structure, count(*) FROM lines GROUP BY ALL"
+            "SELECT job, topic, json_structure(line) AS structure, count(*), min(line_no) "
+            "FROM lines GROUP BY ALL"
         ).fetchall()
         bad: dict[tuple[str | None, str], str] = {}
+        found: list[tuple[int, int, str]] = []  # a bad shape's first line in a job
         shapes: dict[tuple[str | None, str], Any] = {}  # the good ones, decoded
         keys: dict[str, int] = {}  # per good shape
         expected = dict.fromkeys(marks, 0)
         strict: set[str] = set()  # topics whose every row is decoded strictly
         timed: dict[str, int] = {}
-        for job, topic, text, rows in groups:
-            if (topic, text) in bad:
-                continue
-            if (topic, text) not in shapes:
+        for job, topic, text, rows, first_line in groups:
+            if (topic, text) not in bad and (topic, text) not in shapes:
                 problem, structure = self._shape_problem(topic, text)
                 if problem is not None:
                     bad[(topic, text)] = problem
-                    continue
-                shapes[(topic, text)] = structure
-                keys[text] = _key_count(structure)
+                else:
+                    shapes[(topic, text)] = structure
+                    keys[text] = _key_count(structure)
+            if (topic, text) in bad:
+                found.append((job, first_line, bad[(topic, text)]))
+                continue
             if self._has_metric_lists(topic):
                 strict.add(topic)
             else:
                 expected[job] += keys[text] * rows
             if shapes[(topic, text)]["$metadata"].get("timestamp") in ("BIGINT", "UBIGINT"):
                 timed[topic] = timed.get(topic, 0) + rows
-        found = [self._first_of(con, bad)] if bad else []
+        found = [min(found)] if found else []
         if strict:
             for job, count in con.execute(
                 "SELECT job, sum(len(regexp_extract_all(line, ?)))::BIGINT FROM lines "
@@ -273,32 +276,6 @@ class EmissionsSet:
             job, line_no, problem = min(found)
             raise EmissionsError(f"{self._where(job, line_no)}: {problem}")
         return timed
-
-    def _first_of(
-        self, con: duckdb.DuckDBPyConnection, bad: dict[tuple[str | None, str], str]
-    ) -> tuple[int, int, str]:
-        """The earliest line of a bad shape, however many kinds of bad rows there are
-        (each line's shape again, now kept to be joined: the slow path, once)."""
-        import polars as pl
-
-        kinds = pl.DataFrame(
-            {"topic": [k[0] for k in bad], "structure": [k[1] for k in bad]},
-            schema={"topic": pl.String, "structure": pl.String},
-        )
-        con.register("bad_kinds", kinds)
-        first = con.execute(
-            "SELECT l.job, l.line_no, l.topic, l.structure "
-            "FROM (SELECT job, line_no, topic, json_structure(line) AS structure FROM lines) "
-            "AS l "
-            "JOIN bad_kinds AS b "
-            "ON l.topic IS NOT DISTINCT FROM b.topic AND l.structure = b.structure "
-            "ORDER BY l.job, l.line_no LIMIT 1"
-        ).fetchall()
-        con.unregister("bad_kinds")
-        if not first:  # cannot be: the shapes came from these lines
-            raise EmissionsError("a bad row could not be found again")
-        ((job, line_no, topic, structure),) = first
-        return job, line_no, bad[(topic, structure)]
 
     def _strict_lines(
         self,
