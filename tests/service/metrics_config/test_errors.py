@@ -287,7 +287,7 @@ def test_bytes_that_are_not_utf8_are_exit_4(
     emissions.write_bytes(b'{"$metadata": {"topic": "camera"}, "$data": {"frame": "\xe9"}}\n')
     out = tmp_path / "out"
     assert _eval(config, emissions, out) == 4
-    assert f"{emissions}: not UTF-8 JSON lines" in _stderr(capsys)
+    assert f"{emissions} line 1: not UTF-8 (byte 56 of the line)" in _stderr(capsys)
     assert not out.exists()
 
 

@@ -26,13 +26,14 @@ disjoint, version equal, other keys: last wins). Custom templates are read from 
 templates/ folder beside the first CONFIG, or --templates DIR."""
 
 EPILOG = """\
---emissions PATH: one emissions.resim.jsonl (one job), or a folder of per-job folders,
-each holding emissions.resim.jsonl and optionally job.json, whose keys (job_id,
-batch_id, project_id, experience_id, experience_name, build_id, build_version,
-batch_name, job_status, job_conflated_status, branch, tags) fill the job's row of the
-metadata table; absent IDs are generated from the folder names (stable), other keys
-are null. Attached files (image, video metrics) are read from the job's folder and
-copied beside metrics.binproto.
+--emissions PATH: one emissions file (one job), or a folder of jobs: per-job folders,
+each holding emissions.resim.jsonl and optionally job.json, and the SDK's own
+emissions_<job_id>.resim.jsonl files. job.json's keys (job_id, batch_id, project_id,
+experience_id, experience_name, build_id, build_version, batch_name, job_status,
+job_conflated_status, branch, tags, custom_field_keys, custom_field_values,
+build_creation_timestamp) fill the job's row of the metadata table; absent IDs are
+generated from the folder names (stable), other keys are null. Attached files (image,
+video metrics) are read from the job's folder and copied beside metrics.binproto.
 
 A metric whose query fails (ERROR) or whose template cannot draw its result
 (RENDER_ERROR: a Liquid error, a value the template cannot carry, a missing attached
@@ -41,7 +42,8 @@ written as usual. --strict makes it exit 4 instead, with nothing written.
 
 exit codes:
   0  check: the config is good; eval: metrics.binproto written
-  2  a bad config (one line per problem), option or path
+  2  a bad config (one line per problem), option or path (a job folder or job.json
+     that cannot be read, named)
   4  a bad emissions row (file, line, topic, column), an output that would not
      validate; with --strict, a failing metric (its query's SQL and the engine's
      message, or what its template could not draw)
