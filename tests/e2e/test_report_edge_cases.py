@@ -10,7 +10,6 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-import tenacity
 
 from stook.emulator import Emulator
 from stook.sdk import MetricStatus
@@ -43,7 +42,7 @@ from tests.failures import failure_lines
 
 LOC = "Mean localization error"
 DIST = "Mean distance driven"
-FAST = RetryPolicy(backoff=tenacity.wait_none(), request_timeout=5.0)
+FAST = RetryPolicy(initial_backoff=0, request_timeout=5.0)
 FAULTS: dict[str, Any] = {
     "fault_5xx": 0.10,
     "fault_429": 0.03,

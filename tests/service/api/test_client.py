@@ -13,7 +13,6 @@ import pytest
 from aiohttp import hdrs, web
 from aiohttp.test_utils import TestServer
 from multidict import CIMultiDict, CIMultiDictProxy
-from tenacity import wait_none
 from yarl import URL
 
 from stook.service.api._client import ApiClient, IdLike
@@ -348,7 +347,7 @@ async def test_transient_statuses_are_retried(
 
 
 async def test_retry_after_is_honoured(server: ScriptedServer, sleep: RecordingSleep) -> None:
-    policy = RetryPolicy(backoff=wait_none(), sleep=sleep)
+    policy = RetryPolicy(initial_backoff=0, sleep=sleep)
     server.script(
         BATCH_PATH,
         answer(429, headers={"Retry-After": "0.01"}),
@@ -381,7 +380,7 @@ async def test_retry_after_beyond_the_cap_fails_fast(
 
 
 async def test_retry_after_really_waits(server: ScriptedServer) -> None:
-    policy = RetryPolicy(backoff=wait_none())
+    policy = RetryPolicy(initial_backoff=0)
     server.script(
         BATCH_PATH, answer(429, headers={"Retry-After": "0.1"}), answer_json(batch_json())
     )
@@ -450,7 +449,7 @@ async def test_truncated_body_is_retried(server: ScriptedServer, fast_policy: Re
 
 
 async def test_timeout_is_retried(server: ScriptedServer, sleep: RecordingSleep) -> None:
-    policy = RetryPolicy(backoff=wait_none(), sleep=sleep, request_timeout=0.1)
+    policy = RetryPolicy(initial_backoff=0, sleep=sleep, request_timeout=0.1)
     server.script(BATCH_PATH, answer(200, delay=1.0), answer_json(batch_json()))
     async with client(server, policy) as api:
         await api.get_batch(PROJECT, BATCH)
@@ -476,7 +475,7 @@ async def test_a_cookie_an_answer_sets_is_not_sent_back(
 async def test_a_timeout_takes_back_the_cancellation_it_sent(
     server: ScriptedServer, sleep: RecordingSleep
 ) -> None:
-    policy = RetryPolicy(backoff=wait_none(), sleep=sleep, request_timeout=0.1)
+    policy = RetryPolicy(initial_backoff=0, sleep=sleep, request_timeout=0.1)
     server.script(BATCH_PATH, answer(200, delay=1.0), answer_json(batch_json()))
     async with client(server, policy) as api:
         await api.get_batch(PROJECT, BATCH)
@@ -533,7 +532,7 @@ async def test_client_errors_are_not_retried(
 
 
 async def test_attempts_are_capped(server: ScriptedServer, sleep: RecordingSleep) -> None:
-    policy = RetryPolicy(backoff=wait_none(), sleep=sleep, max_attempts=3)
+    policy = RetryPolicy(initial_backoff=0, sleep=sleep, max_attempts=3)
     server.script(BATCH_PATH, answer(503))
     async with client(server, policy) as api:
         with pytest.raises(RetriesExhaustedError) as caught:
@@ -549,7 +548,7 @@ async def test_attempts_are_capped(server: ScriptedServer, sleep: RecordingSleep
 async def test_exhausted_connection_failures_name_the_cause(
     server: ScriptedServer, sleep: RecordingSleep
 ) -> None:
-    policy = RetryPolicy(backoff=wait_none(), sleep=sleep, max_attempts=2)
+    policy = RetryPolicy(initial_backoff=0, sleep=sleep, max_attempts=2)
     server.script(BATCH_PATH, reset_connection())
     async with client(server, policy) as api:
         with pytest.raises(RetriesExhaustedError) as caught:
@@ -829,7 +828,7 @@ async def test_storage_404_is_not_retried(server: ScriptedServer, fast_policy: R
 async def test_storage_exhaustion_message_has_no_signature(
     server: ScriptedServer, sleep: RecordingSleep
 ) -> None:
-    policy = RetryPolicy(backoff=wait_none(), sleep=sleep, max_attempts=2)
+    policy = RetryPolicy(initial_backoff=0, sleep=sleep, max_attempts=2)
     server.script("/obj", answer(500))
     async with StorageClient(retry=policy) as storage:
         with pytest.raises(RetriesExhaustedError) as caught:
