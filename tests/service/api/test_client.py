@@ -531,6 +531,29 @@ async def test_client_errors_are_not_retried(
     assert "\n" not in message
 
 
+@pytest.mark.parametrize("path", ["", "/", "/api"])
+async def test_a_404_from_an_api_url_without_v1_says_where_the_api_is(
+    server: ScriptedServer, fast_policy: RetryPolicy, path: str
+) -> None:
+    batch_path = f"{path.rstrip('/')}/projects/{PROJECT}/batches/{BATCH}"
+    server.script(batch_path, answer(404, b"Not Found"))
+    async with ApiClient(server.url(path), TOKEN, retry=fast_policy) as api:
+        with pytest.raises(NotFoundError) as caught:
+            await api.get_batch(PROJECT, BATCH)
+    assert "answered HTTP 404: Not Found (apiURL should end in /v1" in str(caught.value)
+    assert server.url(path) in str(caught.value)
+
+
+async def test_a_404_under_v1_names_no_api_url(
+    server: ScriptedServer, fast_policy: RetryPolicy
+) -> None:
+    server.script(BATCH_PATH, answer(404, b"Not Found"))
+    async with client(server, fast_policy) as api:
+        with pytest.raises(NotFoundError) as caught:
+            await api.get_batch(PROJECT, BATCH)
+    assert str(caught.value).endswith("answered HTTP 404: Not Found")
+
+
 async def test_attempts_are_capped(server: ScriptedServer, sleep: RecordingSleep) -> None:
     policy = RetryPolicy(initial_backoff=0, sleep=sleep, max_attempts=3)
     server.script(BATCH_PATH, answer(503))

@@ -387,7 +387,7 @@ class ApiClient:
         response = await self._transport.get(url)
         if response.ok:
             return response
-        raise _api_error(response, self._base.origin())
+        raise _api_error(response, self._base)
 
 
 def _id(value: IdLike) -> str:
@@ -400,14 +400,17 @@ def _id(value: IdLike) -> str:
         raise ValueError(f"not a UUID: {value!r}") from None
 
 
-def _api_error(response: Response, api_origin: URL) -> ApiError:
+def _api_error(response: Response, api_url: URL) -> ApiError:
     common: dict[str, Any] = {"status": response.status, "method": "GET", "url": response.url}
     common["body"] = response.body
+    api_origin = api_url.origin()
     if response.status in (401, 403) and response.url.origin() != api_origin:
         # aiohttp drops the token on a redirect to another origin: not the token's fault.
         return RedirectedRefusalError(**common, api_origin=str(api_origin))
     if response.status in (401, 403):
         return AuthError(**common)
     if response.status == 404:
-        return NotFoundError(**common)
+        # Every path of ReSim's API starts with /v1: without it, every request is a 404.
+        without_v1 = not api_url.path.rstrip("/").endswith("/v1")
+        return NotFoundError(**common, api_url=api_url if without_v1 else "")
     return ApiStatusError(**common, retry_after=answer_retry_after(response))

@@ -71,7 +71,18 @@ class RedirectedRefusalError(ApiStatusError):
 
 
 class NotFoundError(ApiStatusError):
-    """404 from the API: a project, batch, job, report or build ID that does not exist."""
+    """404 from the API: a project, batch, job, report or build ID that does not exist, or
+    an ``apiURL`` without ReSim's ``/v1`` (``api_url`` given: the message says so)."""
+
+    def __init__(
+        self, *, status: int, method: str, url: str | URL, body: bytes, api_url: str | URL = ""
+    ) -> None:
+        super().__init__(status=status, method=method, url=url, body=body)
+        if api_url:
+            self.args = (
+                f"{self.args[0]} (apiURL should end in /v1, where ReSim serves its API; "
+                f"it is {redact_url(api_url)})",
+            )
 
 
 class ApiResponseError(ApiError):
