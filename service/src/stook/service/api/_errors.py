@@ -97,7 +97,13 @@ class NotFoundError(ApiStatusError):
     an ``apiURL`` without ReSim's ``/v1`` (``api_url`` given: the message says so)."""
 
     def __init__(
-        self, *, status: int, method: str, url: str | URL, body: bytes, api_url: str | URL = ""
+        self,
+        *,
+        status: int,
+        method: str,
+        url: str | URL,
+        body: bytes = b"",
+        api_url: str | URL = "",
     ) -> None:
         super().__init__(status=status, method=method, url=url, body=body)
         if api_url:
