@@ -32,7 +32,6 @@ from stook.service.api import (
     Job,
     OriginUnavailableError,
 )
-from stook.service.fetch._collector import fewer_collections
 from stook.service.fetch._job_extras import ExperienceTags, job_event
 from stook.service.fetch._scalars import is_scalar, read_scalars
 
@@ -110,8 +109,7 @@ class BatchFetcher:
         """
         queue = _JobQueue(room=2 * self._workers, low=self._workers)
         try:
-            with fewer_collections():
-                await self._run(queue, on_job)
+            await self._run(queue, on_job)
         except ExceptionGroup as group_error:
             # The first failure is the cause; the rest are its echoes in sibling tasks.
             raise group_error.exceptions[0] from None
