@@ -10,7 +10,7 @@ from typing import Any
 import pytest
 
 from stook.emulator import Emulator
-from stook.service.api._retry import RetryPolicy
+from stook.service.api import RetryPolicy
 from stook.service.modes._batch import BatchResult, run_batch
 from stook.service.modes._config import parse
 from stook.service.modes._inputs import BatchInputs, detect

@@ -13,7 +13,7 @@ import pytest
 
 from stook.emulator import Emulator
 from stook.sdk import MetricStatus
-from stook.service.api._retry import RetryPolicy
+from stook.service.api import RetryPolicy
 from stook.service.cli import run_cli
 from stook.service.modes._config import parse
 from stook.service.modes._inputs import ReportInputs, detect

@@ -8,7 +8,7 @@ import structlog
 from aiohttp import web
 from aiohttp.test_utils import TestServer
 
-from stook.service.api._retry import RetryPolicy
+from stook.service.api import RetryPolicy
 from tests.service.scripted_server import ScriptedServer
 
 

@@ -15,6 +15,7 @@ from aiohttp.test_utils import TestServer
 from multidict import CIMultiDict, CIMultiDictProxy
 from yarl import URL
 
+from stook.service.api import RetryPolicy
 from stook.service.api._client import ApiClient, IdLike
 from stook.service.api._errors import (
     ApiResponseError,
@@ -35,7 +36,6 @@ from stook.service.api._models import (
     Job,
     JobMetricsPage,
 )
-from stook.service.api._retry import RetryPolicy
 from stook.service.api._storage import StorageClient
 from stook.service.api._transport import HttpTransport, Response, TrafficCounts
 from tests.service.conftest import RecordingSleep

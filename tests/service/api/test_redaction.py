@@ -11,6 +11,7 @@ import structlog
 from structlog.testing import capture_logs
 from yarl import URL
 
+from stook.service.api import RetryPolicy
 from stook.service.api._client import ApiClient
 from stook.service.api._errors import (
     ApiStatusError,
@@ -21,7 +22,6 @@ from stook.service.api._errors import (
     body_excerpt,
 )
 from stook.service.api._redact import redact_text, redact_url, register_secret
-from stook.service.api._retry import RetryPolicy
 from stook.service.modes._logging import configure_logging, redact_event
 from tests.service.conftest import RecordingSleep
 from tests.service.scripted_server import ScriptedServer, answer, answer_json

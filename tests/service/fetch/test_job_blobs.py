@@ -15,8 +15,8 @@ import pytest
 from stook.proto import metrics_pb2 as pb
 from stook.sdk import MetricsWriter, MetricType, SeriesKind, data, parse_metric
 from stook.sdk.aggregations import JobEvent, JobRecord, Needs, Scalar
+from stook.service.api import RetryPolicy
 from stook.service.api._client import ApiClient
-from stook.service.api._retry import RetryPolicy
 from stook.service.fetch import BatchFetcher, InvalidDataError, decode_values
 from tests.service.scripted_server import ScriptedServer, answer, answer_json
 

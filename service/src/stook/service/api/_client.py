@@ -15,6 +15,14 @@ from typing import Any, Final, Self, TypeVar
 import msgspec
 from yarl import URL
 
+from stook.service.api._config import (
+    DEFAULT_CONCURRENCY,
+    DEFAULT_MAX_API_BODY_MB,
+    DEFAULT_PAGE_SIZE,
+    BodyCap,
+    RetryPolicy,
+    body_cap_mb,
+)
 from stook.service.api._errors import (
     ApiError,
     ApiResponseError,
@@ -51,16 +59,14 @@ from stook.service.api._models import (
 )
 from stook.service.api._paging import Listing
 from stook.service.api._redact import redact_url, register_secret
-from stook.service.api._retry import Origin, RetryPolicy, send
-from stook.service.api._storage import DEFAULT_CONCURRENCY, StorageClient, answer_retry_after
+from stook.service.api._retry import Origin, send
+from stook.service.api._storage import StorageClient, answer_retry_after
 from stook.service.api._transport import (
     USER_AGENT,
-    BodyCap,
     HttpTransport,
     Response,
     TrafficCounts,
     Transport,
-    body_cap_mb,
 )
 
 __all__ = ["ApiClient", "IdLike"]
@@ -86,11 +92,6 @@ _ANSWERS: Final = (
     Report,
     Build,
 )
-
-# The API caps pages; 100 is the largest size ReSim's own tools ask for.
-DEFAULT_PAGE_SIZE: Final = 100
-# What one API answer (a JSON page) may hold, decompressed.
-DEFAULT_MAX_API_BODY_MB: Final = 16.0
 
 
 class ApiClient:

@@ -17,13 +17,13 @@ import email.utils
 import random
 import time
 from collections.abc import Awaitable, Callable
-from dataclasses import dataclass
 from typing import Final, TypeVar
 
 import structlog
 import tenacity
 from yarl import URL
 
+from stook.service.api._config import RetryPolicy
 from stook.service.api._errors import (
     ApiStatusError,
     OriginUnavailableError,
@@ -43,35 +43,6 @@ RETRYABLE_STATUSES: Final = frozenset({429, *range(500, 600)})
 MAX_PROBE_INTERVAL: Final = 2.0  # the run resumes within 2 s of the origin answering again
 # With 64 in flight an outage closes the gate at once; a 10 % fault rate almost never does.
 TRIP_AFTER: Final = 5
-
-
-@dataclass(frozen=True, slots=True)
-class RetryPolicy:
-    """How long and how patiently to retry one request. Tests pass ``initial_backoff=0``, a
-    recording ``sleep`` and a ``clock`` that advances with it, and may cap
-    ``max_attempts``; runs are bounded by time alone."""
-
-    retry_for: float = 120.0
-    first_contact_for: float = 10.0
-    initial_backoff: float = 0.2
-    max_backoff: float = 10.0
-    max_retry_after: float = 60.0
-    request_timeout: float = 30.0
-    max_attempts: int | None = None
-    sleep: Callable[[float], Awaitable[None]] = asyncio.sleep
-    clock: Callable[[], float] = time.monotonic
-
-    def __post_init__(self) -> None:
-        for name in ("retry_for", "first_contact_for", "request_timeout"):
-            if getattr(self, name) <= 0:
-                raise ValueError(f"{name} must be positive, got {getattr(self, name)}")
-        for name in ("initial_backoff", "max_backoff"):
-            if getattr(self, name) < 0:
-                raise ValueError(f"{name} cannot be negative, got {getattr(self, name)}")
-        if self.max_attempts is not None and self.max_attempts < 1:
-            raise ValueError(f"max_attempts must be at least 1, got {self.max_attempts}")
-        if self.max_retry_after < 0:
-            raise ValueError(f"max_retry_after cannot be negative, got {self.max_retry_after}")
 
 
 def is_retryable(exc: BaseException) -> bool:
