@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-from stook.bench._checkouts import compare_checkouts, source_path
+from stook.bench._checkouts import compare_checkouts, compare_whole_processes, source_path
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -32,3 +32,12 @@ def test_a_checkout_without_stook_sources_is_refused(tmp_path: Path) -> None:
     # PYTHONPATH then finds nothing of the checkout's, and the installed stook answers.
     with pytest.raises(RuntimeError, match="imported stook from"):
         compare_checkouts([tmp_path], rounds=1, jobs=2)
+
+
+@pytest.mark.slow
+def test_whole_processes_are_timed_per_checkout_with_their_cpu() -> None:
+    result = compare_whole_processes([ROOT], rounds=2, jobs=5, latency_ms=0.0)
+    row = result[str(ROOT)]
+    assert len(row["seconds"]) == len(row["cpu_seconds"]) == 2
+    assert row["median_cpu_seconds"] > 0
+    assert row["median_seconds"] > 0

@@ -12,7 +12,6 @@ from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
-from tenacity import wait_none
 
 from stook.emulator import EmittedRow, Emulator, write_emissions_config
 from stook.sdk import (
@@ -214,7 +213,7 @@ async def test_failing_storage_downloads_are_retried(tmp_path: Path) -> None:
     toml = _toml(tmp_path)
     # Every storage request (metrics data and emissions logs) fails once, then succeeds;
     # the retries do not wait.
-    policy = RetryPolicy(backoff=wait_none(), request_timeout=5.0, max_attempts=4)
+    policy = RetryPolicy(initial_backoff=0, request_timeout=5.0, max_attempts=4)
     async with emulated_batch(
         inputs,
         jobs_per_batch=8,

@@ -8,10 +8,9 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-import tenacity
 
 from stook.emulator import Emulator
-from stook.service.api._retry import RetryPolicy
+from stook.service.api import RetryPolicy
 from stook.service.modes._batch import BatchResult, run_batch
 from stook.service.modes._config import parse
 from stook.service.modes._inputs import BatchInputs, detect
@@ -20,7 +19,7 @@ from tests.e2e.support import BATCH_TOML, assert_matches_truth, expected_from_tr
 
 JOBS = 80
 SEED = 23
-FAST = RetryPolicy(backoff=tenacity.wait_none(), request_timeout=5.0)
+FAST = RetryPolicy(initial_backoff=0, request_timeout=5.0)
 FAULTS: dict[str, Any] = {
     "fault_5xx": 0.10,
     "fault_429": 0.03,

@@ -10,11 +10,10 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-import tenacity
 
 from stook.emulator import Emulator
 from stook.sdk import MetricStatus
-from stook.service.api._retry import RetryPolicy
+from stook.service.api import RetryPolicy
 from stook.service.cli import run_cli
 from stook.service.modes._config import parse
 from stook.service.modes._inputs import ReportInputs, detect
@@ -43,7 +42,7 @@ from tests.failures import failure_lines
 
 LOC = "Mean localization error"
 DIST = "Mean distance driven"
-FAST = RetryPolicy(backoff=tenacity.wait_none(), request_timeout=5.0)
+FAST = RetryPolicy(initial_backoff=0, request_timeout=5.0)
 FAULTS: dict[str, Any] = {
     "fault_5xx": 0.10,
     "fault_429": 0.03,

@@ -7,9 +7,8 @@ import pytest
 import structlog
 from aiohttp import web
 from aiohttp.test_utils import TestServer
-from tenacity import wait_none
 
-from stook.service.api._retry import RetryPolicy
+from stook.service.api import RetryPolicy
 from tests.service.scripted_server import ScriptedServer
 
 
@@ -56,7 +55,7 @@ def sleep() -> RecordingSleep:
 def fast_policy(sleep: RecordingSleep) -> RetryPolicy:
     """The production rules (Retry-After honoured) without the waiting; as no time passes,
     six attempts stand in for the time budget."""
-    return RetryPolicy(backoff=wait_none(), sleep=sleep, request_timeout=2.0, max_attempts=6)
+    return RetryPolicy(initial_backoff=0, sleep=sleep, request_timeout=2.0, max_attempts=6)
 
 
 @pytest.fixture(autouse=True)

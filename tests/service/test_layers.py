@@ -37,6 +37,7 @@ PACKAGE = "stook.service"
 LAYERS = ["api", "fetch", "preview", "metrics_config", "modes", "cli"]
 # Within the API layer, lowest first: each may import only those before it.
 API_ORDER = [
+    "_config",
     "_redact",
     "_errors",
     "_limits",

@@ -13,9 +13,9 @@ import pytest
 from aiohttp import hdrs, web
 from aiohttp.test_utils import TestServer
 from multidict import CIMultiDict, CIMultiDictProxy
-from tenacity import wait_none
 from yarl import URL
 
+from stook.service.api import RetryPolicy
 from stook.service.api._client import ApiClient, IdLike
 from stook.service.api._errors import (
     ApiResponseError,
@@ -36,7 +36,6 @@ from stook.service.api._models import (
     Job,
     JobMetricsPage,
 )
-from stook.service.api._retry import RetryPolicy
 from stook.service.api._storage import StorageClient
 from stook.service.api._transport import HttpTransport, Response, TrafficCounts
 from tests.service.conftest import RecordingSleep
@@ -348,7 +347,7 @@ async def test_transient_statuses_are_retried(
 
 
 async def test_retry_after_is_honoured(server: ScriptedServer, sleep: RecordingSleep) -> None:
-    policy = RetryPolicy(backoff=wait_none(), sleep=sleep)
+    policy = RetryPolicy(initial_backoff=0, sleep=sleep)
     server.script(
         BATCH_PATH,
         answer(429, headers={"Retry-After": "0.01"}),
@@ -381,7 +380,7 @@ async def test_retry_after_beyond_the_cap_fails_fast(
 
 
 async def test_retry_after_really_waits(server: ScriptedServer) -> None:
-    policy = RetryPolicy(backoff=wait_none())
+    policy = RetryPolicy(initial_backoff=0)
     server.script(
         BATCH_PATH, answer(429, headers={"Retry-After": "0.1"}), answer_json(batch_json())
     )
@@ -450,7 +449,7 @@ async def test_truncated_body_is_retried(server: ScriptedServer, fast_policy: Re
 
 
 async def test_timeout_is_retried(server: ScriptedServer, sleep: RecordingSleep) -> None:
-    policy = RetryPolicy(backoff=wait_none(), sleep=sleep, request_timeout=0.1)
+    policy = RetryPolicy(initial_backoff=0, sleep=sleep, request_timeout=0.1)
     server.script(BATCH_PATH, answer(200, delay=1.0), answer_json(batch_json()))
     async with client(server, policy) as api:
         await api.get_batch(PROJECT, BATCH)
@@ -476,7 +475,7 @@ async def test_a_cookie_an_answer_sets_is_not_sent_back(
 async def test_a_timeout_takes_back_the_cancellation_it_sent(
     server: ScriptedServer, sleep: RecordingSleep
 ) -> None:
-    policy = RetryPolicy(backoff=wait_none(), sleep=sleep, request_timeout=0.1)
+    policy = RetryPolicy(initial_backoff=0, sleep=sleep, request_timeout=0.1)
     server.script(BATCH_PATH, answer(200, delay=1.0), answer_json(batch_json()))
     async with client(server, policy) as api:
         await api.get_batch(PROJECT, BATCH)
@@ -532,8 +531,31 @@ async def test_client_errors_are_not_retried(
     assert "\n" not in message
 
 
+@pytest.mark.parametrize("path", ["", "/", "/api"])
+async def test_a_404_from_an_api_url_without_v1_says_where_the_api_is(
+    server: ScriptedServer, fast_policy: RetryPolicy, path: str
+) -> None:
+    batch_path = f"{path.rstrip('/')}/projects/{PROJECT}/batches/{BATCH}"
+    server.script(batch_path, answer(404, b"Not Found"))
+    async with ApiClient(server.url(path), TOKEN, retry=fast_policy) as api:
+        with pytest.raises(NotFoundError) as caught:
+            await api.get_batch(PROJECT, BATCH)
+    assert "answered HTTP 404: Not Found (apiURL should end in /v1" in str(caught.value)
+    assert server.url(path) in str(caught.value)
+
+
+async def test_a_404_under_v1_names_no_api_url(
+    server: ScriptedServer, fast_policy: RetryPolicy
+) -> None:
+    server.script(BATCH_PATH, answer(404, b"Not Found"))
+    async with client(server, fast_policy) as api:
+        with pytest.raises(NotFoundError) as caught:
+            await api.get_batch(PROJECT, BATCH)
+    assert str(caught.value).endswith("answered HTTP 404: Not Found")
+
+
 async def test_attempts_are_capped(server: ScriptedServer, sleep: RecordingSleep) -> None:
-    policy = RetryPolicy(backoff=wait_none(), sleep=sleep, max_attempts=3)
+    policy = RetryPolicy(initial_backoff=0, sleep=sleep, max_attempts=3)
     server.script(BATCH_PATH, answer(503))
     async with client(server, policy) as api:
         with pytest.raises(RetriesExhaustedError) as caught:
@@ -549,7 +571,7 @@ async def test_attempts_are_capped(server: ScriptedServer, sleep: RecordingSleep
 async def test_exhausted_connection_failures_name_the_cause(
     server: ScriptedServer, sleep: RecordingSleep
 ) -> None:
-    policy = RetryPolicy(backoff=wait_none(), sleep=sleep, max_attempts=2)
+    policy = RetryPolicy(initial_backoff=0, sleep=sleep, max_attempts=2)
     server.script(BATCH_PATH, reset_connection())
     async with client(server, policy) as api:
         with pytest.raises(RetriesExhaustedError) as caught:
@@ -829,7 +851,7 @@ async def test_storage_404_is_not_retried(server: ScriptedServer, fast_policy: R
 async def test_storage_exhaustion_message_has_no_signature(
     server: ScriptedServer, sleep: RecordingSleep
 ) -> None:
-    policy = RetryPolicy(backoff=wait_none(), sleep=sleep, max_attempts=2)
+    policy = RetryPolicy(initial_backoff=0, sleep=sleep, max_attempts=2)
     server.script("/obj", answer(500))
     async with StorageClient(retry=policy) as storage:
         with pytest.raises(RetriesExhaustedError) as caught:

@@ -20,6 +20,7 @@ import pytest
 from aiohttp import web
 from aiohttp.test_utils import TestServer
 
+from stook.service.api import RetryPolicy, body_cap_mb
 from stook.service.api._client import ApiClient
 from stook.service.api._errors import (
     ApiResponseError,
@@ -27,9 +28,7 @@ from stook.service.api._errors import (
     BodyTooLargeError,
     RedirectedRefusalError,
 )
-from stook.service.api._retry import RetryPolicy
 from stook.service.api._storage import StorageClient
-from stook.service.api._transport import body_cap_mb
 from stook.service.cli._run import exit_code_for, explain
 from tests.failures import failure_lines
 from tests.service.scripted_server import (

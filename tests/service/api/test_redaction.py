@@ -9,9 +9,9 @@ import uuid
 import pytest
 import structlog
 from structlog.testing import capture_logs
-from tenacity import wait_none
 from yarl import URL
 
+from stook.service.api import RetryPolicy
 from stook.service.api._client import ApiClient
 from stook.service.api._errors import (
     ApiStatusError,
@@ -22,7 +22,6 @@ from stook.service.api._errors import (
     body_excerpt,
 )
 from stook.service.api._redact import redact_text, redact_url, register_secret
-from stook.service.api._retry import RetryPolicy
 from stook.service.modes._logging import configure_logging, redact_event
 from tests.service.conftest import RecordingSleep
 from tests.service.scripted_server import ScriptedServer, answer, answer_json
@@ -170,7 +169,7 @@ def test_level_filters_and_unknown_level_is_rejected() -> None:
 
 
 async def test_client_logs_carry_no_secrets(server: ScriptedServer, sleep: RecordingSleep) -> None:
-    policy = RetryPolicy(backoff=wait_none(), sleep=sleep, max_attempts=3)
+    policy = RetryPolicy(initial_backoff=0, sleep=sleep, max_attempts=3)
     server.script(BATCH_PATH, answer(503), answer_json({"batchID": str(BATCH)}))
     server.script("/obj", answer(500, f"<Error><Sig>{SIGNATURE}</Sig></Error>".encode()))
     presigned = server.url("/obj") + f"?X-Amz-Signature={SIGNATURE}"
@@ -196,7 +195,7 @@ async def test_client_logs_rendered_as_json_carry_no_secrets(
 ) -> None:
     stream = io.StringIO()
     configure_logging(json=True, level="debug", stream=stream)
-    policy = RetryPolicy(backoff=wait_none(), sleep=sleep)
+    policy = RetryPolicy(initial_backoff=0, sleep=sleep)
     server.script("/obj", answer(503), answer(200, b"ok"))
     async with ApiClient(server.base_url, TOKEN, retry=policy) as api:
         assert await api.storage.fetch_bytes(server.url("/obj") + f"?sig={SIGNATURE}") == b"ok"

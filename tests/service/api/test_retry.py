@@ -14,7 +14,6 @@ import aiohttp
 import pytest
 import yarl
 from aiohttp import web
-from tenacity import wait_none
 
 from stook.service.api import (
     ApiClient,
@@ -139,7 +138,7 @@ async def test_send_counts_and_gives_up(sleep: RecordingSleep) -> None:
         calls += 1
         raise status_error(503)
 
-    policy = RetryPolicy(backoff=wait_none(), sleep=sleep, max_attempts=4)
+    policy = RetryPolicy(initial_backoff=0, sleep=sleep, max_attempts=4)
     with pytest.raises(RetriesExhaustedError) as caught:
         await retried(always_503, policy, stats=stats)
     assert calls == 4
@@ -156,7 +155,7 @@ async def test_send_lets_permanent_errors_through(sleep: RecordingSleep) -> None
         calls += 1
         raise NotFoundError(status=404, method="GET", url=URL)
 
-    policy = RetryPolicy(backoff=wait_none(), sleep=sleep)
+    policy = RetryPolicy(initial_backoff=0, sleep=sleep)
     with pytest.raises(NotFoundError):
         await retried(not_found, policy)
     assert calls == 1
@@ -172,7 +171,7 @@ async def test_send_returns_the_value(sleep: RecordingSleep) -> None:
             raise failure
         return "done"
 
-    policy = RetryPolicy(backoff=wait_none(), sleep=sleep)
+    policy = RetryPolicy(initial_backoff=0, sleep=sleep)
     assert await retried(flaky, policy) == "done"
     assert sleep.waits == [0.0]
 
@@ -333,7 +332,7 @@ async def test_an_origin_answering_with_an_error_status_is_past_first_contact(
 async def test_an_origin_being_retried_says_so_until_its_requests_end(
     sleep: RecordingSleep,
 ) -> None:
-    policy = RetryPolicy(backoff=wait_none(), sleep=sleep, clock=sleep.now)
+    policy = RetryPolicy(initial_backoff=0, sleep=sleep, clock=sleep.now)
     origin = Origin("the API", policy, setting="apiURL")
     seen: list[tuple[int, str]] = []
 

@@ -9,11 +9,10 @@ import uuid
 import pytest
 import structlog
 
-from stook.service.api import _redact
+from stook.service.api import RetryPolicy, _redact
 from stook.service.api._client import ApiClient
 from stook.service.api._errors import AuthError
 from stook.service.api._redact import MASK, redact_text, redact_url, register_secret
-from stook.service.api._retry import RetryPolicy
 from stook.service.cli._run import explain
 from stook.service.modes._logging import configure_logging
 from tests.service.scripted_server import ScriptedServer, answer

@@ -8,7 +8,6 @@ import re
 import uuid
 
 import pytest
-from tenacity import wait_none
 
 from stook.emulator import EMISSIONS_FILE, Emulator, EmulatorConfig
 from stook.service.api import ApiClient, JobLog, LogType, RetriesExhaustedError, RetryPolicy
@@ -18,7 +17,7 @@ _SMALL = EmulatorConfig(jobs_per_batch=12, report_batches=2, report_jobs_per_bat
 
 
 def _policy(max_attempts: int = 4) -> RetryPolicy:
-    return RetryPolicy(backoff=wait_none(), request_timeout=5.0, max_attempts=max_attempts)
+    return RetryPolicy(initial_backoff=0, request_timeout=5.0, max_attempts=max_attempts)
 
 
 async def test_the_listing_reads_into_job_logs() -> None:

@@ -14,8 +14,8 @@ from structlog.testing import capture_logs
 from stook.proto import metrics_pb2 as pb
 from stook.sdk._errors import ReadError
 from stook.sdk.aggregations import Needs, Scalar
+from stook.service.api import RetryPolicy
 from stook.service.api._models import ApiMetric, decoder
-from stook.service.api._retry import RetryPolicy
 from stook.service.api._storage import StorageClient
 from stook.service.fetch._scalars import read_scalar_values, read_scalars
 from tests.service.scripted_server import ScriptedServer, answer

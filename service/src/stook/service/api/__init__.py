@@ -2,6 +2,7 @@
 higher layer."""
 
 from stook.service.api._client import ApiClient
+from stook.service.api._config import BodyCap, RetryPolicy, body_cap_mb
 from stook.service.api._errors import (
     ApiError,
     ApiResponseError,
@@ -45,9 +46,9 @@ from stook.service.api._models import (
     Report,
 )
 from stook.service.api._redact import redact_text, redact_url
-from stook.service.api._retry import Origin, RetryPolicy
+from stook.service.api._retry import Origin
 from stook.service.api._storage import StorageClient
-from stook.service.api._transport import BodyCap, Response, TrafficCounts, Transport, body_cap_mb
+from stook.service.api._transport import Response, TrafficCounts, Transport
 
 __all__ = [
     "AimdLimiter",

@@ -15,6 +15,14 @@ from typing import Any, Final, Self, TypeVar
 import msgspec
 from yarl import URL
 
+from stook.service.api._config import (
+    DEFAULT_CONCURRENCY,
+    DEFAULT_MAX_API_BODY_MB,
+    DEFAULT_PAGE_SIZE,
+    BodyCap,
+    RetryPolicy,
+    body_cap_mb,
+)
 from stook.service.api._errors import (
     ApiError,
     ApiResponseError,
@@ -51,16 +59,14 @@ from stook.service.api._models import (
 )
 from stook.service.api._paging import Listing
 from stook.service.api._redact import redact_url, register_secret
-from stook.service.api._retry import Origin, RetryPolicy, send
-from stook.service.api._storage import DEFAULT_CONCURRENCY, StorageClient, answer_retry_after
+from stook.service.api._retry import Origin, send
+from stook.service.api._storage import StorageClient, answer_retry_after
 from stook.service.api._transport import (
     USER_AGENT,
-    BodyCap,
     HttpTransport,
     Response,
     TrafficCounts,
     Transport,
-    body_cap_mb,
 )
 
 __all__ = ["ApiClient", "IdLike"]
@@ -86,11 +92,6 @@ _ANSWERS: Final = (
     Report,
     Build,
 )
-
-# The API caps pages; 100 is the largest size ReSim's own tools ask for.
-DEFAULT_PAGE_SIZE: Final = 100
-# What one API answer (a JSON page) may hold, decompressed.
-DEFAULT_MAX_API_BODY_MB: Final = 16.0
 
 
 class ApiClient:
@@ -387,7 +388,7 @@ class ApiClient:
         response = await self._transport.get(url)
         if response.ok:
             return response
-        raise _api_error(response, self._base.origin())
+        raise _api_error(response, self._base)
 
 
 def _id(value: IdLike) -> str:
@@ -400,14 +401,17 @@ def _id(value: IdLike) -> str:
         raise ValueError(f"not a UUID: {value!r}") from None
 
 
-def _api_error(response: Response, api_origin: URL) -> ApiError:
+def _api_error(response: Response, api_url: URL) -> ApiError:
     common: dict[str, Any] = {"status": response.status, "method": "GET", "url": response.url}
     common["body"] = response.body
+    api_origin = api_url.origin()
     if response.status in (401, 403) and response.url.origin() != api_origin:
         # aiohttp drops the token on a redirect to another origin: not the token's fault.
         return RedirectedRefusalError(**common, api_origin=str(api_origin))
     if response.status in (401, 403):
         return AuthError(**common)
     if response.status == 404:
-        return NotFoundError(**common)
+        # Every path of ReSim's API starts with /v1: without it, every request is a 404.
+        without_v1 = not api_url.path.rstrip("/").endswith("/v1")
+        return NotFoundError(**common, api_url=api_url if without_v1 else "")
     return ApiStatusError(**common, retry_after=answer_retry_after(response))

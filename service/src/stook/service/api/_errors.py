@@ -1,6 +1,28 @@
-"""stook's errors for the API and object storage. Every message is one line and safe to print:
-URLs and response text are redacted when the error is made, and no third-party exception
-(whose text may hold a full URL) is chained as ``__cause__``."""
+"""stook's errors for the API and object storage, the only ones this layer raises.
+
+Every message is one line and safe to print: URLs and response text are redacted when the
+error is made, and no third-party exception (whose text may hold a full URL) is chained as
+``__cause__``. The hierarchy::
+
+    StookError (stook.sdk)
+    └── ApiError ·························· the API or object storage failed
+        ├── ApiStatusError ················ the API answered an HTTP error status
+        │   ├── AuthError ················· 401 / 403: the token
+        │   ├── RedirectedRefusalError ···· 401 / 403 from where the API redirected to
+        │   └── NotFoundError ············· 404: an ID, or an apiURL without /v1
+        ├── ApiResponseError ·············· 2xx with JSON that lacks what stook needs
+        ├── StorageError ·················· a presigned object-storage URL failed
+        │   └── PresignedUrlExpiredError ·· 403 from storage: list again for a fresh URL
+        ├── TransportError ················ no complete answer (connect, reset, timeout)
+        │   └── BodyTooLargeError ········· an answer past its cap
+        ├── RetriesExhaustedError ········· transient failures for the whole budget
+        ├── OriginUnavailableError ········ every request to an origin failed: it is down
+        ├── OriginUnreachableError ········ an origin never answered: a wrong URL
+        └── RetryAfterTooLongError ········ asked to wait longer than stook waits
+
+Which exit code each ends `stook run` with is decided once, in the CLI
+(``stook.service.cli._run.exit_code_for``), not here.
+"""
 
 from __future__ import annotations
 
@@ -71,7 +93,24 @@ class RedirectedRefusalError(ApiStatusError):
 
 
 class NotFoundError(ApiStatusError):
-    """404 from the API: a project, batch, job, report or build ID that does not exist."""
+    """404 from the API: a project, batch, job, report or build ID that does not exist, or
+    an ``apiURL`` without ReSim's ``/v1`` (``api_url`` given: the message says so)."""
+
+    def __init__(
+        self,
+        *,
+        status: int,
+        method: str,
+        url: str | URL,
+        body: bytes = b"",
+        api_url: str | URL = "",
+    ) -> None:
+        super().__init__(status=status, method=method, url=url, body=body)
+        if api_url:
+            self.args = (
+                f"{self.args[0]} (apiURL should end in /v1, where ReSim serves its API; "
+                f"it is {redact_url(api_url)})",
+            )
 
 
 class ApiResponseError(ApiError):

@@ -14,16 +14,16 @@ from __future__ import annotations
 
 import asyncio
 import email.utils
-import sys
+import random
 import time
 from collections.abc import Awaitable, Callable
-from dataclasses import dataclass
 from typing import Final, TypeVar
 
 import structlog
 import tenacity
 from yarl import URL
 
+from stook.service.api._config import RetryPolicy
 from stook.service.api._errors import (
     ApiStatusError,
     OriginUnavailableError,
@@ -43,33 +43,6 @@ RETRYABLE_STATUSES: Final = frozenset({429, *range(500, 600)})
 MAX_PROBE_INTERVAL: Final = 2.0  # the run resumes within 2 s of the origin answering again
 # With 64 in flight an outage closes the gate at once; a 10 % fault rate almost never does.
 TRIP_AFTER: Final = 5
-
-
-@dataclass(frozen=True, slots=True)
-class RetryPolicy:
-    """How long and how patiently to retry one request. Tests pass ``backoff`` (e.g.
-    ``tenacity.wait_none()``), a recording ``sleep`` and a ``clock`` that advances with it,
-    and may cap ``max_attempts``; runs are bounded by time alone."""
-
-    retry_for: float = 120.0
-    first_contact_for: float = 10.0
-    initial_backoff: float = 0.2
-    max_backoff: float = 10.0
-    max_retry_after: float = 60.0
-    request_timeout: float = 30.0
-    max_attempts: int | None = None
-    backoff: tenacity.wait.wait_base | None = None
-    sleep: Callable[[float], Awaitable[None]] = asyncio.sleep
-    clock: Callable[[], float] = time.monotonic
-
-    def __post_init__(self) -> None:
-        for name in ("retry_for", "first_contact_for", "request_timeout"):
-            if getattr(self, name) <= 0:
-                raise ValueError(f"{name} must be positive, got {getattr(self, name)}")
-        if self.max_attempts is not None and self.max_attempts < 1:
-            raise ValueError(f"max_attempts must be at least 1, got {self.max_attempts}")
-        if self.max_retry_after < 0:
-            raise ValueError(f"max_retry_after cannot be negative, got {self.max_retry_after}")
 
 
 def is_retryable(exc: BaseException) -> bool:
@@ -124,9 +97,6 @@ class Origin:
         self, label: str, policy: RetryPolicy, *, setting: str, trip_after: int = TRIP_AFTER
     ) -> None:
         self.label, self.policy, self.setting = label, policy, setting
-        self.backoff = policy.backoff or tenacity.wait_random_exponential(
-            multiplier=policy.initial_backoff, max=policy.max_backoff
-        )
         self.answered = False  # ever: after that, failures are outages, not a wrong URL
         self.retrying = 0  # requests between attempts now
         self.url = ""  # scheme://host[:port] of the last failure
@@ -212,10 +182,16 @@ class Origin:
             label=self.label, origin=url.origin(), setting=self.setting, reason=reason
         )
 
+    def backoff(self, attempt: int) -> float:
+        """The pause after failed attempt number `attempt` (from 1): full jitter, drawn
+        from 0 up to ``initial_backoff`` doubled per attempt, at most ``max_backoff``
+        (tenacity's ``wait_random_exponential``, for the gate's probes too)."""
+        policy = self.policy
+        ceiling = policy.initial_backoff * 2.0 ** min(attempt - 1, 64)
+        return random.uniform(0.0, min(ceiling, policy.max_backoff))
+
     def _close_for(self, attempt: int, retry_after: float | None) -> float:
-        state = tenacity.RetryCallState(tenacity.Retrying(), None, (), {})
-        state.attempt_number = attempt
-        wait = max(min(self.backoff(state), MAX_PROBE_INTERVAL), retry_after or 0.0)
+        wait = max(min(self.backoff(attempt), MAX_PROBE_INTERVAL), retry_after or 0.0)
         self._until = self.policy.clock() + wait
         return wait
 
@@ -225,22 +201,64 @@ class Origin:
 
 
 class _Request:
-    """One request's retries once it failed: tenacity's state, its budget, what ends it."""
+    """One request's attempts: what the origin learns from each, its budget, what ends it.
+    Its retries run through tenacity's `AsyncRetrying`, with these methods as its `stop`,
+    `wait` and `before_sleep`."""
 
-    def __init__(self, origin: Origin, url: URL, stats: TrafficCounts, started: float) -> None:
+    __slots__ = ("counted", "error", "last", "origin", "policy", "sent", "started", "stats", "url")
+
+    def __init__(self, origin: Origin, url: URL, stats: TrafficCounts) -> None:
         self.origin, self.policy, self.url, self.stats = origin, origin.policy, url, stats
-        self.started = started
-        self.tenacity = tenacity.Retrying(
+        self.started = origin.policy.clock()
+        self.last: BaseException | None = None
+        self.error: Exception | None = None  # what ends it, once tenacity stops
+        self.counted = False  # in origin.retrying
+        self.sent = 0  # attempts that left (a wait at the gate that timed out is none)
+
+    async def attempt(self, attempt: Callable[[], Awaitable[_T]]) -> _T:
+        """One attempt, through the origin's gate; what it says is noted on the origin."""
+        origin = self.origin
+        probe = False
+        if not origin.is_open:
+            probe = await origin.enter(self.deadline())
+        sent_in = origin.closures
+        self.sent += 1
+        try:
+            result = await attempt()
+        except Exception as exc:  # a cancellation is no failure: it ends the request
+            self.failed(exc, sent_in, probe)
+            raise
+        finally:
+            if probe:
+                origin.probe_finished()
+        origin.answer(sent_in)
+        return result
+
+    async def retry(self, attempt: Callable[[], Awaitable[_T]], failure: Exception) -> _T:
+        """Retry after `failure` (tenacity's first attempt) until an answer, a failure that
+        is not retried (raised unchanged) or the end of the budget."""
+        retrying = tenacity.AsyncRetrying(
             stop=self.stop,
             wait=self.wait,
             retry=tenacity.retry_if_exception(is_retryable),
             before_sleep=self.before_sleep,
+            sleep=self.policy.sleep,
         )
-        self.tenacity.begin()
-        self.state = tenacity.RetryCallState(self.tenacity, fn=None, args=(), kwargs={})
-        self.last: BaseException | None = None
-        self.error: Exception | None = None  # what ends it, once tenacity stops
-        self.counted = False  # in origin.retrying
+        first: Exception | None = failure
+        try:
+            async for state in retrying:
+                with state:
+                    if first is not None:
+                        failed, first = first, None
+                        raise failed
+                    return await self.attempt(attempt)
+        except tenacity.RetryError:
+            assert self.error is not None  # set by `stop`, which ended the retries
+            raise self.error from None
+        finally:
+            if self.counted:
+                self.origin.retrying -= 1
+        raise AssertionError("tenacity ended its loop without an outcome")  # never reached
 
     def first_contact(self) -> bool:
         """The origin never answered and this request failed to connect: the short budget."""
@@ -298,7 +316,9 @@ class _Request:
         retry_after = _retry_after(self.last)
         if retry_after is not None:
             return min(retry_after, self.policy.max_retry_after, left)
-        return min(self.origin.backoff(state), left) if self.origin.is_open else 0.0
+        if not self.origin.is_open:
+            return 0.0
+        return min(self.origin.backoff(state.attempt_number), left)
 
     def before_sleep(self, state: tenacity.RetryCallState) -> None:
         reason = describe_failure(self.last) if self.last is not None else "unknown"
@@ -340,43 +360,15 @@ async def send(
     """Await ``attempt()`` until it succeeds, fails for good (raised unchanged), or its budget
     is spent (:class:`OriginUnavailableError` while the gate is closed, else
     :class:`OriginUnreachableError` or :class:`RetriesExhaustedError`)."""
-    # tenacity decides after each failure: AsyncRetrying's loop on tenacity's synchronous
-    # core, without the coroutines it wraps around every step (80 µs a request).
-    policy = origin.policy
-    started = policy.clock()
-    request: _Request | None = None  # made with the first failure
+    request = _Request(origin, url, stats)
     try:
-        while True:
-            probe = False
-            if not origin.is_open:
-                deadline = request.deadline() if request else started + policy.retry_for
-                probe = await origin.enter(deadline)
-            sent_in = origin.closures
-            try:
-                result = await attempt()
-            except Exception as exc:  # a cancellation is no failure: it ends the request
-                request = request or _Request(origin, url, stats, started)
-                request.failed(exc, sent_in, probe)
-                request.state.set_exception(sys.exc_info())  # type: ignore[arg-type]
-            else:
-                origin.answer(sent_in)
-                return result
-            finally:
-                if probe:
-                    origin.probe_finished()
-            # Raises the failure when it is not retried, RetryError when retries stop.
-            do = request.tenacity.iter(request.state)
-            assert isinstance(do, tenacity.DoSleep)
-            request.state.prepare_for_next_attempt()
-            await policy.sleep(do)
+        try:
+            # Most requests succeed at once: tenacity is entered with the first failure.
+            return await request.attempt(attempt)
+        except Exception as failure:
+            if not is_retryable(failure):
+                raise
+            return await request.retry(attempt, failure)
     except _GateTimeoutError:
-        request = request or _Request(origin, url, stats, started)
-        sent = request.state.attempt_number - 1 if request.last else 0  # the last one was not
-        raise request.exhausted(sent, budget_spent=True) from None
-    except tenacity.RetryError:
-        assert request is not None
-        assert request.error is not None
-        raise request.error from None
-    finally:
-        if request is not None and request.counted:
-            origin.retrying -= 1
+        # The budget ran out at the gate: the attempt that waited there was never sent.
+        raise request.exhausted(request.sent, budget_spent=True) from None

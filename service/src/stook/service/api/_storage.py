@@ -8,29 +8,30 @@ from typing import Final, Self
 
 from yarl import URL
 
+from stook.service.api._config import (
+    DEFAULT_CONCURRENCY,
+    DEFAULT_MAX_BODY_MB,
+    BodyCap,
+    RetryPolicy,
+    body_cap_mb,
+)
 from stook.service.api._errors import PresignedUrlExpiredError, StorageError
 from stook.service.api._limits import ConcurrencyLimit
 from stook.service.api._redact import redact_url
 from stook.service.api._retry import (
     RETRYABLE_STATUSES,
     Origin,
-    RetryPolicy,
     parse_retry_after,
     send,
 )
 from stook.service.api._transport import (
     USER_AGENT,
-    BodyCap,
     HttpTransport,
     Response,
     TrafficCounts,
     Transport,
-    body_cap_mb,
 )
 
-DEFAULT_CONCURRENCY: Final = 64
-# What one download may hold, decompressed: generous for metrics data, a stop for a bomb.
-DEFAULT_MAX_BODY_MB: Final = 256.0
 _REDIRECT_STATUSES: Final = frozenset({301, 302, 303, 307, 308})
 _MAX_REDIRECTS: Final = 5
 _ERROR_CODE: Final = re.compile(rb"<Code>\s*([A-Za-z0-9_.-]{1,64})\s*</Code>")

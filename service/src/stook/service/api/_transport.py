@@ -19,6 +19,7 @@ from aiohttp import hdrs
 from multidict import CIMultiDictProxy
 from yarl import URL
 
+from stook.service.api._config import BodyCap
 from stook.service.api._errors import BodyTooLargeError, FailureKind, TransportError
 from stook.service.api._limits import ConcurrencyLimit, FixedLimit
 from stook.service.api._redact import redact_text, redact_url
@@ -27,23 +28,6 @@ _log = structlog.get_logger("stook.service.http")
 
 USER_AGENT: Final = "stook/0.1 (+aiohttp)"
 _NO_BODY_STATUSES: Final = frozenset({204, 304})
-
-
-@dataclass(frozen=True, slots=True)
-class BodyCap:
-    """The most bytes one answer's body may hold once decompressed, and the setting for it."""
-
-    max_bytes: int
-    setting: str  # named in the error, so the reader knows what to raise
-
-    def __post_init__(self) -> None:
-        if self.max_bytes < 1:
-            raise ValueError(f"a body cap must be at least 1 byte, got {self.max_bytes}")
-
-
-def body_cap_mb(megabytes: float, setting: str) -> BodyCap:
-    """The cap of a ``[fetch]`` setting given in megabytes (MiB)."""
-    return BodyCap(max(1, int(megabytes * 2**20)), f"[fetch] {setting}")
 
 
 @dataclass(frozen=True, slots=True)

@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING
 
 from stook.service.cli import _help, _signals
 from stook.service.cli._emulate_flags import add_emulate_flags
+from stook.service.cli._process import ProcessEnd
 from stook.service.cli._signals import Interrupted
 
 if TYPE_CHECKING:
@@ -296,6 +297,10 @@ _ADD_ARGUMENTS: dict[str, Callable[[argparse.ArgumentParser], None]] = {
 
 def main(argv: Sequence[str] | None = None) -> None:
     _signals.install()  # first: a signal from here on ends in one line, imports included
+    # The console script skips the interpreter's teardown once the command is done
+    # and collects less meanwhile (stook.service.cli._process); a call with arguments
+    # leaves its process as it found it.
+    end = ProcessEnd() if argv is None else None
     voice: Voice | None = None
     try:
         voice = Voice(argv)
@@ -305,6 +310,8 @@ def main(argv: Sequence[str] | None = None) -> None:
         code = (voice or Voice(argv)).interrupted(stop)
     except BrokenPipeError:
         code = _reader_went_away()
+    if end is not None:
+        end.code = code
     sys.exit(code)
 
 

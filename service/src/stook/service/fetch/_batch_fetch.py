@@ -35,7 +35,6 @@ from stook.service.api import (
     JobEventListing,
     OriginUnavailableError,
 )
-from stook.service.fetch._collector import fewer_collections
 from stook.service.fetch._emissions import JobEmissions, fetch_emissions_log, workers_for
 from stook.service.fetch._scalars import is_scalar, read_scalars
 
@@ -125,8 +124,7 @@ class BatchFetcher:
         """
         queue: _JobQueue[_Listed] = _JobQueue(room=2 * self._workers, low=self._workers)
         try:
-            with fewer_collections():
-                await self._run(queue, on_job)
+            await self._run(queue, on_job)
         except ExceptionGroup as group_error:
             # The first failure is the cause; the rest are its echoes in sibling tasks.
             raise group_error.exceptions[0] from None

@@ -52,7 +52,6 @@ from stook.service.api import (
     Report,
 )
 from stook.service.fetch._batch_fetch import MissingJob
-from stook.service.fetch._collector import fewer_collections
 from stook.service.fetch._emissions import workers_for
 from stook.service.fetch._errors import ReportNotFoundError
 from stook.service.fetch._presigned import fetch_listed
@@ -170,10 +169,6 @@ class ReportFetcher:
         return report, batches
 
     async def run(self, on_batch: Callable[[BatchRecord], None]) -> ReportOutcome:
-        with fewer_collections():  # see fetch/_collector.py
-            return await self._run(on_batch)
-
-    async def _run(self, on_batch: Callable[[BatchRecord], None]) -> ReportOutcome:
         # A shard of the report (batches found elsewhere) is given them; a whole run finds them.
         report, batches = self._given or await self.find_batches()
         self.outcome.report = report
