@@ -121,17 +121,25 @@ def test_hostile_queries_are_refused_by_check_and_eval(
 
         emissions = emit_job(where / "job", config, make_job(0))
         out = where / "out"
-        code = run_cli(
-            ["metrics-config", "eval", str(config), "--emissions", str(emissions),
-             "--level", "test", "--outputs", str(out)]
-        )  # fmt: skip
-        assert code != 0, query
-        captured = capsys.readouterr()
-        assert SECRET not in captured.err + captured.out
-        assert (
-            not (out / "metrics.binproto").exists()
-            or SECRET.encode() not in (out / "metrics.binproto").read_bytes()
-        )
+        # Refused, the metric is written as an error (exit 0); with --strict, exit 4 and
+        # nothing written. Either way no byte of what it would read is shown.
+        for strict in ([], ["--strict"]):
+            code = run_cli(
+                ["metrics-config", "eval", str(config), "--emissions", str(emissions),
+                 "--level", "test", "--output", str(out), *strict]
+            )  # fmt: skip
+            # (A query sqlglot cannot even parse, `glob(...)`, makes the config itself
+            # bad: exit 2 before anything runs.)
+            assert code in ((4 if strict else 0), 2), query
+            captured = capsys.readouterr()
+            assert SECRET not in captured.err + captured.out
+            assert "refused" in captured.err or "does not parse" in captured.err, captured.err
+            written = out / "metrics.binproto"
+            if strict or code == 2:
+                assert not written.exists()
+            else:
+                assert SECRET.encode() not in written.read_bytes()
+                written.unlink()
     assert requests == []
     assert not (secret_file.parent / "out.csv").exists()
     assert not (secret_file.parent / "x.db").exists()

@@ -256,12 +256,15 @@ def _cast(node: exp.Cast) -> exp.Expr:
 
 def _bracket(node: exp.Bracket) -> exp.Expr:
     """x[i] (not element_at, whose NULL past the end is DuckDB's too) raises past the
-    ends. sqlglot holds the index 0-based."""
+    ends. sqlglot holds an index it knows to be an integer 0-based, any other as written:
+    its own offset rule (the one its generator applies) gives the 1-based index."""
     from sqlglot import exp
 
     if node.args.get("safe") or len(node.expressions) != 1:
         return node
-    index = exp.Add(this=node.expressions[0].copy(), expression=exp.Literal.number(1))
+    (index,) = exp.apply_index_offset(
+        node.this.copy(), [node.expressions[0].copy()], 1, dialect="duckdb"
+    )
     return _call("trino_subscript", node.this.copy(), index, node.copy())
 
 
