@@ -342,20 +342,25 @@ class ConfigMetrics:
 
 def _day_range(config: MetricsConfig, chosen: str | None, source: str) -> int | None:
     """The days a report's dashboard metrics cover: the `day_range` of the dashboards that
-    show `chosen` (without a set: of every dashboard); None when none gives one. Two
-    different ranges are refused before the first request: which one the report stands
-    for cannot be told."""
+    show `chosen` (without a set: of every dashboard); None when none gives one (every
+    batch of the report counts). Two different ranges are refused before the first
+    request: which one the report stands for cannot be told."""
     shown = [d for d in config.dashboards.values() if chosen is None or d.metrics_set == chosen]
-    ranges = sorted({(d.day_range, d.name) for d in shown if d.day_range is not None})
-    if len({days for days, _ in ranges}) > 1:
-        named = ", ".join(f"{name!r} ({days} days)" for days, name in ranges)
+    ranged = sorted((d.day_range, d.name, d.metrics_set) for d in shown if d.day_range is not None)
+    if len({days for days, _, _ in ranged}) > 1:
+        named = " and ".join(f"{name!r} ({days} days)" for days, name, _ in ranged)
         which = f"metrics set {chosen!r}" if chosen is not None else "the dashboard metrics"
-        hint = "" if chosen is not None else "; name one with [metrics_config] metrics_set"
+        sets = {metrics_set for _, _, metrics_set in ranged}
+        hint = (
+            "; name one's metrics set with [metrics_config] metrics_set"
+            if chosen is None and len(sets) == len(ranged)
+            else ""
+        )
         raise ConfigError(
             f"{source}: [metrics_config]: dashboards {named} show {which} over different "
-            f"day ranges{hint}"
+            f"day ranges, so which one the report stands for cannot be told{hint}"
         )
-    return ranges[0][0] if ranges else None
+    return ranged[0][0] if ranged else None
 
 
 async def _all_jobs(api: ApiClient, project_id: uuid.UUID, batch_id: uuid.UUID) -> list[Job]:
