@@ -315,3 +315,34 @@ async def test_dashboards_of_one_set_over_different_day_ranges_are_refused_at_on
         "(90 days) show the dashboard metrics over different day ranges, so which one the "
         "report stands for cannot be told"
     )
+
+
+@pytest.mark.slow
+async def test_a_sharded_batch_takes_the_batchs_set_and_custom_fields_as_a_local_run(
+    tmp_path: Path,
+) -> None:
+    from stook.service.modes import EngineSettings
+
+    written: list[bytes] = []
+    for engine in (EngineSettings(), EngineSettings("processes", workers=2, shards=3)):
+        folder = tmp_path / engine.kind
+        toml = _toml(
+            folder,
+            CONFIG.replace(
+                "      - Job outcomes\n",
+                "      - Job outcomes\n      - Lighting per experience\n",
+                1,
+            ),
+        )
+        async with emulated_batch(
+            folder / "inputs", jobs_per_batch=12, experiences=5, seed=3, metrics_set_name="nightly"
+        ) as emu:
+            result = await run_batch(
+                _batch(folder / "inputs"), load(toml), folder / "out", engine=engine
+            )
+            assert emu.stats.endpoints["api:get_experience"] == 5
+        names = set(by_name(read_output(result.output)))
+        assert "Lighting per experience" in names
+        assert "Total distance driven" not in names
+        written.append(result.output.read_bytes())
+    assert written[0] == written[1]
