@@ -13,6 +13,7 @@ import pytest
 from resim.sdk.client.models import (
     Batch,
     Build,
+    Experience,
     ListBatchesOutput,
     ListBatchMetricsDataOutput,
     ListBatchMetricsOutput,
@@ -140,6 +141,7 @@ async def test_api_requests_need_the_bearer_token(raw: Raw, headers: dict[str, s
         "/reports/{unknown}",
         "/builds/{unknown}",
         "/experiences/{unknown}/experienceTags",
+        "/experiences/{unknown}",
     ],
 )
 async def test_unknown_ids_are_404_with_a_json_body(raw: Raw, path: str) -> None:
@@ -374,6 +376,34 @@ async def test_every_answer_parses_with_resims_models(raw: Raw) -> None:
     assert [t.name for t in tags.experience_tags] == [t.name for t in experience.tags]
     for t in tags.experience_tags:
         _no_unknown_keys(t)
+    _, body = await raw.get(f"/experiences/{experience.id}", params={"includeCustomFields": "true"})
+    parsed = Experience.from_dict(body)
+    _no_unknown_keys(parsed)
+    assert parsed.name == experience.name
+    assert [(f.name, f.type_.value, f.values) for f in parsed.custom_fields] == [
+        (f.name, f.type, list(f.values)) for f in experience.custom_fields
+    ]
+    assert {f.type_.value for f in parsed.custom_fields} == {"text", "number", "timestamp", "json"}
+
+
+async def test_a_missing_experience_is_404_while_its_jobs_name_it() -> None:
+    config = EmulatorConfig(jobs_per_batch=4, experiences=4, missing_experiences=(1,))
+    async with Emulator(config) as emu, aiohttp.ClientSession() as session:
+        raw = Raw(emu, session)
+        gone = emu.dataset.experiences[1]
+        assert any(j.experience.id == gone.id for j in emu.dataset.jobs(emu.batch_id))
+        for path in (f"/experiences/{gone.id}", f"/experiences/{gone.id}/experienceTags"):
+            status, body = await raw.get(path)
+            assert (status, body["code"]) == (404, 404)
+        status, _ = await raw.get(f"/experiences/{emu.dataset.experiences[0].id}")
+        assert status == 200
+
+
+async def test_batches_carry_the_configured_metrics_set_name() -> None:
+    config = EmulatorConfig(jobs_per_batch=2, metrics_set_name="nightly")
+    async with Emulator(config) as emu, aiohttp.ClientSession() as session:
+        _, body = await Raw(emu, session).get(f"/batches/{emu.batch_id}")
+    assert Batch.from_dict(body).metrics_set_name == "nightly"
 
 
 # ---- determinism and inputs ----

@@ -24,6 +24,12 @@ from resim.sdk.client.models import (
     Build as ResimBuild,
 )
 from resim.sdk.client.models import (
+    CustomFieldDefinition as ResimCustomField,
+)
+from resim.sdk.client.models import (
+    Experience as ResimExperience,
+)
+from resim.sdk.client.models import (
     Job as ResimJob,
 )
 from resim.sdk.client.models import (
@@ -41,6 +47,9 @@ from resim.sdk.client.models.conflated_batch_status import (
 )
 from resim.sdk.client.models.conflated_job_status import (
     ConflatedJobStatus as ResimConflatedJobStatus,
+)
+from resim.sdk.client.models.custom_field_value_type import (
+    CustomFieldValueType as ResimCustomFieldType,
 )
 from resim.sdk.client.models.job_status import JobStatus as ResimJobStatus
 from resim.sdk.client.models.metric_status import MetricStatus as ResimMetricStatus
@@ -60,6 +69,9 @@ from stook.service.api._models import (
     Build,
     ConflatedBatchStatus,
     ConflatedJobStatus,
+    CustomField,
+    CustomFieldType,
+    Experience,
     Job,
     JobLog,
     JobStatus,
@@ -100,6 +112,7 @@ def as_wire(resim_model: Any) -> dict[str, Any]:
         (ApiMetricStatus, ResimMetricStatus),
         (ApiMetricType, ResimMetricType),
         (MetricsDataStorageType, ResimMetricsDataType),
+        (CustomFieldType, ResimCustomFieldType),
     ],
 )
 def test_enums_match_resim(ours: Any, theirs: Any) -> None:
@@ -307,6 +320,81 @@ def test_build_from_resim_json() -> None:
     assert decode(Build, wire) == Build(
         build_id=IDS[0], name="nightly", version="1.2.3", creation_timestamp=NOW
     )
+
+
+def test_batch_metrics_set_name_is_read_and_null_or_empty_is_none() -> None:
+    wire = {"batchID": str(IDS[0])}
+    assert decode(Batch, wire).metrics_set_name is None
+    for absent in (None, ""):
+        assert decode(Batch, {**wire, "metricsSetName": absent}).metrics_set_name is None
+    assert decode(Batch, {**wire, "metricsSetName": "nightly"}).metrics_set_name == "nightly"
+
+
+def test_experience_from_resim_json() -> None:
+    wire = as_wire(
+        ResimExperience(
+            experience_id=str(IDS[0]),
+            project_id=str(IDS[1]),
+            name="left turn",
+            description="a left turn at dusk",
+            location="s3://bucket/e",
+            locations=["s3://bucket/e"],
+            container_timeout_seconds=3600,
+            profile="",
+            environment_variables=[],
+            creation_timestamp=NOW,
+            update_timestamp=NOW,
+            update_user_id="u",
+            user_id="u",
+            org_id="o",
+            archived=False,
+            cache_exempt=False,
+            custom_fields=[
+                ResimCustomField("Lighting", ["dusk"], ResimCustomFieldType.TEXT),
+                ResimCustomField("Sensors", ["lidar", "camera"], ResimCustomFieldType.TEXT),
+                ResimCustomField("Speed limit", ["30"], ResimCustomFieldType.NUMBER),
+            ],
+        )
+    )
+    experience = decode(Experience, wire)
+    assert experience == Experience(
+        experience_id=IDS[0],
+        name="left turn",
+        description="a left turn at dusk",
+        custom_fields=(
+            CustomField("Lighting", ("dusk",), "text"),
+            CustomField("Sensors", ("lidar", "camera"), "text"),
+            CustomField("Speed limit", ("30",), "number"),
+        ),
+        creation_timestamp=NOW,
+    )
+    assert experience.fields[1].texts == ("lidar", "camera")
+
+
+@pytest.mark.parametrize(
+    ("custom_fields", "read"),
+    [
+        ({}, ()),  # left out (a listing without includeCustomFields)
+        ({"customFields": None}, ()),  # a Go client's nil list
+        ({"customFields": []}, ()),
+        (
+            {"customFields": [{"name": "k", "values": None, "type": "text"}]},
+            (CustomField("k", None, "text"),),
+        ),
+        ({"customFields": [{"name": "k"}]}, (CustomField("k"),)),
+        (
+            {"customFields": [{"name": "Where", "values": ["52.1,4.3"], "type": "geopoint"}]},
+            (CustomField("Where", ("52.1,4.3",), "geopoint"),),  # a type not listed yet
+        ),
+        ({"customFields": [{"values": ["x"], "type": ""}]}, (CustomField("", ("x",)),)),
+    ],
+)
+def test_experience_custom_fields_the_spec_allows_are_read(
+    custom_fields: dict[str, Any], read: tuple[CustomField, ...]
+) -> None:
+    experience = decode(Experience, {"experienceID": str(IDS[0]), **custom_fields})
+    assert experience.fields == read
+    assert all(isinstance(f.texts, tuple) for f in experience.fields)
 
 
 def test_timestamps_with_nanoseconds_and_offsets() -> None:

@@ -42,6 +42,7 @@ from stook.service.api._models import (
     Branch,
     BranchesPage,
     Build,
+    Experience,
     ExperienceTag,
     ExperienceTagsPage,
     Job,
@@ -91,6 +92,7 @@ _ANSWERS: Final = (
     Batch,
     Report,
     Build,
+    Experience,
 )
 
 
@@ -279,6 +281,13 @@ class ApiClient:
         """The tags of one experience."""
         path = f"/projects/{_id(project_id)}/experiences/{_id(experience_id)}/experienceTags"
         return self.paginate(path, ExperienceTagsPage)
+
+    async def get_experience(self, project_id: IdLike, experience_id: IdLike) -> Experience:
+        """One experience with its custom fields. The spec's `getExperience` answer requires
+        `customFields`, and its listings leave them out unless `includeCustomFields` is true:
+        the flag is sent here too, so that the answer has them either way."""
+        path = f"/projects/{_id(project_id)}/experiences/{_id(experience_id)}"
+        return await self._get(self._url(path, {"includeCustomFields": "true"}), Experience)
 
     async def get_batch(self, project_id: IdLike, batch_id: IdLike) -> Batch:
         return await self._get(

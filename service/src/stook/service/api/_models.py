@@ -42,8 +42,11 @@ __all__ = [
     "Build",
     "ConflatedBatchStatus",
     "ConflatedJobStatus",
+    "CustomField",
+    "CustomFieldType",
     "EventTimestampType",
     "ExecutionStep",
+    "Experience",
     "ExperienceTag",
     "ExperienceTagsPage",
     "Job",
@@ -178,6 +181,16 @@ class ExecutionStep(enum.StrEnum):
     METRICS = "METRICS"
     BATCH_METRICS = "BATCH_METRICS"
     REPORT = "REPORT"
+
+
+class CustomFieldType(enum.StrEnum):
+    """The spec's `customFieldValueType`: how an experience's custom field's values (text,
+    whatever the type) are meant."""
+
+    TEXT = "text"
+    NUMBER = "number"
+    TIMESTAMP = "timestamp"
+    JSON = "json"
 
 
 class MetricOwner(enum.StrEnum):
@@ -400,6 +413,8 @@ class Batch(_Model, frozen=True):
     total_jobs: int | None = msgspec.field(default=None, name="totalJobs")
     friendly_name: str | None = msgspec.field(default=None, name="friendlyName")
     creation_timestamp: Timestamp | None = msgspec.field(default=None, name="creationTimestamp")
+    # The metrics set the batch was launched with (nullable in the spec): None for none.
+    metrics_set_name: str | None = msgspec.field(default=None, name="metricsSetName")
 
     _blank: ClassVar[dict[str, object]] = {
         "status": None,
@@ -407,6 +422,7 @@ class Batch(_Model, frozen=True):
         "batch_metrics_status": None,
         "jobs_metrics_status": None,
         "friendly_name": None,
+        "metrics_set_name": None,
     }
 
 
@@ -459,6 +475,43 @@ class JobEventListing(_Model, frozen=True):
         "status": ApiMetricStatus.NO_STATUS_REPORTED,
         "timestamp_type": None,
     }
+
+
+class CustomField(_Model, frozen=True):
+    """One custom field of an experience (the spec's `customFieldDefinition`): its name,
+    its values, always text (a number as "32", a timestamp as ISO 8601, JSON as its text),
+    and its type. The spec requires all three; as elsewhere, a missing name reads as "",
+    missing or null values (a Go client's nil list) as none, a missing type as None, and a
+    type the spec does not list (yet) is its raw string (`CustomFieldType`: the known ones)."""
+
+    name: str = ""
+    values: tuple[str, ...] | None = None
+    type: str | None = None
+
+    _blank: ClassVar[dict[str, object]] = {"type": None}
+
+    @property
+    def texts(self) -> tuple[str, ...]:
+        """The field's values, in the API's order (none when it gave none)."""
+        return self.values or ()
+
+
+class Experience(_Model, frozen=True):
+    """An experience (a test's input), as ``GET .../experiences/{experienceID}`` answers it;
+    stook reads its name and its custom fields. Only its ID is required, as with the other
+    objects: missing (or null) ``customFields`` read as none."""
+
+    experience_id: uuid.UUID = msgspec.field(name="experienceID")
+    name: str = ""
+    description: str = ""
+    archived: bool = False
+    custom_fields: tuple[CustomField, ...] | None = msgspec.field(default=None, name="customFields")
+    creation_timestamp: Timestamp | None = msgspec.field(default=None, name="creationTimestamp")
+
+    @property
+    def fields(self) -> tuple[CustomField, ...]:
+        """Its custom fields, in the API's order (none when it gave none)."""
+        return self.custom_fields or ()
 
 
 class ExperienceTag(_Model, frozen=True):

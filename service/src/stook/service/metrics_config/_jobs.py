@@ -19,7 +19,8 @@ class JobMeta:
     """What a mode (or a job.json) knows about one job. IDs are text (UUIDs as str).
 
     The experience's custom fields are two parallel lists, as in the platform's
-    `metadata` table (`custom_field_values[array_position(custom_field_keys, 'k')]`);
+    `metadata` table (`custom_field_values[array_position(custom_field_keys, 'k')]`): one
+    pair per value, so a field of several values repeats its key;
     `build_creation_timestamp` is UTC (a naive datetime is taken as UTC)."""
 
     job_id: str
@@ -85,9 +86,6 @@ def _custom_fields_problem(keys: tuple[str, ...], values: tuple[str, ...]) -> st
             f"{len(keys)} custom_field_keys but {len(values)} custom_field_values "
             "(one value per key)"
         )
-    twice = sorted({k for k in keys if keys.count(k) > 1})
-    if twice:
-        return f"custom field key {twice[0]!r} is given twice"
     return None
 
 

@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import asyncio
+import dataclasses
 import difflib
-from collections.abc import Callable
+import uuid
+from collections.abc import Awaitable, Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -99,6 +101,9 @@ async def run_batch(
     rows: JobRows | None
     if engine.kind == "local":
         fetch = _LocalFetch(inputs, config, needs, aggregations.comparison, config_metrics)
+        run = dataclasses.replace(
+            run, then=_batch_set_chooser(config_metrics, lambda: fetch.rows, inputs.batch_id)
+        )
         try:
             outcome, traffic = await fold_here(run, fetch.fetcher)
         finally:
@@ -109,6 +114,9 @@ async def run_batch(
         from stook.service.modes._engine import BatchPlan, fold_sharded
 
         plan = BatchPlan(inputs, config, aggregations.comparison, config_metrics)
+        run = dataclasses.replace(
+            run, then=_batch_set_chooser(config_metrics, lambda: plan.rows, inputs.batch_id)
+        )
         outcome, traffic = await fold_sharded(run, plan, engine, config.file)
         rows = plan.rows
 
@@ -138,6 +146,24 @@ async def run_batch(
         counts={"jobs": outcome.jobs_listed, "jobs_missing": len(outcome.missing)},
         seconds=asyncio.get_running_loop().time() - started,
     )
+
+
+def _batch_set_chooser(
+    config_metrics: ConfigMetrics | None,
+    rows_of: Callable[[], JobRows | None],
+    batch_id: uuid.UUID,
+) -> Callable[[ApiClient, FetchOutcome], Awaitable[None]] | None:
+    """What the run does once its fetch is done, on its client: with config metrics and
+    no `[metrics_config] metrics_set`, take the batch's own set (ConfigMetrics)."""
+    if config_metrics is None:
+        return None
+
+    async def choose(_api: ApiClient, _outcome: FetchOutcome) -> None:
+        rows = rows_of()
+        if config_metrics is not None and rows is not None:
+            await config_metrics.choose_batch_set(rows, batch_id)
+
+    return choose
 
 
 class _LocalFetch:

@@ -29,11 +29,19 @@ jobs and downloads their emissions logs after the report's fetch, on the same cl
 using the batches that fetch found. A config (or `metrics_set`) without dashboard metrics
 downloads no log at all, in either mode.
 
+Batch mode evaluates the metrics set stook.toml names, else the one the batch was
+launched with (its `metricsSetName`), else every batch metric; a batch's set that the
+config lacks is exit 2 (`ConfigMetrics.choose_batch_set`, after the fetch, on its client).
+Report mode counts only the batches within the dashboard's `day_range` (days back from
+the report's end; `ConfigMetrics.day_range`).
+
 Each job's metadata row is filled from what the mode knows: the job (IDs, experience,
-statuses), its batch (name, branch), the batch's build (`build_version`) and the
-experience's tags, each looked up once a run. Jobs are added in listing order (batches
-oldest first), whatever order their downloads finish in, so that the same inputs give
-the same bytes.
+statuses), its batch (name, branch), the batch's build (`build_version`,
+`build_creation_timestamp`) and the experience (its tags and custom fields), each
+looked up once a run, on the run's client. An experience the API no longer has (404)
+gives its jobs no tags and no custom fields, said once. Jobs are added in listing order
+(batches oldest first), whatever order their downloads finish in, so that the same
+inputs give the same bytes.
 """
 
 from __future__ import annotations
@@ -44,13 +52,13 @@ import time
 import uuid
 from collections.abc import Awaitable, Callable, Hashable, Mapping, Sequence
 from dataclasses import dataclass
-from datetime import UTC, datetime
+from datetime import UTC, datetime, timedelta
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Literal, TypeVar
 
 import structlog
 
-from stook.service.api import ApiClient, Batch, Job
+from stook.service.api import ApiClient, Batch, Build, Job, NotFoundError
 from stook.service.fetch import JobEmissions, fetch_emissions
 from stook.service.modes._config import StookConfig
 from stook.service.modes._errors import ConfigError
@@ -201,6 +209,10 @@ class ConfigMetrics:
     metrics_set: str | None
     level: Level
     strict: bool = False
+    # Report mode: how many days back from the report's end its dashboard covers (None:
+    # every batch of the report).
+    day_range: int | None = None
+    source: str = "stook.toml"
 
     @classmethod
     def load(cls, config: StookConfig, level: Level) -> ConfigMetrics | None:
@@ -223,7 +235,8 @@ class ConfigMetrics:
                 f"{config.source}: [metrics_config] metrics_set {chosen!r} is not a metrics "
                 f"set of the config (known: {known})"
             )
-        return cls(loaded, chosen, level, settings.strict)
+        days = _day_range(loaded, chosen, config.source) if level == "dashboard" else None
+        return cls(loaded, chosen, level, settings.strict, days, config.source)
 
     @property
     def wanted(self) -> bool:
@@ -232,7 +245,27 @@ class ConfigMetrics:
 
     def rows(self, api: ApiClient, project_id: uuid.UUID) -> JobRows:
         """Where the run's jobs' emissions go, on the run's client (its lookups too)."""
-        return JobRows(self.config, api, project_id)
+        return JobRows(self.config, api, project_id, metrics_set=self.metrics_set)
+
+    async def choose_batch_set(self, rows: JobRows, batch_id: uuid.UUID) -> None:
+        """Batch mode, once its fetch is done: without `[metrics_config] metrics_set`, the
+        set the batch was launched with (its `metricsSetName`; the batch as the rows
+        looked it up, else asked for once). A set the config lacks is ConfigError."""
+        if self.metrics_set is not None:
+            return
+        batch = await rows.batch(batch_id)
+        chosen = batch.metrics_set_name
+        if chosen is None:
+            return
+        if chosen not in self.config.metrics_sets:
+            known = ", ".join(sorted(self.config.metrics_sets)) or "none"
+            raise ConfigError(
+                f"batch {batch_id} was launched with metrics set {chosen!r}, which the "
+                f"config of {self.source} [metrics_config] lacks (known: {known}); name "
+                "one with [metrics_config] metrics_set"
+            )
+        log.info("config metrics: the batch's own metrics set", metrics_set=chosen)
+        rows.metrics_set = chosen
 
     def write(self, rows: JobRows | None, writer: MetricsWriter) -> None:
         """Evaluate the level's metrics over the rows into `writer` (none: nothing)."""
@@ -246,7 +279,7 @@ class ConfigMetrics:
             rows.emissions.tables(),
             writer,
             level=self.level,
-            metrics_set=self.metrics_set,
+            metrics_set=rows.metrics_set,
             strict=self.strict,
         )
         _say_failures(result)
@@ -262,10 +295,28 @@ class ConfigMetrics:
         )
 
     async def fetch_report_rows(
-        self, api: ApiClient, project_id: uuid.UUID, batches: Sequence[Batch]
+        self,
+        api: ApiClient,
+        project_id: uuid.UUID,
+        batches: Sequence[Batch],
+        end: datetime | None = None,
     ) -> JobRows:
         """Report mode: every job of the report's `batches` (as its fetch found them) with
-        its emissions, listed and downloaded on `api`."""
+        its emissions, listed and downloaded on `api`; with a `day_range`, only those of
+        the batches created within that many days before `end` (the report's end)."""
+        if self.day_range is not None and end is not None:
+            since = end - timedelta(days=self.day_range)
+            kept = [
+                b for b in batches if b.creation_timestamp is None or b.creation_timestamp >= since
+            ]
+            log.info(
+                "config metrics: the dashboard's day range",
+                day_range=self.day_range,
+                since=since.isoformat(),
+                batches=len(kept),
+                left_out=len(batches) - len(kept),
+            )
+            batches = kept
         # Oldest first (the API lists newest first); by ID among equal times.
         ordered = sorted(batches, key=lambda b: (b.creation_timestamp or _NEVER, str(b.batch_id)))
         listings = await asyncio.gather(
@@ -287,6 +338,29 @@ class ConfigMetrics:
         finally:
             await rows.aclose()
         return rows
+
+
+def _day_range(config: MetricsConfig, chosen: str | None, source: str) -> int | None:
+    """The days a report's dashboard metrics cover: the `day_range` of the dashboards that
+    show `chosen` (without a set: of every dashboard); None when none gives one (every
+    batch of the report counts). Two different ranges are refused before the first
+    request: which one the report stands for cannot be told."""
+    shown = [d for d in config.dashboards.values() if chosen is None or d.metrics_set == chosen]
+    ranged = sorted((d.day_range, d.name, d.metrics_set) for d in shown if d.day_range is not None)
+    if len({days for days, _, _ in ranged}) > 1:
+        named = " and ".join(f"{name!r} ({days} days)" for days, name, _ in ranged)
+        which = f"metrics set {chosen!r}" if chosen is not None else "the dashboard metrics"
+        sets = {metrics_set for _, _, metrics_set in ranged}
+        hint = (
+            "; name one's metrics set with [metrics_config] metrics_set"
+            if chosen is None and len(sets) == len(ranged)
+            else ""
+        )
+        raise ConfigError(
+            f"{source}: [metrics_config]: dashboards {named} show {which} over different "
+            f"day ranges, so which one the report stands for cannot be told{hint}"
+        )
+    return ranged[0][0] if ranged else None
 
 
 async def _all_jobs(api: ApiClient, project_id: uuid.UUID, batch_id: uuid.UUID) -> list[Job]:
@@ -333,22 +407,34 @@ class JobRows:
     (after a job that could not be fetched: a missing job) is added in order then.
     """
 
-    def __init__(self, config: MetricsConfig, api: ApiClient, project_id: uuid.UUID) -> None:
+    def __init__(
+        self,
+        config: MetricsConfig,
+        api: ApiClient,
+        project_id: uuid.UUID,
+        *,
+        metrics_set: str | None = None,
+    ) -> None:
         from stook.service.metrics_config import EmissionsSet
 
         self.emissions: EmissionsSet = EmissionsSet(config)
         self.jobs = 0
         self.with_log = 0
+        self.metrics_set = metrics_set  # what the evaluation runs (None: the whole level)
         self._api = api
         self._project_id = project_id
         self._waiting: dict[int, tuple[JobMeta, bytes | None, str]] = {}
         self._next = 0
-        self._batches, self._versions, self._tags, self._branches = (_Once() for _ in range(4))
+        self._batches, self._builds, self._experiences, self._branches = (_Once() for _ in range(4))
+
+    async def batch(self, batch_id: uuid.UUID) -> Batch:
+        """The batch, asked for once a run."""
+        return await self._batches.get(batch_id, self._get_batch)
 
     async def add(self, emitted: JobEmissions, *, batch: Batch | None = None) -> None:
         """One job's emissions; `batch`: its batch as listed (else it is asked for once)."""
         if batch is None:
-            batch = await self._batches.get(emitted.batch_id, self._get_batch)
+            batch = await self.batch(emitted.batch_id)
         meta = await self._meta(batch, emitted.job)
         name = f"job {emitted.job.job_id} emissions log"
         self._waiting[emitted.index] = (meta, emitted.payload, name)
@@ -360,7 +446,7 @@ class JobRows:
         """Add what is still waiting, in listing order; stop the lookups still running."""
         for index in sorted(self._waiting):
             self._add(*self._waiting.pop(index))
-        for once in (self._batches, self._versions, self._tags, self._branches):
+        for once in (self._batches, self._builds, self._experiences, self._branches):
             await once.aclose()
 
     def _add(self, meta: JobMeta, payload: bytes | None, name: str) -> None:
@@ -371,12 +457,39 @@ class JobRows:
     async def _get_batch(self, batch_id: uuid.UUID) -> Batch:
         return await self._api.get_batch(self._project_id, batch_id)
 
-    async def _version(self, build_id: uuid.UUID) -> str | None:
-        return (await self._api.get_build(self._project_id, build_id)).version
+    async def _build(self, build_id: uuid.UUID) -> Build:
+        return await self._api.get_build(self._project_id, build_id)
 
-    async def _tag_names(self, experience_id: uuid.UUID) -> tuple[str, ...]:
-        found = self._api.list_experience_tags(self._project_id, experience_id)
-        return tuple(sorted([tag.name async for tag in found]))
+    async def _experience(self, experience_id: uuid.UUID) -> _ExperienceFacts:
+        """The experience's tags and custom fields: both asked for at once."""
+        project_id = self._project_id
+
+        async def tag_names() -> tuple[str, ...]:
+            found = self._api.list_experience_tags(project_id, experience_id)
+            return tuple(sorted([tag.name async for tag in found]))
+
+        listing = asyncio.create_task(tag_names())  # side by side with the experience
+        try:
+            experience = await self._api.get_experience(project_id, experience_id)
+        except BaseException as exc:
+            listing.cancel()
+            await asyncio.gather(listing, return_exceptions=True)
+            if not isinstance(exc, NotFoundError):
+                raise
+            # The jobs still have their rows, without what only the experience knew.
+            log.warning(
+                "experience not found; its jobs' metadata rows have no tags and no custom fields",
+                experience_id=str(experience_id),
+            )
+            return _ExperienceFacts()
+        tags = await listing
+        keys: list[str] = []
+        values: list[str] = []
+        for custom in experience.fields:
+            for value in custom.texts:  # one pair per value: a field of several repeats its key
+                keys.append(custom.name)
+                values.append(value)
+        return _ExperienceFacts(tags, tuple(keys), tuple(values))
 
     async def _branch_names(self, _: None) -> dict[uuid.UUID, str]:
         return {b.branch_id: b.name async for b in self._api.list_branches(self._project_id)}
@@ -385,13 +498,13 @@ class JobRows:
         from stook.service.metrics_config import JobMeta
 
         build_id = job.build_id or batch.build_id
-        version = None if build_id is None else await self._versions.get(build_id, self._version)
+        build = None if build_id is None else await self._builds.get(build_id, self._build)
         branch = None
         if batch.branch_id is not None:
             branch = (await self._branches.get(None, self._branch_names)).get(batch.branch_id)
-        tags: tuple[str, ...] = ()
+        facts = _ExperienceFacts()
         if job.experience_id:
-            tags = await self._tags.get(job.experience_id, self._tag_names)
+            facts = await self._experiences.get(job.experience_id, self._experience)
         return JobMeta(
             job_id=str(job.job_id),
             batch_id=str(batch.batch_id),
@@ -399,14 +512,36 @@ class JobRows:
             experience_id=_text(job.experience_id),
             experience_name=job.experience_name,
             build_id=_text(build_id),
-            build_version=version,
+            build_version=None if build is None else build.version,
             batch_name=batch.friendly_name,
             job_status=_text(job.job_status),
             job_conflated_status=_text(job.conflated_status),
             branch=branch,
-            tags=tags,
+            tags=facts.tags,
+            custom_field_keys=facts.custom_field_keys,
+            custom_field_values=facts.custom_field_values,
+            build_creation_timestamp=None
+            if build is None
+            else _naive_utc(build.creation_timestamp),
         )
+
+
+@dataclass(frozen=True, slots=True)
+class _ExperienceFacts:
+    """What a job's metadata row holds of its experience."""
+
+    tags: tuple[str, ...] = ()
+    custom_field_keys: tuple[str, ...] = ()
+    custom_field_values: tuple[str, ...] = ()
 
 
 def _text(value: object) -> str | None:
     return None if value is None else str(value)
+
+
+def _naive_utc(moment: datetime | None) -> datetime | None:
+    """A time as the metadata column holds it: UTC, without a zone."""
+    if moment is None:
+        return None
+    utc = moment.astimezone(UTC)
+    return datetime(utc.year, utc.month, utc.day, utc.hour, utc.minute, utc.second, utc.microsecond)

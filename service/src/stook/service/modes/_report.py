@@ -174,8 +174,12 @@ class _DashboardRows:
 
     async def fetch(self, api: ApiClient, outcome: ReportOutcome) -> None:
         log.info("config metrics: fetching the report's jobs' emissions logs")
+        report = outcome.report
         self.rows = await self._config_metrics.fetch_report_rows(
-            api, self._inputs.access.project_id, outcome.found_batches
+            api,
+            self._inputs.access.project_id,
+            outcome.found_batches,
+            end=None if report is None else report.end_timestamp,
         )
 
 

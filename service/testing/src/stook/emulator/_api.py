@@ -34,7 +34,7 @@ from stook.emulator._search import SearchError, parse_search
 from stook.emulator._state import EmulatorState
 from stook.emulator._storage import BUCKET
 from stook.emulator._store import MetricsOutput
-from stook.emulator._world import BatchKind
+from stook.emulator._world import BatchKind, Experience
 
 API_PREFIX = "/v1"
 # Job listing pages kept serialized (about 120 KB each at 100 jobs): a report lists each
@@ -110,6 +110,9 @@ def build_api_app(state: EmulatorState) -> web.Application:
     )
     app.router.add_get(f"{p}/reports/{{report_id}}", routes.get_report, name="get_report")
     app.router.add_get(f"{p}/builds/{{build_id}}", routes.get_build, name="get_build")
+    app.router.add_get(
+        f"{p}/experiences/{{experience_id}}", routes.get_experience, name="get_experience"
+    )
     app.router.add_get(
         f"{p}/experiences/{{experience_id}}/experienceTags",
         routes.list_experience_tags,
@@ -444,11 +447,21 @@ class _ApiRoutes:
             raise ApiError(404, f"build {request.match_info['build_id']} not found")
         return json_response(self.quirks.other(_json.build(self.ds, build)))
 
-    async def list_experience_tags(self, request: web.Request) -> web.Response:
+    def _experience(self, request: web.Request) -> Experience:
         self._project(request)
         experience = self.ds.experience(_uuid_arg(request, "experience_id"))
-        if experience is None:
+        if experience is None or experience.index in self.state.config.missing_experiences:
             raise ApiError(404, f"experience {request.match_info['experience_id']} not found")
+        return experience
+
+    async def get_experience(self, request: web.Request) -> web.Response:
+        # The spec's answer requires customFields, so they are always there;
+        # `includeCustomFields` (the listings' flag) changes nothing here.
+        experience = self._experience(request)
+        return json_response(self.quirks.other(_json.experience(self.ds, experience)))
+
+    async def list_experience_tags(self, request: web.Request) -> web.Response:
+        experience = self._experience(request)
         items, token, _ = self._page(
             request, list(experience.tags), f"experience-tags:{experience.id}"
         )

@@ -81,6 +81,11 @@ class EmulatorConfig:
     # in report_batches_without_summary have none, as if written by another build.
     batch_summaries: str = "off"
     report_batches_without_summary: tuple[int, ...] = ()
+    # The metrics set every batch was launched with (its `metricsSetName`; None: none).
+    metrics_set_name: str | None = None
+    # Indices of experiences the API no longer has: their GET and tag listing answer 404
+    # (their jobs still name them), as after an experience was deleted.
+    missing_experiences: tuple[int, ...] = ()
 
     # ---- answers the API spec allows (see _quirks.py) ----
     # Everything at once that changes no correct client's output: empty fields left out,
@@ -181,6 +186,7 @@ class EmulatorConfig:
             "report_unstable_experiences",
             "baseline_regressed_experiences",
             "report_batches_without_summary",
+            "missing_experiences",
         ):
             indices = getattr(self, name)
             if any(isinstance(i, bool) or not isinstance(i, int) or i < 0 for i in indices):

@@ -10,7 +10,15 @@ from typing import Any
 
 from stook.emulator._dataset import Dataset
 from stook.emulator._store import StoredData, StoredEvent, StoredMetric
-from stook.emulator._world import BatchSpec, Build, ExperienceTag, JobSpec, ReportSpec
+from stook.emulator._world import (
+    BASE_TIME,
+    BatchSpec,
+    Build,
+    Experience,
+    ExperienceTag,
+    JobSpec,
+    ReportSpec,
+)
 
 Json = dict[str, Any]
 
@@ -113,7 +121,7 @@ def batch(ds: Dataset, b: BatchSpec) -> Json:
         "testSuiteID": str(b.test_suite_id),
         "testSuiteRevision": b.test_suite_revision,
         "metricsBuildID": str(ds.metrics_build_id),
-        "metricsSetName": None,
+        "metricsSetName": ds.config.metrics_set_name,
         "status": b.status,
         "conflatedStatus": batch_conflated,
         "batchMetricsStatus": batch_status or "NO_STATUS_REPORTED",
@@ -183,6 +191,32 @@ def build(ds: Dataset, b: Build) -> Json:
         "userID": _id(ds.user_id),
         "updateUserID": _id(ds.user_id),
         "orgID": ds.org_id,
+    }
+
+
+def experience(ds: Dataset, e: Experience) -> Json:
+    """An experience, with its custom fields (the spec's `experience` requires them)."""
+    created = BASE_TIME - timedelta(days=120)
+    return {
+        "experienceID": str(e.id),
+        "projectID": _id(ds.project_id),
+        "name": e.name,
+        "description": f"Emulated scenario {e.name}",
+        "location": f"s3://emulated-resim/experiences/{e.index}/",
+        "locations": [f"s3://emulated-resim/experiences/{e.index}/"],
+        "containerTimeoutSeconds": 3600,
+        "profile": "",
+        "environmentVariables": [],
+        "creationTimestamp": timestamp(created),
+        "updateTimestamp": timestamp(created),
+        "updateUserID": _id(ds.user_id),
+        "userID": _id(ds.user_id),
+        "orgID": ds.org_id,
+        "archived": False,
+        "cacheExempt": False,
+        "customFields": [
+            {"name": f.name, "values": list(f.values), "type": f.type} for f in e.custom_fields
+        ],
     }
 
 

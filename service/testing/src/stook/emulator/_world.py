@@ -61,6 +61,15 @@ class ExperienceTag:
 
 
 @dataclass(frozen=True, slots=True)
+class CustomField:
+    """An experience's custom field as the API gives it: values are text whatever the type."""
+
+    name: str
+    type: str  # text, number, timestamp or json
+    values: tuple[str, ...]
+
+
+@dataclass(frozen=True, slots=True)
 class Experience:
     id: uuid.UUID
     index: int
@@ -68,6 +77,24 @@ class Experience:
     tags: tuple[ExperienceTag, ...]
     failure_rate: float  # chance of WARNING or BLOCKER at the first report batch
     drift: float  # change of that chance across the report's batches
+    custom_fields: tuple[CustomField, ...] = ()
+
+
+def custom_fields(index: int) -> tuple[CustomField, ...]:
+    """Experience `index`'s custom fields, from its index alone (no draw of the seeded
+    generators, so every other value of the world stays as it was): one of each type the
+    spec lists, one field of two values, and every fifth experience without any."""
+    if index % 5 == 4:
+        return ()
+    surveyed = BASE_TIME - timedelta(days=30 + index)
+    sensors = ("lidar", "camera") if index % 2 == 0 else ("camera",)
+    return (
+        CustomField("Lighting", "text", (("noon", "dusk", "night")[index % 3],)),
+        CustomField("Speed limit", "number", (str(30 + 10 * (index % 4)),)),
+        CustomField("Sensors", "text", sensors),
+        CustomField("Surveyed", "timestamp", (surveyed.isoformat().replace("+00:00", "Z"),)),
+        CustomField("Road", "json", (f'{{"lanes": {1 + index % 3}}}',)),
+    )
 
 
 @dataclass(frozen=True, slots=True)
@@ -180,7 +207,13 @@ class World:
         flaky = rng.random() < 0.15
         failure = rng.uniform(0.25, 0.5) if flaky else rng.uniform(0.02, 0.2)
         return Experience(
-            self._id(f"experience:{i}"), i, name, tags, failure, rng.uniform(-0.15, 0.3)
+            self._id(f"experience:{i}"),
+            i,
+            name,
+            tags,
+            failure,
+            rng.uniform(-0.15, 0.3),
+            custom_fields(i),
         )
 
     def _build(self, key: str, version: str, branch_id: uuid.UUID, created: datetime) -> uuid.UUID:
