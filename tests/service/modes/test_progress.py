@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import io
 import re
 
@@ -9,7 +10,13 @@ import pytest
 from structlog.testing import capture_logs
 
 from stook.service.modes import ConfigError, Tally, for_stream, human_bytes
-from stook.service.modes._progress import LogProgress, NoProgress, Snapshot, TerminalProgress
+from stook.service.modes._progress import (
+    SPARE_COLUMNS,
+    LogProgress,
+    NoProgress,
+    Snapshot,
+    TerminalProgress,
+)
 
 
 class FakeClock:
@@ -172,3 +179,84 @@ def test_tally_remembers_the_last_snapshot() -> None:
     tally.update(Snapshot(jobs_done=5, jobs_listed=9, jobs_total=20))
     assert (tally.done, tally.listed, tally.last.total) == (5, 9, 20)
     tally.close()
+
+
+def _drawn_lines(width: int, *snapshots: Snapshot, monkeypatch: pytest.MonkeyPatch) -> list[str]:
+    """Each line of each drawing of the bar on a terminal `width` columns wide."""
+    monkeypatch.setenv("COLUMNS", str(width))
+    stream, clock = io.StringIO(), FakeClock()
+    bar = TerminalProgress(stream, force_terminal=True, clock=clock)
+    for snapshot in snapshots:
+        clock.now += 5.0
+        bar.update(snapshot)
+    bar.close()
+    text = _plain(stream.getvalue()).replace("\r", "\n")
+    lines = [line for line in text.split("\n") if line.strip()]
+    # The last drawing is drawn again as the bar closes, in the same place.
+    return lines[: -2 if snapshots[-1].batches_done is not None else -1]
+
+
+# A long run at its busiest: five-digit counts, retries, an origin being retried.
+_BUSY = (
+    Snapshot(jobs_done=0, jobs_listed=100, jobs_total=12_000, requests=0, retries=0),
+    Snapshot(jobs_done=5_204, jobs_listed=6_000, jobs_total=12_000, requests=15_000, retries=1),
+    Snapshot(
+        jobs_done=10_950,
+        jobs_listed=12_000,
+        jobs_total=12_000,
+        requests=31_000,
+        retries=1_234,
+        retrying="the API at https://api.resim.ai/v1: HTTP 503: Service Unavailable",
+    ),
+)
+
+
+@pytest.mark.parametrize("width", [80, 60, 40, 24])
+def test_no_line_of_the_bar_wraps_or_fills_the_last_columns(
+    monkeypatch: pytest.MonkeyPatch, width: int
+) -> None:
+    report = [
+        dataclasses.replace(s, batches_done=i * 6, batches_total=14) for i, s in enumerate(_BUSY)
+    ]
+    for snapshots in (_BUSY, report):
+        lines = _drawn_lines(width, *snapshots, monkeypatch=monkeypatch)
+        assert len(lines) == len(snapshots) * (2 if snapshots is report else 1)
+        for line in lines:
+            # Two columns free at the end: where a terminal echoes Ctrl-C as "^C".
+            assert len(line) <= width - SPARE_COLUMNS, line
+            assert re.match(r"\s*(jobs|batches) ", line), line  # a whole line, not a fragment
+            assert re.search(r"\d/[\d,]+", line), line  # the count always stays
+
+
+def test_at_80_columns_the_rate_eta_and_retries_stay(monkeypatch: pytest.MonkeyPatch) -> None:
+    first, second, third = _drawn_lines(80, *_BUSY, monkeypatch=monkeypatch)
+    assert re.fullmatch(r"jobs ━+ +0/12,000 +0%  \? jobs/s  ETA -:--:--  0 req/s  0 retries", first)
+    # The request rate goes first; the bar, the rate and the ETA stay.
+    assert re.fullmatch(
+        r"jobs [━╸╺]+  5,204/12,000  43%  1,040\.8 jobs/s  ETA 0:00:06  1 retry", second
+    ), second
+    # While an origin is retried, that is said before the bar's rate, cut to fit.
+    assert re.fullmatch(
+        r"jobs [━╸╺]+ 10,950/12,000  91%  ETA 0:00:00  retrying the API at h\S*…", third
+    ), third
+
+
+def test_at_40_columns_the_count_percentage_and_eta(monkeypatch: pytest.MonkeyPatch) -> None:
+    lines = _drawn_lines(40, *_BUSY, monkeypatch=monkeypatch)
+    assert lines[1] == "jobs  5,204/12,000  43%  ETA 0:00:06"
+    assert lines[2] == "jobs 10,950/12,000  91%  ETA 0:00:00"  # no room for the origin
+    report = [
+        dataclasses.replace(s, batches_done=i * 6, batches_total=14) for i, s in enumerate(_BUSY)
+    ]
+    *_, batches, jobs = _drawn_lines(40, *report, monkeypatch=monkeypatch)
+    assert batches == "batches 12/14  86%  ETA 0:00:01"
+    assert jobs.startswith("   jobs 10,950/12,000  91%")  # aligned under "batches"
+
+
+def test_however_narrow_the_label_and_the_count_stay(monkeypatch: pytest.MonkeyPatch) -> None:
+    *_, last = _drawn_lines(20, *_BUSY, monkeypatch=monkeypatch)
+    assert last == "jobs 10,950/12,000"
+    # Wide: everything, the bar filling what the rest leaves, the origin in full.
+    *_, last = _drawn_lines(200, *_BUSY, monkeypatch=monkeypatch)
+    assert len(last) == 200 - SPARE_COLUMNS
+    assert last.endswith("1,234 retries  retrying " + _BUSY[-1].retrying)
