@@ -57,7 +57,7 @@ def test_a_batch_on_a_terminal_shows_a_bar_with_the_apis_total(tmp_path: Path) -
     assert "req/s" in screen
     assert "retries" in screen
     assert "retrying request" not in screen
-    assert re.search(r"batch metrics written .*received='[\d.]+ [kM]B'", screen), screen
+    assert re.search(r"wrote \S+metrics.binproto: \d+ metrics from 120 jobs in ", screen), screen
 
 
 @pytest.mark.slow

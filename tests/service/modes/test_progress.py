@@ -233,23 +233,23 @@ def test_at_80_columns_the_rate_eta_and_retries_stay(monkeypatch: pytest.MonkeyP
     assert re.fullmatch(r"jobs ━+ +0/12,000 +0%  \? jobs/s  ETA -:--:--  0 req/s  0 retries", first)
     # The request rate goes first; the bar, the rate and the ETA stay.
     assert re.fullmatch(
-        r"jobs [━╸╺]+  5,204/12,000  43%  1,040\.8 jobs/s  ETA 0:00:06  1 retry", second
+        r"jobs [━╸╺]+  5,204/12,000  43%  1,040\.8 jobs/s  ETA 0:00:07  1 retry", second
     ), second
     # While an origin is retried, that is said before the bar's rate, cut to fit.
     assert re.fullmatch(
-        r"jobs [━╸╺]+ 10,950/12,000  91%  ETA 0:00:00  retrying the API at h\S*…", third
+        r"jobs [━╸╺]+ 10,950/12,000  91%  ETA 0:00:01  retrying the API at h\S*…", third
     ), third
 
 
 def test_at_40_columns_the_count_percentage_and_eta(monkeypatch: pytest.MonkeyPatch) -> None:
     lines = _drawn_lines(40, *_BUSY, monkeypatch=monkeypatch)
-    assert lines[1] == "jobs  5,204/12,000  43%  ETA 0:00:06"
-    assert lines[2] == "jobs 10,950/12,000  91%  ETA 0:00:00"  # no room for the origin
+    assert lines[1] == "jobs  5,204/12,000  43%  ETA 0:00:07"
+    assert lines[2] == "jobs 10,950/12,000  91%  ETA 0:00:01"  # no room for the origin
     report = [
         dataclasses.replace(s, batches_done=i * 6, batches_total=14) for i, s in enumerate(_BUSY)
     ]
     *_, batches, jobs = _drawn_lines(40, *report, monkeypatch=monkeypatch)
-    assert batches == "batches 12/14  86%  ETA 0:00:01"
+    assert batches == "batches 12/14  86%  ETA 0:00:02"
     assert jobs.startswith("   jobs 10,950/12,000  91%")  # aligned under "batches"
 
 

@@ -23,6 +23,7 @@ if TYPE_CHECKING:
     from collections.abc import Callable, Sequence
     from typing import Any
 
+    from stook.service.cli._run import Written
     from stook.service.modes import Tally
 
 
@@ -329,8 +330,9 @@ def _reader_went_away() -> int:
 
 
 class Voice:
-    """Says how a failed command ended, exactly once: one JSON event when logging JSON
-    lines, one `stook: …` line otherwise. Thread-safe, for the signal watchdog."""
+    """Says how a command ended, exactly once: one JSON event when logging JSON lines, one
+    line for a person otherwise (`stook: …` for a failure). Thread-safe, for the signal
+    watchdog."""
 
     def __init__(self, argv: Sequence[str] | None = None) -> None:
         import threading
@@ -350,6 +352,7 @@ class Voice:
         self.configure_logging: Callable[[], None] | None = None
         """Set when logging is set up on first use (`show`, `validate`), not up front."""
         self.progress: Tally | None = None
+        self.says_info = True  # False under --log-level warning or error
         self._lock = threading.Lock()
         self._said = False
 
@@ -367,6 +370,17 @@ class Voice:
         message = explain(error)
         self._say("stook failed", f"error: {message}", shown, error=message, exit_code=int(code))
         return int(code)
+
+    def finished(self, written: Written) -> None:
+        """`stook run` wrote its output: its summary event, or a line for a person."""
+        with self._lock:
+            if self._said:
+                return
+            self._said = True
+        if self.json:
+            written.log()
+        elif self.says_info:
+            print(written.line(), file=sys.stderr, flush=True)
 
     def interrupted(self, stop: Interrupted) -> int:
         counts: dict[str, Any] = {}
@@ -463,6 +477,7 @@ def _run_cli(argv: Sequence[str] | None, voice: Voice) -> int:
 
         json_logs = _json_logs(args.command, args.log_format)
         configure_logging(json=json_logs, level=args.log_level)
+        voice.says_info = args.log_level in ("debug", "info")
     else:
         # Commands without logging flags still log to stderr, never onto their stdout.
         json_logs = _json_logs(args.command, os.environ.get("STOOK_LOG_FORMAT", "auto"))
@@ -527,7 +542,8 @@ def _dispatch(args: argparse.Namespace, voice: Voice) -> int:
             )
             voice.progress = Tally(for_stream(label="jobs"))
             loop_factory = event_loop_factory()  # before the run: a bad choice is exit 2
-            _signals.run(run(options, progress=voice.progress), loop_factory=loop_factory)
+            main = run(options, progress=voice.progress, say=voice.finished)
+            _signals.run(main, loop_factory=loop_factory)
             return 0
         case "demo":
             from pathlib import Path

@@ -19,6 +19,7 @@ last failure, while requests are being retried.
 
 from __future__ import annotations
 
+import math
 import os
 import sys
 import time
@@ -202,12 +203,12 @@ def fit_line(line: _Line, width: int, *, label_width: int = 0) -> Fitted:
 
 
 def _eta(done: int, total: int | None, rate: float | None) -> str:
-    """rich's format: ``0:00:30``, or ``-:--:--`` while there is no estimate."""
+    """rich's format, whole seconds up: ``0:00:30``, or ``-:--:--`` without an estimate."""
     if total is not None and done >= total:
         return "0:00:00"
     if total is None or not rate:
         return "-:--:--"
-    return str(timedelta(seconds=int((total - done) / rate)))
+    return str(timedelta(seconds=math.ceil((total - done) / rate)))
 
 
 def _counts(done: int, total: int | None, unit: str, rate: float | None) -> list[_Part]:
