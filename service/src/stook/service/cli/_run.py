@@ -4,8 +4,9 @@ Exit codes (also in docs/cli.md):
   0  metrics.binproto written
   1  an unexpected error, or the user's own test-metrics function raised
   2  bad usage, config or inputs (malformed JSON, missing key, non-UUID ID, bad TOML,
-     a metric or data name in the config that no job has, a misspelt config file name),
-     or an outputs folder that cannot be written (checked before the first request)
+     a misspelt config file name), or an outputs folder that cannot be written (checked
+     before the first request); a metric or data name in the config that no job has
+     (a close one after the first 100 jobs, modes/_batch.py; any other after the batch)
   3  the API or storage failed for [fetch] retry_for or asked to wait longer than
      stook waits, refused the token, too many jobs stayed unavailable, or the
      [fetch] deadline was reached; an answer over its cap; a listing that does not end
