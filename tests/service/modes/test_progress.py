@@ -9,12 +9,12 @@ import re
 import pytest
 from structlog.testing import capture_logs
 
-from stook.service.modes import ConfigError, Tally, for_stream, human_bytes
+from stook.service.modes import ConfigError, RecordingProgress, for_stream, human_bytes
 from stook.service.modes._progress import (
     SPARE_COLUMNS,
+    FetchProgress,
     LogProgress,
     NoProgress,
-    Snapshot,
     TerminalProgress,
 )
 
@@ -40,13 +40,13 @@ def test_human_bytes(count: int, text: str) -> None:
 
 
 def test_the_total_is_the_apis_never_below_what_was_listed() -> None:
-    assert Snapshot(jobs_done=3, jobs_listed=10, jobs_total=500).total == 500
-    assert Snapshot(jobs_done=3, jobs_listed=10, jobs_total=None).total is None
-    assert Snapshot(jobs_done=3, jobs_listed=12, jobs_total=10).total == 12
-    assert Snapshot(jobs_done=1204, jobs_listed=1300, jobs_total=5000).of_total() == (
+    assert FetchProgress(jobs_done=3, jobs_listed=10, jobs_total=500).total == 500
+    assert FetchProgress(jobs_done=3, jobs_listed=10, jobs_total=None).total is None
+    assert FetchProgress(jobs_done=3, jobs_listed=12, jobs_total=10).total == 12
+    assert FetchProgress(jobs_done=1204, jobs_listed=1300, jobs_total=5000).of_total() == (
         "1,204 of 5,000 jobs"
     )
-    assert Snapshot(jobs_done=4, jobs_listed=9).of_total() == "4 of 9 listed jobs"
+    assert FetchProgress(jobs_done=4, jobs_listed=9).of_total() == "4 of 9 listed jobs"
 
 
 def test_the_bar_shows_the_fixed_total_percentage_rate_eta_and_retries(
@@ -58,7 +58,7 @@ def test_the_bar_shows_the_fixed_total_percentage_rate_eta_and_retries(
     for done in (0, 50, 100):
         clock.now += 5.0
         bar.update(
-            Snapshot(
+            FetchProgress(
                 jobs_done=done,
                 jobs_listed=done + 25,
                 jobs_total=400,
@@ -81,9 +81,11 @@ def test_a_reports_bar_shows_batches_and_jobs(monkeypatch: pytest.MonkeyPatch) -
     monkeypatch.setenv("COLUMNS", "120")
     stream = io.StringIO()
     bar = TerminalProgress(stream, force_terminal=True)
-    bar.update(Snapshot(jobs_done=0, jobs_listed=0, batches_done=0, batches_total=None))
+    bar.update(FetchProgress(jobs_done=0, jobs_listed=0, batches_done=0, batches_total=None))
     bar.update(
-        Snapshot(jobs_done=80, jobs_listed=120, jobs_total=560, batches_done=2, batches_total=14)
+        FetchProgress(
+            jobs_done=80, jobs_listed=120, jobs_total=560, batches_done=2, batches_total=14
+        )
     )
     bar.close()
     last = _plain(stream.getvalue())
@@ -105,7 +107,7 @@ def test_one_event_per_interval_with_the_counts() -> None:
         for second in range(1, 26):
             clock.now = 100.0 + second
             shown.update(
-                Snapshot(
+                FetchProgress(
                     jobs_done=second * 8,
                     jobs_listed=200,
                     jobs_total=400,
@@ -134,7 +136,9 @@ def test_a_reports_events_count_batches() -> None:
         shown = LogProgress(interval=1.0, clock=clock)
         clock.now += 1.5
         shown.update(
-            Snapshot(jobs_done=40, jobs_listed=80, jobs_total=None, batches_done=1, batches_total=3)
+            FetchProgress(
+                jobs_done=40, jobs_listed=80, jobs_total=None, batches_done=1, batches_total=3
+            )
         )
     (event,) = captured
     assert (event["batches_done"], event["batches_total"]) == (1, 3)
@@ -148,9 +152,9 @@ def test_an_event_while_requests_are_retried_is_a_warning_naming_the_origin() ->
     with capture_logs() as captured:
         shown = LogProgress(interval=1.0, clock=clock)
         clock.now += 1.5
-        shown.update(Snapshot(jobs_done=0, jobs_listed=0, retries=7, retrying=retrying))
+        shown.update(FetchProgress(jobs_done=0, jobs_listed=0, retries=7, retrying=retrying))
         clock.now += 1.5
-        shown.update(Snapshot(jobs_done=3, jobs_listed=3, retries=7))  # the origin is back
+        shown.update(FetchProgress(jobs_done=3, jobs_listed=3, retries=7))  # the origin is back
     assert [(e["log_level"], e.get("retrying")) for e in captured] == [
         ("warning", retrying),
         ("info", None),
@@ -174,14 +178,16 @@ def test_the_choice_of_display(monkeypatch: pytest.MonkeyPatch) -> None:
         for_stream(io.StringIO())
 
 
-def test_tally_remembers_the_last_snapshot() -> None:
-    tally = Tally()
-    tally.update(Snapshot(jobs_done=5, jobs_listed=9, jobs_total=20))
-    assert (tally.done, tally.listed, tally.last.total) == (5, 9, 20)
-    tally.close()
+def test_a_recording_progress_keeps_the_last_one() -> None:
+    recording = RecordingProgress()
+    recording.update(FetchProgress(jobs_done=5, jobs_listed=9, jobs_total=20))
+    assert (recording.done, recording.listed, recording.last.total) == (5, 9, 20)
+    recording.close()
 
 
-def _drawn_lines(width: int, *snapshots: Snapshot, monkeypatch: pytest.MonkeyPatch) -> list[str]:
+def _drawn_lines(
+    width: int, *snapshots: FetchProgress, monkeypatch: pytest.MonkeyPatch
+) -> list[str]:
     """Each line of each drawing of the bar on a terminal `width` columns wide."""
     monkeypatch.setenv("COLUMNS", str(width))
     stream, clock = io.StringIO(), FakeClock()
@@ -198,9 +204,11 @@ def _drawn_lines(width: int, *snapshots: Snapshot, monkeypatch: pytest.MonkeyPat
 
 # A long run at its busiest: five-digit counts, retries, an origin being retried.
 _BUSY = (
-    Snapshot(jobs_done=0, jobs_listed=100, jobs_total=12_000, requests=0, retries=0),
-    Snapshot(jobs_done=5_204, jobs_listed=6_000, jobs_total=12_000, requests=15_000, retries=1),
-    Snapshot(
+    FetchProgress(jobs_done=0, jobs_listed=100, jobs_total=12_000, requests=0, retries=0),
+    FetchProgress(
+        jobs_done=5_204, jobs_listed=6_000, jobs_total=12_000, requests=15_000, retries=1
+    ),
+    FetchProgress(
         jobs_done=10_950,
         jobs_listed=12_000,
         jobs_total=12_000,

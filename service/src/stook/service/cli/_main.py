@@ -24,7 +24,7 @@ if TYPE_CHECKING:
     from typing import Any
 
     from stook.service.cli._run import Written
-    from stook.service.modes import Tally
+    from stook.service.modes import RecordingProgress
 
 
 def _add_logging(parser: argparse.ArgumentParser, *, default_level: str = "info") -> None:
@@ -351,7 +351,7 @@ class Voice:
         self.logging_ready = False
         self.configure_logging: Callable[[], None] | None = None
         """Set when logging is set up on first use (`show`, `validate`), not up front."""
-        self.progress: Tally | None = None
+        self.progress: RecordingProgress | None = None
         self.says_info = True  # False under --log-level warning or error
         self._lock = threading.Lock()
         self._said = False
@@ -529,7 +529,7 @@ def _dispatch(args: argparse.Namespace, voice: Voice) -> int:
     match args.command:
         case "run":
             from stook.service.cli._run import resolve_options, run
-            from stook.service.modes import Tally, event_loop_factory, for_stream
+            from stook.service.modes import RecordingProgress, event_loop_factory, for_stream
 
             options = resolve_options(
                 inputs=args.inputs,
@@ -540,7 +540,7 @@ def _dispatch(args: argparse.Namespace, voice: Voice) -> int:
                 preview=args.preview,
                 engine=args.engine,
             )
-            voice.progress = Tally(for_stream(label="jobs"))
+            voice.progress = RecordingProgress(for_stream(label="jobs"))
             loop_factory = event_loop_factory()  # before the run: a bad choice is exit 2
             main = run(options, progress=voice.progress, say=voice.finished)
             _signals.run(main, loop_factory=loop_factory)

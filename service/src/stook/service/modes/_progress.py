@@ -15,6 +15,13 @@ last failure, while requests are being retried.
 
 ``STOOK_PROGRESS`` picks one by hand (``bar``, ``log`` or ``none``; default ``auto``) and
 ``STOOK_PROGRESS_INTERVAL`` sets the seconds between progress events (default 10).
+
+The words, one for each thing: a fetch's progress at one moment is a `FetchProgress` (a
+shard's, sent to the driver, a `ShardProgress`; the running shards' together,
+`ShardsProgress`, modes/_engine.py); a display of it is a `Progress` (`TerminalProgress`,
+`LogProgress`, `NoProgress`, and `RecordingProgress`, which keeps the last one for the line
+an interrupted run ends with); a client's requests, retries and bytes are its `Traffic`
+(modes/_pipeline.py), summed from the API layer's `TrafficCounts`.
 """
 
 from __future__ import annotations
@@ -41,7 +48,7 @@ INTERVAL_ENV = "STOOK_PROGRESS_INTERVAL"
 
 
 @dataclass(frozen=True, slots=True)
-class Snapshot:
+class FetchProgress:
     """How far a fetch got: jobs (and a report's batches) and the client's traffic."""
 
     jobs_done: int
@@ -70,13 +77,13 @@ class Snapshot:
 
 
 class Progress(Protocol):
-    def update(self, snapshot: Snapshot) -> None: ...
+    def update(self, snapshot: FetchProgress) -> None: ...
 
     def close(self) -> None: ...
 
 
 class NoProgress:
-    def update(self, snapshot: Snapshot) -> None:
+    def update(self, snapshot: FetchProgress) -> None:
         pass
 
     def close(self) -> None:
@@ -254,7 +261,7 @@ class TerminalProgress:
         # that prints a log line.
         self._lines: tuple[_Line, ...] = ()
 
-    def update(self, snapshot: Snapshot) -> None:
+    def update(self, snapshot: FetchProgress) -> None:
         self._lines = self._lines_of(snapshot)
         now = self._clock()
         if self._live is None:
@@ -264,7 +271,7 @@ class TerminalProgress:
             self._live.refresh()
             self._drawn = now
 
-    def _lines_of(self, snapshot: Snapshot) -> tuple[_Line, ...]:
+    def _lines_of(self, snapshot: FetchProgress) -> tuple[_Line, ...]:
         now = self._clock()
         lines = []
         if snapshot.batches_done is not None:  # a report's batches above its jobs
@@ -348,7 +355,7 @@ class LogProgress:
         self._last = self._started
         self._last_requests = 0
 
-    def update(self, snapshot: Snapshot) -> None:
+    def update(self, snapshot: FetchProgress) -> None:
         now = self._clock()
         if now - self._last < self._interval:
             return
@@ -427,13 +434,13 @@ def _is_tty(stream: TextIO) -> bool:
         return False
 
 
-class Tally:
-    """A Progress that remembers the last snapshot it was given, for the line that an
+class RecordingProgress:
+    """A Progress that records the last FetchProgress it was given, for the line that an
     interrupted run ends with; it passes every update on to the display it wraps."""
 
     def __init__(self, shown: Progress | None = None) -> None:
         self._shown = shown or NoProgress()
-        self.last = Snapshot(jobs_done=0, jobs_listed=0)
+        self.last = FetchProgress(jobs_done=0, jobs_listed=0)
 
     @property
     def done(self) -> int:
@@ -443,7 +450,7 @@ class Tally:
     def listed(self) -> int:
         return self.last.jobs_listed
 
-    def update(self, snapshot: Snapshot) -> None:
+    def update(self, snapshot: FetchProgress) -> None:
         self.last = snapshot
         self._shown.update(snapshot)
 
