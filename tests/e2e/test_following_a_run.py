@@ -3,16 +3,11 @@ pseudo-terminal), one progress event per interval off one, and a summary in huma
 
 from __future__ import annotations
 
-import fcntl
 import itertools
 import json
 import os
-import pty
 import re
-import struct
 import subprocess
-import termios
-import threading
 from datetime import datetime
 from pathlib import Path
 
@@ -20,6 +15,7 @@ import pytest
 
 from tests.e2e.processes import REPO, stook_command
 from tests.e2e.support import EmulatorThread, config, write_batch_inputs
+from tests.e2e.terminal import run_on_a_terminal
 
 JOBS = 120
 # Small pages and few workers: the listing is still going while jobs complete, so a bar
@@ -36,40 +32,14 @@ def _env(**extra: str) -> dict[str, str]:
 def _run_on_a_terminal(tmp_path: Path, inputs: Path) -> tuple[int, str]:
     """`stook run` with stdout and stderr on a pseudo-terminal 120 columns wide."""
     (tmp_path / "stook.toml").write_text(SLOW_TOML)
-    master, slave = pty.openpty()
-    fcntl.ioctl(slave, termios.TIOCSWINSZ, struct.pack("HHHH", 40, 120, 0, 0))
-    proc = subprocess.Popen(
+    run = run_on_a_terminal(
         [*stook_command(), "run", "--inputs", str(inputs), "--outputs", str(tmp_path / "out")],
         cwd=tmp_path,
-        env=_env(TERM="xterm-256color"),
-        stdin=subprocess.DEVNULL,
-        stdout=slave,
-        stderr=slave,
+        env=_env(),
+        width=120,
     )
-    os.close(slave)
-    chunks: list[bytes] = []
-
-    def pump() -> None:
-        while True:
-            try:
-                chunk = os.read(master, 65536)
-            except OSError:  # EIO: the last holder of the terminal has gone
-                return
-            if not chunk:
-                return
-            chunks.append(chunk)
-
-    reader = threading.Thread(target=pump, daemon=True)
-    reader.start()
-    try:
-        code = proc.wait(timeout=60)
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-        reader.join(10)
-        os.close(master)
-    text = b"".join(chunks).decode("utf-8", "replace")
-    return code, re.sub(r"\x1b\[[0-9;?]*[A-Za-z]", "", text).replace("\r", "\n")
+    text = re.sub(r"\x1b\[[0-9;?]*[A-Za-z]", "", run.output)
+    return run.code, text.replace("\r", "\n")
 
 
 @pytest.mark.slow
@@ -87,7 +57,7 @@ def test_a_batch_on_a_terminal_shows_a_bar_with_the_apis_total(tmp_path: Path) -
     assert "req/s" in screen
     assert "retries" in screen
     assert "retrying request" not in screen
-    assert re.search(r"batch metrics written .*received='[\d.]+ [kM]B'", screen), screen
+    assert re.search(r"wrote \S+metrics.binproto: \d+ metrics from 120 jobs in ", screen), screen
 
 
 @pytest.mark.slow
@@ -136,3 +106,54 @@ def test_off_a_terminal_one_progress_event_per_interval(tmp_path: Path) -> None:
     assert "bytes" not in summary
     assert re.fullmatch(r"[\d.]+ (kB|MB)", summary["received"])
     assert not [e for e in events if e["event"] == "retrying request"]
+
+
+_BAR_ROW = re.compile(r"^\s*jobs [━╸╺ ]*\s*[\d,]+/[\d,?]+")
+
+
+@pytest.mark.slow
+def test_at_80_columns_nothing_of_the_bar_wraps(tmp_path: Path) -> None:
+    (tmp_path / "stook.toml").write_text(SLOW_TOML)
+    with EmulatorThread(config(jobs_per_batch=JOBS, seed=43, latency_ms=5.0)) as emu:
+        write_batch_inputs(tmp_path / "inputs", emu)
+        run = run_on_a_terminal(
+            [*stook_command(), "run", "--inputs", "inputs", "--outputs", "out"],
+            cwd=tmp_path,
+            env=_env(),
+            width=80,
+        )
+    screen = run.screen(80)
+    assert run.code == 0, "\n".join(screen)
+    bars = [row for row in screen if _BAR_ROW.match(row)]
+    assert len(bars) == 1, screen  # redrawn in place, left once
+    assert re.match(rf"jobs ━+ {JOBS}/{JOBS} 100%  [\d.]+ jobs/s  ETA 0:00:00", bars[0])
+    # No piece of a bar's line below it ("jobs/s" alone on a row): every row that has
+    # the bar's words starts as the bar's line does.
+    for row in screen:
+        if re.search(r"jobs/s|req/s", row):
+            assert _BAR_ROW.match(row), screen
+        assert len(row) <= 80
+
+
+@pytest.mark.slow
+def test_ctrl_c_leaves_the_bar_drawn_once(tmp_path: Path) -> None:
+    (tmp_path / "stook.toml").write_text(SLOW_TOML)
+    with EmulatorThread(config(jobs_per_batch=2_000, seed=47, latency_ms=20.0)) as emu:
+        write_batch_inputs(tmp_path / "inputs", emu)
+        run = run_on_a_terminal(
+            [*stook_command(), "run", "--inputs", "inputs", "--outputs", "out"],
+            cwd=tmp_path,
+            env=_env(),
+            width=80,
+            # Typed once the bar shows jobs done and a rate: in the middle of the fetch.
+            ctrl_c_when=lambda output: bool(re.search(r"\d+\.\d jobs/s", output)),
+        )
+    screen = [row for row in run.screen(80) if row]
+    assert run.code == 130, "\n".join(screen)
+    bars = [row for row in screen if _BAR_ROW.match(row)]
+    assert len(bars) == 1, "\n".join(screen)
+    assert screen[-2] == bars[0]
+    done = re.match(r"jobs [━╸╺ ]*\s*([\d,]+)/2,000", bars[0])
+    assert done, bars[0]
+    assert screen[-1] == f"stook: interrupted by SIGINT after {done.group(1)} of 2,000 jobs"
+    assert not [row for row in screen if row.strip() == "^C"]

@@ -7,10 +7,12 @@ from pathlib import Path
 
 import pytest
 
+from stook.service.cli._help import RUN_EPILOG
 from stook.service.modes import BatchInputs, ConfigError, detect, load, run_batch
+from stook.service.modes._batch import FIRST_JOBS
 from stook.testing import emulated_batch
 
-_JOBS = 400
+_JOBS = 1_000
 
 
 @pytest.mark.parametrize(
@@ -39,6 +41,14 @@ async def test_a_misspelt_name_ends_the_run_after_the_first_jobs(
             await run_batch(batch, load(toml), tmp_path / "out")
         listed = emu.stats.endpoints["api:list_job_metrics"]
     assert said in str(raised.value)
-    assert "none of the first" in str(raised.value)
-    assert listed < 300  # long before the end of the batch
+    assert f"none of the first {FIRST_JOBS} jobs has" in str(raised.value)
+    # Long before the end of the batch: after its first 100 jobs with metrics, and the
+    # listings in flight then (the concurrency's 64), not its 1,000 jobs.
+    assert listed < _JOBS // 3
     assert not (tmp_path / "out" / "metrics.binproto").exists()
+
+
+def test_the_help_and_the_docs_say_when_a_misspelt_name_is_found() -> None:
+    said = f"once the first {FIRST_JOBS} jobs' listings show it missing from all of them"
+    assert said in " ".join(RUN_EPILOG.split())
+    assert said in (Path(__file__).parents[2] / "docs" / "cli.md").read_text()

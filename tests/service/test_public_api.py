@@ -145,7 +145,7 @@ PUBLIC_API: dict[str, list[str]] = {
         "ReportResult",
         "RunResult",
         "StookConfig",
-        "Tally",
+        "RecordingProgress",
         "TestInputs",
         "Traffic",
         "UserFunctionError",

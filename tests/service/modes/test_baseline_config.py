@@ -85,8 +85,14 @@ def test_the_comparison_joins_batch_mode_and_its_needs() -> None:
         ({"previous": True, "min_effect": -1}, "min_effect must be a number"),
         ({"previous": True, "min_effect": True}, "min_effect must be a number"),
         ({"previous": True, "confidence": 1.0}, "confidence must be a number from 0.5"),
-        ({"previous": True, "resamples": 10}, "resamples must be a whole number"),
-        ({"previous": True, "resamples": 1000.0}, "resamples must be a whole number"),
+        (
+            {"previous": True, "resamples": 10},
+            "resamples must be an integer from 100 to 100000, got 10",
+        ),
+        (
+            {"previous": True, "resamples": 1000.0},
+            "resamples must be an integer from 100 to 100000, got the float 1000.0",
+        ),
         ({"previous": True, "correction": "bh"}, "correction must be one of holm, none"),
         ({"previous": True, "block_on_regression": "yes"}, "block_on_regression must be"),
         ({"previous": True, "treshold": 2}, "unknown key 'treshold' in \\[batch.baseline\\]"),

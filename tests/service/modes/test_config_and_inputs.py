@@ -174,32 +174,32 @@ def test_a_missing_or_unreadable_file(tmp_path: Path) -> None:
         pytest.param({"batch": [1]}, "s.toml: [batch] must be a table", id="batch-not-a-table"),
         pytest.param(
             {"fetch": {"concurrency": "64"}},
-            "s.toml: [fetch] concurrency must be a positive number",
+            's.toml: [fetch] concurrency must be a positive integer, got the string "64"',
             id="string-number",
         ),
         pytest.param(
             {"fetch": {"concurrency": True}},
-            "s.toml: [fetch] concurrency must be a positive number",
+            "s.toml: [fetch] concurrency must be a positive integer, got the boolean true",
             id="bool-number",
         ),
         pytest.param(
             {"fetch": {"timeout": 0}},
-            "s.toml: [fetch] timeout must be a positive number",
+            "s.toml: [fetch] timeout must be a positive number, got 0",
             id="zero",
         ),
         pytest.param(
             {"fetch": {"retry_for": -1}},
-            "s.toml: [fetch] retry_for must be a positive number",
+            "s.toml: [fetch] retry_for must be a positive number, got -1",
             id="negative",
         ),
         pytest.param(
             {"fetch": {"deadline": 0}},
-            "s.toml: [fetch] deadline must be a positive number",
+            "s.toml: [fetch] deadline must be a positive number, got 0",
             id="zero-deadline",
         ),
         pytest.param(
             {"fetch": {"page_size": 10.5}},
-            "s.toml: [fetch] page_size must be a whole number",
+            "s.toml: [fetch] page_size must be a positive integer, got the float 10.5",
             id="fraction",
         ),
         pytest.param(
@@ -238,6 +238,59 @@ def test_bad_configs(doc: dict[str, Any], message: str) -> None:
     with pytest.raises(ConfigError) as info:
         parse(doc, source="s.toml")
     assert str(info.value).startswith(message)
+
+
+# Every number setting of stook.toml: its table, its key, and what it must be.
+NUMBER_SETTINGS = [
+    *(("fetch", key, "a positive integer") for key in ("concurrency", "page_size")),
+    *(
+        ("fetch", key, "a positive number")
+        for key in ("timeout", "retry_for", "deadline", "max_body_mb", "max_api_body_mb")
+    ),
+    *(("report", key, "a positive integer") for key in ("top_n", "regression_window")),
+    *(("report", key, "a positive number") for key in ("regression_threshold", "change_penalty")),
+    *(("engine", key, "a positive integer") for key in ("workers", "shards")),
+    ("batch.baseline", "confidence", "a number from 0.5 to 0.999"),
+    ("batch.baseline", "min_effect", "a number from 0 to 10"),
+    ("batch.baseline", "resamples", "an integer from 100 to 100000"),
+]
+
+
+@pytest.mark.parametrize(("table", "key", "wanted"), NUMBER_SETTINGS)
+@pytest.mark.parametrize(
+    ("value", "got"),
+    [
+        ("64", 'the string "64"'),
+        (True, "the boolean true"),
+        (-3, "-3"),
+        (float("nan"), "the float nan"),
+        ([1], "an array"),
+    ],
+)
+def test_a_bad_number_setting_says_what_it_got(
+    table: str, key: str, wanted: str, value: object, got: str
+) -> None:
+    """One check for every number setting: what it must be, and what the file gave."""
+    if table == "batch.baseline":
+        doc: dict[str, Any] = {"batch": {"baseline": {"previous": True, key: value}}}
+    else:
+        doc = {table: {key: value}}
+    with pytest.raises(ConfigError) as info:
+        parse(doc, source="stook.toml")
+    assert str(info.value) == f"stook.toml: [{table}] {key} must be {wanted}, got {got}"
+
+
+@pytest.mark.parametrize(
+    ("table", "key"), [(t, k) for t, k, wanted in NUMBER_SETTINGS if "integer" in wanted]
+)
+def test_a_whole_number_setting_refuses_a_float(table: str, key: str) -> None:
+    doc: dict[str, Any] = (
+        {"batch": {"baseline": {"previous": True, key: 1000.0}}}
+        if table == "batch.baseline"
+        else {table: {key: 8.0}}
+    )
+    with pytest.raises(ConfigError, match=r"must be (a positive|an) integer.*, got the float"):
+        parse(doc, source="stook.toml")
 
 
 def test_retry_counts_of_old_configs_are_accepted_ignored_and_warned_about() -> None:

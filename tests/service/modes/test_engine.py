@@ -43,9 +43,15 @@ def test_engine_table_is_read() -> None:
     ("table", "said"),
     [
         ({"kind": "spark"}, "[engine] kind must be one of 'local', 'processes', 'ray'"),
-        ({"kind": "processes", "workers": 0}, "[engine] workers must be a whole number"),
-        ({"kind": "processes", "workers": True}, "[engine] workers must be a whole number"),
-        ({"kind": "processes", "shards": 2.5}, "[engine] shards must be a whole number"),
+        ({"kind": "processes", "workers": 0}, "[engine] workers must be a positive integer, got 0"),
+        (
+            {"kind": "processes", "workers": True},
+            "[engine] workers must be a positive integer, got the boolean true",
+        ),
+        (
+            {"kind": "processes", "shards": 2.5},
+            "[engine] shards must be a positive integer, got the float 2.5",
+        ),
         ({"kind": "local", "address": "auto"}, '[engine] address is for kind = "ray"'),
         ({"kind": "ray", "address": 7}, "[engine] address must be a Ray address"),
         ({"nodes": 3}, "unknown key 'nodes' in [engine]"),

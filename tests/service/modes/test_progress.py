@@ -2,14 +2,21 @@
 
 from __future__ import annotations
 
+import dataclasses
 import io
 import re
 
 import pytest
 from structlog.testing import capture_logs
 
-from stook.service.modes import ConfigError, Tally, for_stream, human_bytes
-from stook.service.modes._progress import LogProgress, NoProgress, Snapshot, TerminalProgress
+from stook.service.modes import ConfigError, RecordingProgress, for_stream, human_bytes
+from stook.service.modes._progress import (
+    SPARE_COLUMNS,
+    FetchProgress,
+    LogProgress,
+    NoProgress,
+    TerminalProgress,
+)
 
 
 class FakeClock:
@@ -33,13 +40,13 @@ def test_human_bytes(count: int, text: str) -> None:
 
 
 def test_the_total_is_the_apis_never_below_what_was_listed() -> None:
-    assert Snapshot(jobs_done=3, jobs_listed=10, jobs_total=500).total == 500
-    assert Snapshot(jobs_done=3, jobs_listed=10, jobs_total=None).total is None
-    assert Snapshot(jobs_done=3, jobs_listed=12, jobs_total=10).total == 12
-    assert Snapshot(jobs_done=1204, jobs_listed=1300, jobs_total=5000).of_total() == (
+    assert FetchProgress(jobs_done=3, jobs_listed=10, jobs_total=500).total == 500
+    assert FetchProgress(jobs_done=3, jobs_listed=10, jobs_total=None).total is None
+    assert FetchProgress(jobs_done=3, jobs_listed=12, jobs_total=10).total == 12
+    assert FetchProgress(jobs_done=1204, jobs_listed=1300, jobs_total=5000).of_total() == (
         "1,204 of 5,000 jobs"
     )
-    assert Snapshot(jobs_done=4, jobs_listed=9).of_total() == "4 of 9 listed jobs"
+    assert FetchProgress(jobs_done=4, jobs_listed=9).of_total() == "4 of 9 listed jobs"
 
 
 def test_the_bar_shows_the_fixed_total_percentage_rate_eta_and_retries(
@@ -51,7 +58,7 @@ def test_the_bar_shows_the_fixed_total_percentage_rate_eta_and_retries(
     for done in (0, 50, 100):
         clock.now += 5.0
         bar.update(
-            Snapshot(
+            FetchProgress(
                 jobs_done=done,
                 jobs_listed=done + 25,
                 jobs_total=400,
@@ -74,9 +81,11 @@ def test_a_reports_bar_shows_batches_and_jobs(monkeypatch: pytest.MonkeyPatch) -
     monkeypatch.setenv("COLUMNS", "120")
     stream = io.StringIO()
     bar = TerminalProgress(stream, force_terminal=True)
-    bar.update(Snapshot(jobs_done=0, jobs_listed=0, batches_done=0, batches_total=None))
+    bar.update(FetchProgress(jobs_done=0, jobs_listed=0, batches_done=0, batches_total=None))
     bar.update(
-        Snapshot(jobs_done=80, jobs_listed=120, jobs_total=560, batches_done=2, batches_total=14)
+        FetchProgress(
+            jobs_done=80, jobs_listed=120, jobs_total=560, batches_done=2, batches_total=14
+        )
     )
     bar.close()
     last = _plain(stream.getvalue())
@@ -98,7 +107,7 @@ def test_one_event_per_interval_with_the_counts() -> None:
         for second in range(1, 26):
             clock.now = 100.0 + second
             shown.update(
-                Snapshot(
+                FetchProgress(
                     jobs_done=second * 8,
                     jobs_listed=200,
                     jobs_total=400,
@@ -127,7 +136,9 @@ def test_a_reports_events_count_batches() -> None:
         shown = LogProgress(interval=1.0, clock=clock)
         clock.now += 1.5
         shown.update(
-            Snapshot(jobs_done=40, jobs_listed=80, jobs_total=None, batches_done=1, batches_total=3)
+            FetchProgress(
+                jobs_done=40, jobs_listed=80, jobs_total=None, batches_done=1, batches_total=3
+            )
         )
     (event,) = captured
     assert (event["batches_done"], event["batches_total"]) == (1, 3)
@@ -141,9 +152,9 @@ def test_an_event_while_requests_are_retried_is_a_warning_naming_the_origin() ->
     with capture_logs() as captured:
         shown = LogProgress(interval=1.0, clock=clock)
         clock.now += 1.5
-        shown.update(Snapshot(jobs_done=0, jobs_listed=0, retries=7, retrying=retrying))
+        shown.update(FetchProgress(jobs_done=0, jobs_listed=0, retries=7, retrying=retrying))
         clock.now += 1.5
-        shown.update(Snapshot(jobs_done=3, jobs_listed=3, retries=7))  # the origin is back
+        shown.update(FetchProgress(jobs_done=3, jobs_listed=3, retries=7))  # the origin is back
     assert [(e["log_level"], e.get("retrying")) for e in captured] == [
         ("warning", retrying),
         ("info", None),
@@ -167,8 +178,93 @@ def test_the_choice_of_display(monkeypatch: pytest.MonkeyPatch) -> None:
         for_stream(io.StringIO())
 
 
-def test_tally_remembers_the_last_snapshot() -> None:
-    tally = Tally()
-    tally.update(Snapshot(jobs_done=5, jobs_listed=9, jobs_total=20))
-    assert (tally.done, tally.listed, tally.last.total) == (5, 9, 20)
-    tally.close()
+def test_a_recording_progress_keeps_the_last_one() -> None:
+    recording = RecordingProgress()
+    recording.update(FetchProgress(jobs_done=5, jobs_listed=9, jobs_total=20))
+    assert (recording.done, recording.listed, recording.last.total) == (5, 9, 20)
+    recording.close()
+
+
+def _drawn_lines(
+    width: int, *snapshots: FetchProgress, monkeypatch: pytest.MonkeyPatch
+) -> list[str]:
+    """Each line of each drawing of the bar on a terminal `width` columns wide."""
+    monkeypatch.setenv("COLUMNS", str(width))
+    stream, clock = io.StringIO(), FakeClock()
+    bar = TerminalProgress(stream, force_terminal=True, clock=clock)
+    for snapshot in snapshots:
+        clock.now += 5.0
+        bar.update(snapshot)
+    bar.close()
+    text = _plain(stream.getvalue()).replace("\r", "\n")
+    lines = [line for line in text.split("\n") if line.strip()]
+    # The last drawing is drawn again as the bar closes, in the same place.
+    return lines[: -2 if snapshots[-1].batches_done is not None else -1]
+
+
+# A long run at its busiest: five-digit counts, retries, an origin being retried.
+_BUSY = (
+    FetchProgress(jobs_done=0, jobs_listed=100, jobs_total=12_000, requests=0, retries=0),
+    FetchProgress(
+        jobs_done=5_204, jobs_listed=6_000, jobs_total=12_000, requests=15_000, retries=1
+    ),
+    FetchProgress(
+        jobs_done=10_950,
+        jobs_listed=12_000,
+        jobs_total=12_000,
+        requests=31_000,
+        retries=1_234,
+        retrying="the API at https://api.resim.ai/v1: HTTP 503: Service Unavailable",
+    ),
+)
+
+
+@pytest.mark.parametrize("width", [80, 60, 40, 24])
+def test_no_line_of_the_bar_wraps_or_fills_the_last_columns(
+    monkeypatch: pytest.MonkeyPatch, width: int
+) -> None:
+    report = [
+        dataclasses.replace(s, batches_done=i * 6, batches_total=14) for i, s in enumerate(_BUSY)
+    ]
+    for snapshots in (_BUSY, report):
+        lines = _drawn_lines(width, *snapshots, monkeypatch=monkeypatch)
+        assert len(lines) == len(snapshots) * (2 if snapshots is report else 1)
+        for line in lines:
+            # Two columns free at the end: where a terminal echoes Ctrl-C as "^C".
+            assert len(line) <= width - SPARE_COLUMNS, line
+            assert re.match(r"\s*(jobs|batches) ", line), line  # a whole line, not a fragment
+            assert re.search(r"\d/[\d,]+", line), line  # the count always stays
+
+
+def test_at_80_columns_the_rate_eta_and_retries_stay(monkeypatch: pytest.MonkeyPatch) -> None:
+    first, second, third = _drawn_lines(80, *_BUSY, monkeypatch=monkeypatch)
+    assert re.fullmatch(r"jobs ━+ +0/12,000 +0%  \? jobs/s  ETA -:--:--  0 req/s  0 retries", first)
+    # The request rate goes first; the bar, the rate and the ETA stay.
+    assert re.fullmatch(
+        r"jobs [━╸╺]+  5,204/12,000  43%  1,040\.8 jobs/s  ETA 0:00:07  1 retry", second
+    ), second
+    # While an origin is retried, that is said before the bar's rate, cut to fit.
+    assert re.fullmatch(
+        r"jobs [━╸╺]+ 10,950/12,000  91%  ETA 0:00:01  retrying the API at h\S*…", third
+    ), third
+
+
+def test_at_40_columns_the_count_percentage_and_eta(monkeypatch: pytest.MonkeyPatch) -> None:
+    lines = _drawn_lines(40, *_BUSY, monkeypatch=monkeypatch)
+    assert lines[1] == "jobs  5,204/12,000  43%  ETA 0:00:07"
+    assert lines[2] == "jobs 10,950/12,000  91%  ETA 0:00:01"  # no room for the origin
+    report = [
+        dataclasses.replace(s, batches_done=i * 6, batches_total=14) for i, s in enumerate(_BUSY)
+    ]
+    *_, batches, jobs = _drawn_lines(40, *report, monkeypatch=monkeypatch)
+    assert batches == "batches 12/14  86%  ETA 0:00:02"
+    assert jobs.startswith("   jobs 10,950/12,000  91%")  # aligned under "batches"
+
+
+def test_however_narrow_the_label_and_the_count_stay(monkeypatch: pytest.MonkeyPatch) -> None:
+    *_, last = _drawn_lines(20, *_BUSY, monkeypatch=monkeypatch)
+    assert last == "jobs 10,950/12,000"
+    # Wide: everything, the bar filling what the rest leaves, the origin in full.
+    *_, last = _drawn_lines(200, *_BUSY, monkeypatch=monkeypatch)
+    assert len(last) == 200 - SPARE_COLUMNS
+    assert last.endswith("1,234 retries  retrying " + _BUSY[-1].retrying)

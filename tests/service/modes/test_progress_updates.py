@@ -6,7 +6,7 @@ import time
 from pathlib import Path
 
 from stook.service.modes import BatchInputs, detect, parse, run_batch
-from stook.service.modes._progress import Snapshot
+from stook.service.modes._progress import FetchProgress
 from stook.testing import emulated_batch
 
 JOBS = 150
@@ -22,10 +22,10 @@ buckets = 20
 
 class Recording:
     def __init__(self) -> None:
-        self.snapshots: list[Snapshot] = []
+        self.snapshots: list[FetchProgress] = []
         self.closed = False
 
-    def update(self, snapshot: Snapshot) -> None:
+    def update(self, snapshot: FetchProgress) -> None:
         self.snapshots.append(snapshot)
 
     def close(self) -> None:

@@ -5,38 +5,38 @@ from __future__ import annotations
 
 import asyncio
 
-from stook.service.modes._engine import LiveShards
+from stook.service.modes._engine import ShardsProgress
 from stook.service.modes._pipeline import Traffic
-from stook.service.modes._progress import Snapshot
+from stook.service.modes._progress import FetchProgress
 from stook.service.modes._shards import ShardProgress, reporting
 
 
 def test_running_shards_add_their_jobs_and_traffic() -> None:
-    live = LiveShards()
+    live = ShardsProgress()
     live.reported(ShardProgress(0, jobs_done=3, requests=10, retries=1, bytes_received=500))
     live.reported(ShardProgress(1, jobs_done=2, requests=7, bytes_received=300))
     live.reported(ShardProgress(0, jobs_done=5, requests=16, retries=1, bytes_received=800))
     snapshot, traffic = live.add_to(
-        Snapshot(jobs_done=0, jobs_listed=20, jobs_total=20), Traffic(requests=2)
+        FetchProgress(jobs_done=0, jobs_listed=20, jobs_total=20), Traffic(requests=2)
     )
     assert (snapshot.jobs_done, snapshot.jobs_listed, snapshot.batches_done) == (7, 20, None)
     assert (traffic.requests, traffic.retries, traffic.bytes_received) == (25, 1, 1100)
 
 
 def test_a_result_supersedes_its_shard_s_reports_even_late_ones() -> None:
-    live = LiveShards()
+    live = ShardsProgress()
     live.reported(ShardProgress(0, jobs_done=4, requests=9))
     live.finished(0)  # its result is now in the driver's outcome
     live.reported(ShardProgress(0, jobs_done=5, requests=11))  # sent before, read after
-    base = Snapshot(jobs_done=6, jobs_listed=6)
+    base = FetchProgress(jobs_done=6, jobs_listed=6)
     assert live.add_to(base, Traffic(requests=12)) == (base, Traffic(requests=12))
 
 
 def test_a_report_s_batches_and_listed_jobs_are_added() -> None:
-    live = LiveShards()
+    live = ShardsProgress()
     live.reported(ShardProgress(1, jobs_done=8, jobs_listed=12, batches_done=2))
     snapshot, _ = live.add_to(
-        Snapshot(jobs_done=10, jobs_listed=10, batches_done=3, batches_total=9), Traffic()
+        FetchProgress(jobs_done=10, jobs_listed=10, batches_done=3, batches_total=9), Traffic()
     )
     assert (snapshot.jobs_done, snapshot.jobs_listed, snapshot.batches_done) == (18, 22, 5)
     assert snapshot.batches_total == 9

@@ -27,9 +27,12 @@ exit codes:
   0         metrics.binproto written
   1         unexpected error, or your own test-metrics function raised
   2         bad usage, config or inputs (malformed JSON, missing key, non-UUID ID, bad
-            TOML, unknown option, a metric or data name no job has, a misspelt config
-            file name), or an outputs folder that cannot be written; checked before
-            the first request
+            TOML, unknown option, a misspelt config file name), or an outputs folder
+            that cannot be written: checked before the first request. Or a metric or
+            data name that no job has: one close to a name the jobs have ends the run
+            with its suggestion once the first 100 jobs' listings show it missing
+            from all of them (batch mode, [engine] kind = "local"); any other once
+            the fetch is done
   3         the API or object storage failed for [fetch] retry_for, refused the token,
             the report does not exist, more jobs stayed unavailable than
             --allow-missing-jobs allows, an answer over its cap, a listing that never
@@ -39,9 +42,11 @@ exit codes:
   5         the output could not be written (disk full, file-size limit, I/O error)
   130, 143  interrupted by SIGINT or SIGTERM
 
-progress: a bar on a terminal (jobs done of the batch's total, rate, ETA, retries);
-off a terminal one "fetch progress" event every 10 s. STOOK_PROGRESS=auto|bar|log|none
-picks the display, STOOK_PROGRESS_INTERVAL the seconds between events.
+progress: a bar on a terminal (jobs done of the batch's total, rate, ETA, retries),
+fitted to its width; off a terminal one "fetch progress" event every 10 s.
+STOOK_PROGRESS=auto|bar|log|none picks the display, STOOK_PROGRESS_INTERVAL the seconds
+between events. The run ends with one line saying what it wrote (a "metrics written"
+event in JSON logs); the status there is the metrics', not the run's.
 
 event loop: uvloop where it is installed (a dependency on Linux and macOS), else
 asyncio's; STOOK_EVENT_LOOP=auto|uvloop|asyncio picks it.

@@ -23,7 +23,8 @@ if TYPE_CHECKING:
     from collections.abc import Callable, Sequence
     from typing import Any
 
-    from stook.service.modes import Tally
+    from stook.service.cli._run import Written
+    from stook.service.modes import RecordingProgress
 
 
 def _add_logging(parser: argparse.ArgumentParser, *, default_level: str = "info") -> None:
@@ -329,8 +330,9 @@ def _reader_went_away() -> int:
 
 
 class Voice:
-    """Says how a failed command ended, exactly once: one JSON event when logging JSON
-    lines, one `stook: …` line otherwise. Thread-safe, for the signal watchdog."""
+    """Says how a command ended, exactly once: one JSON event when logging JSON lines, one
+    line for a person otherwise (`stook: …` for a failure). Thread-safe, for the signal
+    watchdog."""
 
     def __init__(self, argv: Sequence[str] | None = None) -> None:
         import threading
@@ -349,7 +351,8 @@ class Voice:
         self.logging_ready = False
         self.configure_logging: Callable[[], None] | None = None
         """Set when logging is set up on first use (`show`, `validate`), not up front."""
-        self.progress: Tally | None = None
+        self.progress: RecordingProgress | None = None
+        self.says_info = True  # False under --log-level warning or error
         self._lock = threading.Lock()
         self._said = False
 
@@ -367,6 +370,17 @@ class Voice:
         message = explain(error)
         self._say("stook failed", f"error: {message}", shown, error=message, exit_code=int(code))
         return int(code)
+
+    def finished(self, written: Written) -> None:
+        """`stook run` wrote its output: its summary event, or a line for a person."""
+        with self._lock:
+            if self._said:
+                return
+            self._said = True
+        if self.json:
+            written.log()
+        elif self.says_info:
+            print(written.line(), file=sys.stderr, flush=True)
 
     def interrupted(self, stop: Interrupted) -> int:
         counts: dict[str, Any] = {}
@@ -463,6 +477,7 @@ def _run_cli(argv: Sequence[str] | None, voice: Voice) -> int:
 
         json_logs = _json_logs(args.command, args.log_format)
         configure_logging(json=json_logs, level=args.log_level)
+        voice.says_info = args.log_level in ("debug", "info")
     else:
         # Commands without logging flags still log to stderr, never onto their stdout.
         json_logs = _json_logs(args.command, os.environ.get("STOOK_LOG_FORMAT", "auto"))
@@ -514,7 +529,7 @@ def _dispatch(args: argparse.Namespace, voice: Voice) -> int:
     match args.command:
         case "run":
             from stook.service.cli._run import resolve_options, run
-            from stook.service.modes import Tally, event_loop_factory, for_stream
+            from stook.service.modes import RecordingProgress, event_loop_factory, for_stream
 
             options = resolve_options(
                 inputs=args.inputs,
@@ -525,9 +540,10 @@ def _dispatch(args: argparse.Namespace, voice: Voice) -> int:
                 preview=args.preview,
                 engine=args.engine,
             )
-            voice.progress = Tally(for_stream(label="jobs"))
+            voice.progress = RecordingProgress(for_stream(label="jobs"))
             loop_factory = event_loop_factory()  # before the run: a bad choice is exit 2
-            _signals.run(run(options, progress=voice.progress), loop_factory=loop_factory)
+            main = run(options, progress=voice.progress, say=voice.finished)
+            _signals.run(main, loop_factory=loop_factory)
             return 0
         case "demo":
             from pathlib import Path

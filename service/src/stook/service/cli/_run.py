@@ -4,8 +4,9 @@ Exit codes (also in docs/cli.md):
   0  metrics.binproto written
   1  an unexpected error, or the user's own test-metrics function raised
   2  bad usage, config or inputs (malformed JSON, missing key, non-UUID ID, bad TOML,
-     a metric or data name in the config that no job has, a misspelt config file name),
-     or an outputs folder that cannot be written (checked before the first request)
+     a misspelt config file name), or an outputs folder that cannot be written (checked
+     before the first request); a metric or data name in the config that no job has
+     (a close one after the first 100 jobs, modes/_batch.py; any other after the batch)
   3  the API or storage failed for [fetch] retry_for or asked to wait longer than
      stook waits, refused the token, too many jobs stayed unavailable, or the
      [fetch] deadline was reached; an answer over its cap; a listing that does not end
@@ -23,6 +24,7 @@ import contextlib
 import enum
 import os
 import uuid
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -31,6 +33,7 @@ import structlog
 
 from stook.sdk import (
     InvalidMetricsError,
+    MetricStatus,
     OutputWriteError,
     ReadError,
     WriterError,
@@ -134,11 +137,78 @@ def resolve_options(
     )
 
 
-async def run(options: RunOptions, *, progress: Progress | None = None) -> Path:
-    """Run the detected mode; raises the typed errors that `exit_code_for` maps.
+@dataclass(frozen=True, slots=True)
+class Written:
+    """What a run wrote: its result, and the preview beside the output when it made one.
+
+    The run's last words: `line` for a person at a terminal, `log` (the run's summary
+    event, then the preview's) for the platform's log view and JSON logs.
+    """
+
+    result: RunResult[Any]
+    preview: Path | None = None
+
+    def line(self) -> str:
+        """``wrote out/metrics.binproto: 18 metrics from 120 jobs in 2.4 s, metrics status
+        FAIL_BLOCK (the run itself succeeded)``: the status is the metrics' verdict, which
+        a run that wrote them passes on and does not share."""
+        result = self.result
+        written = str(result.output)
+        if self.preview is not None:
+            written += f" and {self.preview}"
+        line = f"wrote {written}: {_count(len(result.metrics_written), 'metric')}"
+        counts = result.counts
+        if "jobs" in counts:
+            line += f" from {_count(counts['jobs'], 'job')}"
+            if "batches" in counts:
+                line += f" of {_count(counts['batches'], 'batch', 'batches')}"
+            if counts.get("jobs_missing"):
+                line += f" ({counts['jobs_missing']:,} missing)"
+            line += f" in {result.seconds:.1f} s"
+        line += f", metrics status {result.status.name}"
+        if result.status is not MetricStatus.PASSED:
+            line += " (the run itself succeeded)"
+        return line
+
+    def log(self) -> None:
+        result, traffic = self.result, self.result.traffic
+        fields: dict[str, Any] = {}
+        if result.kind != "test":  # test mode makes no requests
+            fields = {
+                "requests": traffic.requests,
+                "retries": traffic.retries,
+                "received": human_bytes(traffic.bytes_received),
+                "seconds": round(result.seconds, 2),
+            }
+        log.info(
+            f"{result.kind} metrics written",
+            output=str(result.output),
+            status=result.status.name,
+            **result.counts,
+            metrics=len(result.metrics_written),
+            **fields,
+        )
+        if self.preview is not None:
+            log.info("preview written", preview=str(self.preview))
+
+
+def _count(count: int, noun: str, nouns: str = "") -> str:
+    """``1 metric``, ``18 metrics``, ``1,204 jobs``."""
+    return f"{count:,} {noun if count == 1 else nouns or noun + 's'}"
+
+
+async def run(
+    options: RunOptions,
+    *,
+    progress: Progress | None = None,
+    say: Callable[[Written], None] = Written.log,
+) -> Path:
+    """Run the detected mode and return the output's path; raises the typed errors that
+    `exit_code_for` maps.
 
     `progress` is shown how far the fetch got (default: a bar on a terminal, a progress
-    event every 10 s off one).
+    event every 10 s off one); `say` tells what was written (default: the summary event;
+    the CLI's `Voice.finished` says it in a line on a terminal).
     """
     config: StookConfig = load(options.config)
     engine = engine_for(config, options.engine)
@@ -146,13 +216,16 @@ async def run(options: RunOptions, *, progress: Progress | None = None) -> Path:
     created = _missing_folders(options.outputs)
     check_outputs_folder(options.outputs)  # before the first request, not after the fetch
     try:
-        return await _run_mode(mode, config, engine, options, progress)
+        result = await _run_mode(mode, config, engine, options, progress)
+        written = Written(result, _preview(result.output, options, config))
     except BaseException:
         # A failed run leaves nothing behind, not even the empty folder it made.
         for folder in created:
             with contextlib.suppress(OSError):  # not empty: something else wrote there
                 folder.rmdir()
         raise
+    say(written)
+    return written.result.output
 
 
 def _missing_folders(folder: Path) -> list[Path]:
@@ -170,19 +243,16 @@ async def _run_mode(
     engine: EngineSettings,
     options: RunOptions,
     progress: Progress | None,
-) -> Path:
+) -> RunResult[Any]:
     output = options.outputs / OUTPUT_NAME
     _remove_stale_temp_files(output)
     if isinstance(mode, TestInputs):
         log.info("test mode", config=config.source)
-        written = await run_test_mode(mode, config, output)
-        _preview(written, options, config)
-        return written
+        return await run_test_mode(mode, config, output)
     progress = progress or for_stream(label="jobs")
-    result: RunResult[Any]
     if isinstance(mode, BatchInputs):
         log.info("batch mode", batch_id=str(mode.batch_id), config=config.source)
-        result = await run_batch(
+        return await run_batch(
             mode,
             config,
             options.outputs,
@@ -190,29 +260,24 @@ async def _run_mode(
             progress=progress,
             engine=engine,
         )
-    else:
-        log.info("report mode", report_id=str(mode.report_id), config=config.source)
-        result = await run_report(
-            mode,
-            config,
-            options.outputs,
-            allow_missing_jobs=options.allow_missing_jobs,
-            progress=progress,
-            engine=engine,
-        )
-    _log_written(result)
-    _preview(result.output, options, config)
-    return result.output
+    log.info("report mode", report_id=str(mode.report_id), config=config.source)
+    return await run_report(
+        mode,
+        config,
+        options.outputs,
+        allow_missing_jobs=options.allow_missing_jobs,
+        progress=progress,
+        engine=engine,
+    )
 
 
-def _preview(output: Path, options: RunOptions, config: StookConfig) -> None:
+def _preview(output: Path, options: RunOptions, config: StookConfig) -> Path | None:
     """metrics.html beside the output when asked for (--preview, [output] preview)."""
     if not (options.preview or config.preview):
-        return
+        return None
     from stook.service.preview import PREVIEW_NAME, write_preview  # only the runs that preview
 
-    preview = write_preview([output], output.with_name(PREVIEW_NAME))
-    log.info("preview written", preview=str(preview))
+    return write_preview([output], output.with_name(PREVIEW_NAME))
 
 
 def _remove_stale_temp_files(output: Path) -> None:
@@ -220,22 +285,6 @@ def _remove_stale_temp_files(output: Path) -> None:
     removed = remove_stale_temp_files(output)
     if removed:
         log.info("removed stale temporary files", files=[str(p) for p in removed])
-
-
-def _log_written(result: RunResult[Any]) -> None:
-    """The run's final summary event."""
-    traffic = result.traffic
-    log.info(
-        f"{result.kind} metrics written",
-        output=str(result.output),
-        status=result.status.name,
-        **result.counts,
-        metrics=len(result.metrics_written),
-        requests=traffic.requests,
-        retries=traffic.retries,
-        received=human_bytes(traffic.bytes_received),
-        seconds=round(result.seconds, 2),
-    )
 
 
 def explain(error: BaseException) -> str:

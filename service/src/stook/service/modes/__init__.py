@@ -12,8 +12,8 @@ the CLI). What other layers and users need, and nothing else:
 - the library: `fetch_batch`, `fetch_batch_frame`, `fetch_report`;
 - a run's client as the probe opens it: `open_api` (the pipeline's, modes/_pipeline.py);
 - the process around a run: `configure_logging`, `event_loop_factory`,
-  `run_on_event_loop`, and the progress shown (`Progress`, `for_stream`; `Tally`, the
-  CLI's sum of a run; `human_bytes`);
+  `run_on_event_loop`, and the progress shown (`Progress`, `for_stream`;
+  `RecordingProgress`, which keeps the last for the CLI's line; `human_bytes`);
 - the errors (their tree in modes/_errors.py): `ConfigError`, `InputsError`,
   `OutputsError`, `MissingJobsError`, `UserFunctionError`.
 """
@@ -47,7 +47,7 @@ from stook.service.modes._pipeline import (
 )
 from stook.service.modes._progress import (
     Progress,
-    Tally,
+    RecordingProgress,
     for_stream,
     human_bytes,
 )
@@ -66,11 +66,11 @@ __all__ = [
     "MissingJobsError",
     "OutputsError",
     "Progress",
+    "RecordingProgress",
     "ReportInputs",
     "ReportResult",
     "RunResult",
     "StookConfig",
-    "Tally",
     "TestInputs",
     "Traffic",
     "UserFunctionError",

@@ -28,6 +28,7 @@ from stook.service.fetch import (
     failure_directions,
     find_baseline,
 )
+from stook.service.modes._errors import check_number
 
 if TYPE_CHECKING:
     # The comparison's module (and its statistics) is imported by the run that has one.
@@ -261,25 +262,15 @@ def parse_baseline(table: Any) -> BaselineSettings:
                 f"{where} better names {name!r}, which is not one of its metrics"
             )
 
-    def number(key: str, default: float, low: float, high: float) -> float:
+    def number(key: str, default: float, low: float, high: float, *, whole: bool = False) -> Any:
         value = table.get(key, default)
-        if (
-            isinstance(value, bool)
-            or not isinstance(value, int | float)
-            or not (low <= value <= high)
-        ):
-            raise BaselineConfigError(f"{where} {key} must be a number from {low:g} to {high:g}")
-        return float(value)
+        return check_number(
+            value, f"{where} {key}", whole=whole, between=(low, high), error=BaselineConfigError
+        )
 
     confidence = number("confidence", 0.95, 0.5, 0.999)
     min_effect = number("min_effect", 0.05, 0.0, 10.0)
-    resamples = table.get("resamples", 2000)
-    if (
-        isinstance(resamples, bool)
-        or not isinstance(resamples, int)
-        or not (100 <= resamples <= 100_000)
-    ):
-        raise BaselineConfigError(f"{where} resamples must be a whole number from 100 to 100000")
+    resamples = number("resamples", 2000, 100, 100_000, whole=True)
     correction = table.get("correction", "holm")
     if correction not in _CORRECTIONS:
         raise BaselineConfigError(

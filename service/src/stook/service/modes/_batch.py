@@ -33,7 +33,7 @@ from stook.service.modes._pipeline import (
     write_missing_jobs,
     write_output,
 )
-from stook.service.modes._progress import NoProgress, Progress, Snapshot
+from stook.service.modes._progress import FetchProgress, NoProgress, Progress
 
 if TYPE_CHECKING:
     from stook.sdk.aggregations.baseline import BaselineComparison
@@ -92,8 +92,8 @@ async def run_batch(
         settings=config.fetch,
         retry=retry,
         progress=progress or NoProgress(),
-        snapshot_of=batch_snapshot,
-        how_far=lambda outcome, _folded: batch_snapshot(outcome).of_total(),
+        progress_of=batch_progress,
+        how_far=lambda outcome, _folded: batch_progress(outcome).of_total(),
         started=started,
         check=_FirstJobsNames(needs, config.source),
     )
@@ -216,9 +216,9 @@ class _LocalFetch:
             await self.rows.aclose()
 
 
-def batch_snapshot(outcome: FetchOutcome) -> Snapshot:
+def batch_progress(outcome: FetchOutcome) -> FetchProgress:
     """Jobs done, listed and in all so far, for the progress display."""
-    return Snapshot(
+    return FetchProgress(
         jobs_done=outcome.jobs_done + len(outcome.missing),
         jobs_listed=outcome.jobs_listed,
         jobs_total=outcome.jobs_total,

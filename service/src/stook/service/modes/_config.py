@@ -53,7 +53,7 @@ from stook.sdk.aggregations import (
     build_all,
 )
 from stook.service.modes._baseline import BaselineConfigError, parse_baseline
-from stook.service.modes._errors import ConfigError, EngineConfigError
+from stook.service.modes._errors import ConfigError, EngineConfigError, check_number
 
 if TYPE_CHECKING:
     # Imported by a config with a [batch.baseline] table, not by every run (~6 M).
@@ -110,11 +110,7 @@ def _count(table: Mapping[str, Any], key: str) -> int | None:
     value = table.get(key)
     if value is None:
         return None
-    if isinstance(value, bool) or not isinstance(value, int) or value < 1:
-        raise EngineConfigError(
-            f"[engine] {key} must be a whole number of at least 1, got {value!r}"
-        )
-    return value
+    return int(check_number(value, f"[engine] {key}", whole=True, error=EngineConfigError))
 
 
 def require_engine(settings: EngineSettings) -> None:
@@ -329,16 +325,19 @@ def _only(table: Mapping[str, Any], allowed: set[str], where: str, source: str) 
 def _report(
     table: Mapping[str, Any], source: str
 ) -> tuple[ReportSettings, dict[str, list[dict[str, Any]]]]:
-    settings = {k: v for k, v in table.items() if not isinstance(v, list | dict)}
-    # Tables are checked by build_all, which names a dict where a list belongs.
-    tables: dict[str, Any] = {k: v for k, v in table.items() if isinstance(v, list | dict)}
+    numbers = {"top_n", "regression_window", "regression_threshold", "change_penalty"}
+    known = {"defaults", "change_points", "unstable_experiences", "use_summaries", *numbers}
+    # The tables (lists and dicts) are the aggregations', checked by build_all, which names
+    # a dict where a list belongs; a number setting is one whatever its type
+    # (change_points and unstable_experiences are a switch and a kind of table both).
+    is_setting = {k: k in numbers or not isinstance(v, list | dict) for k, v in table.items()}
+    settings = {k: v for k, v in table.items() if is_setting[k]}
+    tables: dict[str, Any] = {k: v for k, v in table.items() if not is_setting[k]}
     job_metrics = table.get("job_metrics")
     if job_metrics is not None:
         tables.pop("job_metrics", None)
         if not isinstance(job_metrics, list) or not all(isinstance(m, str) for m in job_metrics):
             raise ConfigError(f"{source}: [report] job_metrics must be a list of metric names")
-    known = {"defaults", "top_n", "regression_window", "regression_threshold"}
-    known |= {"change_points", "change_penalty", "unstable_experiences", "use_summaries"}
     _only(settings, known, "[report]", source)
     defaults = ReportSettings()
     flag = settings.get("defaults", True)
@@ -353,11 +352,7 @@ def _report(
 
     def number(key: str, kind: type[int] | type[float], default: float) -> Any:
         value = settings.get(key, default)
-        if isinstance(value, bool) or not isinstance(value, int | float) or value <= 0:
-            raise ConfigError(f"{source}: [report] {key} must be a positive number")
-        if kind is int and not isinstance(value, int):
-            raise ConfigError(f"{source}: [report] {key} must be a whole number")
-        return kind(value)
+        return check_number(value, f"{source}: [report] {key}", whole=kind is int)
 
     return (
         ReportSettings(
@@ -407,24 +402,21 @@ def _fetch(table: Mapping[str, Any], source: str) -> FetchSettings:
 
     def positive(key: str, kind: type[int] | type[float], default: float) -> Any:
         value = table.get(key, default)
-        if isinstance(value, bool) or not isinstance(value, int | float) or value <= 0:
-            raise ConfigError(f"{source}: [fetch] {key} must be a positive number")
-        if kind is int and not isinstance(value, int):
-            raise ConfigError(f"{source}: [fetch] {key} must be a whole number")
-        return kind(value)
+        return check_number(value, f"{source}: [fetch] {key}", whole=kind is int)
 
-    page_size = positive("page_size", int, defaults.page_size)
-    if page_size > MAX_PAGE_SIZE:
-        raise ConfigError(
-            f"{source}: [fetch] page_size must be at most {MAX_PAGE_SIZE} "
-            f"(the API's limit), got {page_size}"
-        )
+    page_size = check_number(
+        table.get("page_size", defaults.page_size),
+        f"{source}: [fetch] page_size",
+        whole=True,
+        at_most=MAX_PAGE_SIZE,
+        why=" (the API's limit)",
+    )
     return FetchSettings(
         concurrency=positive("concurrency", int, defaults.concurrency),
         timeout=positive("timeout", float, defaults.timeout),
         retry_for=positive("retry_for", float, defaults.retry_for),
         deadline=positive("deadline", float, 0.0) if "deadline" in table else None,
-        page_size=page_size,
+        page_size=int(page_size),
         adaptive=adaptive,
         max_body_mb=positive("max_body_mb", float, defaults.max_body_mb),
         max_api_body_mb=positive("max_api_body_mb", float, defaults.max_api_body_mb),

@@ -11,8 +11,8 @@ missing-jobs rule and finishes the aggregations once, as for a local run, so the
 bytes are the same. What differs per mode (what is split, how the shards' outcomes add up)
 is the mode's plan: `BatchPlan`, `ReportPlan`.
 
-The shards' progress reports come back while they run; the driver (`LiveShards`) keeps the
-last report of each shard still running and adds them to what the finished shards gave; a
+The shards' progress reports come back while they run; the driver (`ShardsProgress`) keeps
+the last report of each shard still running and adds them to what the finished shards gave; a
 finished shard's result supersedes its reports, so that nothing is counted twice.
 
 The `[fetch] deadline` covers the whole run. On the deadline, Ctrl-C or a failed shard the
@@ -49,7 +49,7 @@ from stook.service.modes._config_metrics import ConfigMetrics, JobRows
 from stook.service.modes._errors import ConfigError, EngineConfigError, ShardError
 from stook.service.modes._inputs import BatchInputs, ReportInputs
 from stook.service.modes._pipeline import FetchRun, Traffic, fetch_records, show_progress, tick
-from stook.service.modes._progress import Snapshot
+from stook.service.modes._progress import FetchProgress
 from stook.service.modes._shards import (
     BatchShard,
     LogSettings,
@@ -160,7 +160,7 @@ class Shards:
         self.shards_traffic = Traffic()
         self._driver_traffic: Callable[[], Traffic] = Traffic
         self._api: ApiClient | None = None
-        self._live = LiveShards()  # the running shards' last reports
+        self._live = ShardsProgress()  # the running shards' last reports
         self._listening = True
         runner.listen(self._reported)
 
@@ -173,7 +173,7 @@ class Shards:
         self._listening = False
 
     def _show(self) -> None:
-        snapshot = self._run.snapshot_of(self._plan.outcome)
+        snapshot = self._run.progress_of(self._plan.outcome)
         show_progress(self._run.progress, *self._live.add_to(snapshot, self.traffic))
 
     def on(self, api: ApiClient) -> Shards:
@@ -496,7 +496,7 @@ class ReportPlan:
         self.outcome.seconds = time.monotonic() - self.outcome.started
 
 
-class LiveShards:
+class ShardsProgress:
     """The driver's view of its running shards: the last report of each."""
 
     def __init__(self) -> None:
@@ -512,7 +512,7 @@ class LiveShards:
         self._finished.add(index)
         self._running.pop(index, None)
 
-    def add_to(self, snapshot: Snapshot, traffic: Traffic) -> tuple[Snapshot, Traffic]:
+    def add_to(self, snapshot: FetchProgress, traffic: Traffic) -> tuple[FetchProgress, Traffic]:
         """What the finished shards (and the driver) did, with the running shards' reports."""
         running = list(self._running.values())
         if not running:

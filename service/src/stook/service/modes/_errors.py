@@ -15,9 +15,15 @@ The exit codes in brackets are mapped once, by the CLI, from these classes (and 
 lower layers': stook.service.api's ApiError is 3, stook.service.fetch's FetchError 3,
 stook.sdk's ReadError 4). A shard's error comes back to the driver as the same class
 with the same message (`_shards.RemoteError`).
+
+Also here, since every stook.toml table's parser uses it: `check_number`, the one check
+of a number setting, whose refusal says what the file gave instead.
 """
 
 from __future__ import annotations
+
+import json
+import math
 
 from stook.sdk import StookError
 from stook.service.fetch import FetchError
@@ -30,6 +36,7 @@ __all__ = [
     "OutputsError",
     "ShardError",
     "UserFunctionError",
+    "check_number",
 ]
 
 
@@ -59,3 +66,52 @@ class MissingJobsError(FetchError):
 
 class UserFunctionError(Exception):
     """The user's own metrics function raised; its traceback is theirs to read (exit 1)."""
+
+
+def check_number(
+    value: object,
+    setting: str,
+    *,
+    whole: bool = False,
+    between: tuple[float, float] | None = None,
+    at_most: float | None = None,
+    why: str = "",
+    error: type[Exception] = ConfigError,
+) -> float:
+    """`value` of the number setting `setting` (``[fetch] concurrency``), an int when
+    `whole`: positive (and at most `at_most`, `why` saying why), or `between` two bounds
+    included; raises `error` saying what it must be and what it got instead (``must be a
+    positive integer, got the string "64"``)."""
+    kind = "integer" if whole else "number"
+    if between is None:
+        wanted = f"a positive {kind}"
+    else:
+        wanted = f"{'an' if whole else 'a'} {kind} from {between[0]:g} to {between[1]:g}"
+    if (
+        isinstance(value, bool)
+        or not isinstance(value, int | float)
+        or (whole and not isinstance(value, int))
+        or not math.isfinite(value)
+    ):
+        raise error(f"{setting} must be {wanted}, got {_described(value)}")
+    low, high = between or (0, math.inf)
+    if not low <= value <= high or (between is None and value == 0):
+        raise error(f"{setting} must be {wanted}, got {value}")
+    if at_most is not None and value > at_most:
+        raise error(f"{setting} must be at most {at_most:g}{why}, got {value}")
+    return value if whole else float(value)
+
+
+def _described(value: object) -> str:
+    """A TOML value as the file spells it, with its type, which is what is wrong."""
+    if isinstance(value, bool):
+        return f"the boolean {str(value).lower()}"
+    if isinstance(value, str):
+        return f"the string {json.dumps(value)}"
+    if isinstance(value, float):
+        return f"the float {value!r}"
+    if isinstance(value, list):
+        return "an array"
+    if isinstance(value, dict):
+        return "a table"
+    return f"the {type(value).__name__} {value}"  # a TOML date or time

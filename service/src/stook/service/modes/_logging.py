@@ -70,10 +70,12 @@ def configure_logging(
         renderer = structlog.processors.JSONRenderer()
         stamper = structlog.processors.TimeStamper(fmt="iso", utc=True)
     else:
-        # A person reads these: the local time of day, so that a line fits 80 columns,
-        # and colours only on a terminal and without NO_COLOR (https://no-color.org).
+        # A person reads these: the local time of day and no padding after the level
+        # or the event (structlog pads to 30 columns), so that a line fits 80 columns
+        # where its values allow; colours only on a terminal and without NO_COLOR
+        # (https://no-color.org).
         colors = _is_tty(out) and not os.environ.get("NO_COLOR")
-        renderer = structlog.dev.ConsoleRenderer(colors=colors)
+        renderer = structlog.dev.ConsoleRenderer(colors=colors, pad_level=False, pad_event_to=0)
         stamper = structlog.processors.TimeStamper(fmt="%H:%M:%S", utc=False)
     structlog.configure(
         processors=[

@@ -54,7 +54,7 @@ from stook.service.fetch import DeadlineReachedError, MissingJob
 from stook.service.modes._config import FetchSettings
 from stook.service.modes._errors import MissingJobsError, OutputsError
 from stook.service.modes._inputs import ApiAccess
-from stook.service.modes._progress import Progress, Snapshot
+from stook.service.modes._progress import FetchProgress, Progress
 
 __all__ = [
     "OUTPUT_NAME",
@@ -280,7 +280,7 @@ class FetchRun(Generic[_O]):
     settings: FetchSettings
     retry: RetryPolicy | None
     progress: Progress
-    snapshot_of: Callable[[_O], Snapshot]  # jobs (and batches) done, listed and in all
+    progress_of: Callable[[_O], FetchProgress]  # jobs (and batches) done, listed and in all
     how_far: Callable[[_O, int], str]  # the line a deadline ends the run with
     started: float
     # What the run fetches once the fold is done, on the same client, within the deadline.
@@ -329,7 +329,7 @@ async def fold_here(
             return
         last_shown = now
         traffic = Traffic() if opened is None else Traffic.of(opened)
-        show_progress(run.progress, run.snapshot_of(outcome), traffic)
+        show_progress(run.progress, run.progress_of(outcome), traffic)
 
     def make(api: ApiClient) -> Fetcher[Any, _O]:
         nonlocal opened
@@ -363,7 +363,7 @@ async def fold_here(
     )
 
 
-def show_progress(shown: Progress, snapshot: Snapshot, traffic: Traffic) -> None:
+def show_progress(shown: Progress, snapshot: FetchProgress, traffic: Traffic) -> None:
     """One progress update: how far the fetch got, with the traffic's counters."""
     shown.update(
         dataclasses.replace(

@@ -27,7 +27,7 @@ from stook.service.modes._pipeline import (
     write_missing_jobs,
     write_output,
 )
-from stook.service.modes._progress import NoProgress, Progress, Snapshot
+from stook.service.modes._progress import FetchProgress, NoProgress, Progress
 
 log = structlog.get_logger("stook.run")
 
@@ -110,7 +110,7 @@ async def run_report(
         settings=config.fetch,
         retry=retry,
         progress=progress or NoProgress(),
-        snapshot_of=report_snapshot,
+        progress_of=report_progress,
         how_far=lambda outcome, folded: f"{folded:,} of {outcome.batches:,} batches",
         started=started,
         then=None if dashboard is None else dashboard.fetch,
@@ -183,10 +183,10 @@ class _DashboardRows:
         )
 
 
-def report_snapshot(outcome: ReportOutcome) -> Snapshot:
+def report_progress(outcome: ReportOutcome) -> FetchProgress:
     """Jobs and batches done, listed and in all so far, for the progress display."""
     listed = outcome.jobs_total is not None or outcome.batches > 0
-    return Snapshot(
+    return FetchProgress(
         jobs_done=outcome.jobs_done,
         jobs_listed=outcome.jobs,
         jobs_total=outcome.jobs_total,

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import importlib
 import inspect
+import time
 import uuid
 from collections.abc import Callable
 from pathlib import Path
@@ -15,6 +16,7 @@ from stook.sdk import MetricsWriter
 from stook.service.modes._config import StookConfig, add_import_folders, describe_search
 from stook.service.modes._errors import ConfigError, UserFunctionError
 from stook.service.modes._inputs import TestInputs
+from stook.service.modes._pipeline import RunResult, Traffic
 
 if TYPE_CHECKING:
     # The writer only for a test-mode run: `stook run` imports this module for
@@ -51,8 +53,10 @@ def load_function(
     return function  # type: ignore[no-any-return]
 
 
-async def run_test_mode(inputs: TestInputs, config: StookConfig, output: Path) -> Path:
-
+async def run_test_mode(inputs: TestInputs, config: StookConfig, output: Path) -> RunResult[None]:
+    """The user's test-metrics function (and the config's test metrics) on one test, its
+    metrics written to `output`; what was written, as batch and report mode say it."""
+    started = time.monotonic()
     writer = MetricsWriter(uuid.uuid4())
     config_metrics = None
     if config.metrics_config is not None:
@@ -78,6 +82,13 @@ async def run_test_mode(inputs: TestInputs, config: StookConfig, output: Path) -
             raise UserFunctionError(f"{config.test_metrics} raised {exc!r}") from exc
     if config_metrics is not None:
         config_metrics.write_into(writer, output.parent)
-    written = writer.write(output)
-    log.info("test metrics written", output=str(written), metrics=len(writer.metrics))
-    return written
+    return RunResult(
+        kind="test",
+        output=writer.write(output),
+        outcome=None,
+        metrics_written=[metric.name for metric in writer.metrics],
+        status=writer.status,
+        traffic=Traffic(),
+        counts={},
+        seconds=time.monotonic() - started,
+    )

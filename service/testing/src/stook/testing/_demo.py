@@ -107,7 +107,7 @@ def run_demo(*, jobs: int, output: Path, seed: int) -> int:
     assert isinstance(mode, TestInputs)
     test_output = run_on_event_loop(
         run_test_mode(mode, config, output / "test-mode" / "metrics.binproto")
-    )
+    ).output
     # The example's IMAGE metrics name these files beside the output.
     write_example_frames(test_output.parent)
     invalid += _print_output(test_output)
