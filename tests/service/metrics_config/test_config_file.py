@@ -292,6 +292,27 @@ def test_a_dashboard_defined_in_two_files_is_refused(
     assert lines == [f"{second}: dashboards name 'Trends' is also defined in {first}"]
 
 
+def test_image_and_video_columns_in_one_topic_are_refused(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    media = "version: 1\ntopics:\n  camera: {schema: {frame: image, clip: video, note: string}}\n"
+    config = _write(tmp_path, media)
+    code, lines = _check(capsys, config)
+    assert code == 2
+    assert lines == [
+        f"{config}: topics 'camera': has image column(s) 'frame' and video column(s) 'clip'; "
+        "the platform takes one kind of media per topic: emit the images and the videos in "
+        "two topics"
+    ]
+    # Two image columns, or the kinds in two topics: good.
+    _write(tmp_path, media.replace("clip: video", "clip: image"))
+    assert _check(capsys, config) == (0, [])
+    two = "version: 1\ntopics:\n  frames: {schema: {frame: image}}\n"
+    two += "  clips: {schema: {clip: video}}\n"
+    _write(tmp_path, two)
+    assert _check(capsys, config) == (0, [])
+
+
 @pytest.mark.parametrize(
     ("template_file", "problem"),
     [

@@ -21,6 +21,6 @@ def test_the_docs_emissions_lines_and_job_json_load(tmp_path: Path) -> None:
     emissions = EmissionsSet(config)
     emissions.add_job(meta, lines.encode())
     tables = emissions.tables()
-    assert tables["localization"]["error"].to_list() == [0.038309]
-    assert tables["camera"]["snapshot"].to_list() == ["frame_0039.png"]
+    assert tables["planner_state"]["state"].to_list() == ["CRUISE", "STOP"]
+    assert tables["planner_state"]["timestamp"].to_list() == [0, 1_000_000_000]
     assert tables["metadata"]["experience_name"].to_list() == ["Highway merge 01"]

@@ -77,8 +77,8 @@ def _by_name(out: Path) -> dict[str, bytes]:
         ),
         (
             "Speed over time",
-            'timestamp / 1E9 AS "Time (s)"',
-            'CAST(timestamp AS VARCHAR) AS "Time (s)"',
+            'speed AS "Speed (m/s)"',
+            'CAST(speed AS VARCHAR) AS "Speed (m/s)"',
             "RENDER_ERROR",
             "not a number",
         ),

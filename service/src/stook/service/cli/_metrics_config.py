@@ -9,7 +9,9 @@ from pathlib import Path
 from typing import TYPE_CHECKING, TextIO
 
 if TYPE_CHECKING:
-    from stook.service.metrics_config import Level, MetricsConfig
+    from collections.abc import Sequence
+
+    from stook.service.metrics_config import Level, MetricsConfig, OfflineJob
 
 DESCRIPTION = """\
 Evaluate the platform's config-defined metrics (.resim/metrics/config.resim.yml) on
@@ -229,29 +231,40 @@ def evaluate_offline(
         level=level,
         metrics_set=metrics_set,
         strict=strict,
-        attached=lambda name: any((j.folder / name).is_file() for j in jobs),
+        attached=lambda name: _attached_file(jobs, name) is not None,
     )
     for failure in result.failed:
         print(f"stook: {failure}", file=sys.stderr)
     attached = []
     for name in result.files:
-        found = next((j.folder / name for j in jobs if (j.folder / name).is_file()), None)
+        found = _attached_file(jobs, name)
         if found is None:
             raise EmissionsError(f"attached file {name!r} is in no job's folder")
-        attached.append(found)
+        attached.append((found, name))
     try:
         outputs.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise UsageError(f"{outputs}: cannot be created ({exc.strerror or exc})") from None
     validate_job_metrics(writer.to_proto())  # before any attached file is copied
-    for path in attached:
-        shutil.copyfile(path, outputs / path.name)
+    for path, name in attached:
+        (outputs / name).parent.mkdir(exist_ok=True)  # a job's file: <job_id>/<file>
+        shutil.copyfile(path, outputs / name)
     written = writer.write(outputs / "metrics.binproto")
     if preview:
         from stook.service.preview import PREVIEW_NAME, write_preview
 
         write_preview([written], written.with_name(PREVIEW_NAME))
     return written
+
+
+def _attached_file(jobs: Sequence[OfflineJob], name: str) -> Path | None:
+    """Where the file a metric names is: `<file>` in any job's folder (the first), or
+    `<job_id>/<file>` in that job's."""
+    job_id, _, base = name.rpartition("/")
+    for job in jobs:
+        if (not job_id or job.meta.job_id == job_id) and (job.folder / base).is_file():
+            return job.folder / base
+    return None
 
 
 def _load(configs: list[Path], templates: Path | None) -> MetricsConfig:

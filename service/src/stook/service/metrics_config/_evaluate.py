@@ -139,7 +139,14 @@ def _one(
             return with_settings(
                 writer.plotly(metric.name, figure, **options_for(metric, status)), metric
             )
-        handle, files = render(writer, metric, result, status, attached)
+        handle, files = render(
+            writer,
+            metric,
+            result,
+            status,
+            attached,
+            lambda job: _job_media(config, engine, metric, job),
+        )
     except WriterError as exc:  # a value the writer refuses (the metric is not written)
         why = _without_name(str(exc), metric.name)
         raise _MarkedError("RENDER_ERROR", RenderError(metric, why)) from None
@@ -147,6 +154,33 @@ def _one(
         raise _MarkedError("RENDER_ERROR", exc) from None
     done.files.extend(f for f in files if f not in done.files)
     return handle
+
+
+def _job_media(config: MetricsConfig, engine: QueryEngine, metric: Metric, job: str) -> list[str]:
+    """The files of the metric's kind (its `image` or `video` columns) that job `job`
+    emitted in the topics the metric's query reads, in the config's order of topics and
+    columns, then by time."""
+    import sqlglot
+    from sqlglot import exp
+
+    tree = sqlglot.parse_one(metric.query, read="trino")
+    read = {table.name.lower() for table in tree.find_all(exp.Table)}
+    files: list[str] = []
+    for topic in config.topics.values():
+        if topic.name.lower() not in read:
+            continue
+        for column, kind in topic.schema.items():
+            if kind != metric.template:
+                continue
+            name, table = _quoted(column), _quoted(topic.name)
+            query = f"SELECT {name} FROM {table} WHERE job_id = ? ORDER BY timestamp, {name}"
+            rows = engine.run(metric.name, query, [job], what="lookup of the job's files").rows
+            files.extend(str(r[0]) for r in rows if r[0] is not None)
+    return list(dict.fromkeys(files))
+
+
+def _quoted(name: str) -> str:
+    return '"' + name.replace('"', '""') + '"'
 
 
 def _status(engine: QueryEngine, metric: Metric) -> MetricStatus:

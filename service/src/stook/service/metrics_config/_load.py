@@ -45,6 +45,8 @@ TEMPLATE_SUFFIX = ".liquid"
 
 # The keys the platform reads, per part of the config.
 TOPIC_KEYS = ("schema", "event")
+# The media column types, of which one topic holds one kind (ReSim's CLI refuses both).
+MEDIA_TYPES = ("image", "video")
 METRIC_KEYS = (
     "type",
     "description",
@@ -221,6 +223,13 @@ def _topics(
             else:
                 schema[str(column)] = kind
             seen.add(lowered)
+        media = {kind: [c for c, k in schema.items() if k == kind] for kind in MEDIA_TYPES}
+        if all(media.values()):
+            problems.append(
+                f"{where}: has image column(s) {', '.join(map(repr, media['image']))} and "
+                f"video column(s) {', '.join(map(repr, media['video']))}; the platform takes "
+                "one kind of media per topic: emit the images and the videos in two topics"
+            )
         event = body.get("event", False)
         if not isinstance(event, bool):
             problems.append(f"{where}: 'event' must be true or false")

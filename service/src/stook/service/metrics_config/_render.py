@@ -80,12 +80,14 @@ def render(
     result: Result,
     status: MetricStatus,
     attached: Callable[[str], bool] | None = None,
+    job_media: Callable[[str], list[str]] | None = None,
 ) -> tuple[MetricHandle, list[str]]:
     """Write `metric`: its handle, and the attached files it references (image, video,
-    artifact). `attached` says whether a file is among the job's (None: not checked)."""
+    artifact). `attached` says whether a file is among the job's (None: not checked);
+    `job_media` gives a job's files of the metric's kind, by its ID (see `_media`)."""
     options = options_for(metric, status)
     if metric.template in ("image", "video", "artifact"):
-        return _media(writer, metric, result, options, attached)
+        return _media(writer, metric, result, options, attached, job_media)
     handle = _RENDERERS[metric.template](writer, metric, result, options)
     return with_settings(handle, metric), []
 
@@ -187,6 +189,8 @@ def _line(
         x_at, y_at, grouped = 0, 1, {cols[1]: result.rows}
     else:
         x_at, y_at, grouped = 1, 2, _groups(result.rows, 0)
+    if any(isinstance(r[x_at], str) for r in result.rows):
+        return _category_line(writer, metric, cols[x_at], cols[y_at], grouped, x_at, y_at, options)
     xs, ys, legend = [], [], []
     for series, rows in grouped.items():
         points = [r for r in rows if r[x_at] is not None and r[y_at] is not None]
@@ -209,6 +213,48 @@ def _line(
         legend=legend,
         **options,
     )
+
+
+def _category_line(
+    writer: MetricsWriter,
+    metric: Metric,
+    x_name: str,
+    y_name: str,
+    grouped: Mapping[str, list[tuple[Any, ...]]],
+    x_at: int,
+    y_at: int,
+    options: MetricOptions,
+) -> MetricHandle:
+    """A line over text x values (a build's date formatted by `date_format`, say): the
+    platform draws them as categories in row order; JobMetrics' line plot holds numbers
+    only, so it is a Plotly figure, tagged as the line it is."""
+    colours = _colours(metric)
+    traces = []
+    for series, rows in grouped.items():
+        points = [r for r in rows if r[x_at] is not None and r[y_at] is not None]
+        if not points:
+            continue
+        trace: dict[str, Any] = {
+            "type": "scatter",
+            "mode": "lines+markers",
+            "name": series,
+            "x": [label(r[x_at]) for r in points],
+            "y": _numbers(metric, [r[y_at] for r in points], y_name),
+        }
+        if series in colours:
+            trace["line"] = {"color": colours[series]}
+        traces.append(trace)
+    if not traces:
+        raise RenderError(metric, "every point has a NULL x or y")
+    x_axis, y_axis = _axis(metric, "xaxis"), _axis(metric, "yaxis")
+    layout: dict[str, Any] = {
+        "xaxis": {"title": {"text": x_axis.label or x_name}, "type": "category"},
+        "yaxis": {"title": {"text": y_axis.label or y_name}},
+    }
+    if y_axis.min is not None and y_axis.max is not None:
+        layout["yaxis"]["range"] = [y_axis.min, y_axis.max]
+    figure = {"data": traces, "layout": layout}
+    return writer.plotly(metric.name, figure, **options).tag(TEMPLATE_TAG, "line")
 
 
 def _bar(
@@ -369,22 +415,33 @@ def _table(
     return writer.text(metric.name, markdown_table(result), **options)
 
 
+def _basename(metric: Metric, value: Any) -> str:
+    if not isinstance(value, str) or not value or "/" in value or "\\" in value:
+        raise RenderError(metric, f"it names an attached file by its basename, not {value!r}")
+    return value
+
+
 def _media(
     writer: MetricsWriter,
     metric: Metric,
     result: Result,
     options: MetricOptions,
     attached: Callable[[str], bool] | None,
+    job_media: Callable[[str], list[str]] | None,
 ) -> tuple[MetricHandle, list[str]]:
-    names = []
-    for value in result.column(0):
-        if value is None:
-            continue
-        if not isinstance(value, str) or not value or "/" in value or "\\" in value:
-            raise RenderError(metric, f"it names an attached file by its basename, not {value!r}")
-        if attached is not None and not attached(value):
-            raise RenderError(metric, f"attached file {value!r} is in no job's folder")
-        names.append(value)
+    """An image, video or artifact metric. Its query names the files by basename
+    (`SELECT filename FROM camera`), or, where it has a `job_id` column, by job: a batch
+    query `SELECT experience_name, job_id FROM camera` shows each row's job's files of
+    the metric's kind (the one the row names, if it names one), as `<job_id>/<file>`,
+    since every job may attach a file of the same name."""
+    lowered = [c.lower() for c in result.columns]
+    if job_media is not None and "job_id" in lowered and len(lowered) > 1:
+        names = _job_files(metric, result, lowered.index("job_id"), job_media)
+    else:
+        names = [_basename(metric, v) for v in result.column(0) if v is not None]
+    for name in names:
+        if attached is not None and not attached(name):
+            raise RenderError(metric, f"attached file {name!r} is in no job's folder")
     unique = list(dict.fromkeys(names))
     files = [data.external_file(f"{metric.name} / {name}", name) for name in unique]
     if len(files) == 1:
@@ -395,6 +452,23 @@ def _media(
         # JobMetrics has no video or artifact type: an external file, tagged with its kind.
         handle.tag(TEMPLATE_TAG, metric.template)
     return with_settings(handle, metric), unique
+
+
+def _job_files(
+    metric: Metric, result: Result, job_at: int, job_media: Callable[[str], list[str]]
+) -> list[str]:
+    label_at = 1 if job_at == 0 else 0
+    names: list[str] = []
+    for row in result.rows:
+        if row[job_at] is None:
+            continue
+        job = str(row[job_at])
+        files = [_basename(metric, f) for f in job_media(job)]
+        if not files:
+            raise RenderError(metric, f"job {job} has no {metric.template} file")
+        chosen = [f for f in files if f == row[label_at]] or files
+        names.extend(f"{job}/{f}" for f in chosen)
+    return names
 
 
 _RENDERERS: dict[str, Callable[[MetricsWriter, Metric, Result, MetricOptions], MetricHandle]] = {
